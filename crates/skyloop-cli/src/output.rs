@@ -1,0 +1,20 @@
+//! Printing results: exactly one JSON object on stdout with --json, readable tables otherwise.
+
+use skyloop_lti::Mat;
+
+/// Prints one JSON value on stdout.
+pub fn print_json<T: serde::Serialize>(v: &T) -> Result<(), String> {
+    let s = serde_json::to_string(v).map_err(|e| format!("cannot encode JSON: {e}"))?;
+    println!("{s}");
+    Ok(())
+}
+
+/// Formats a matrix as aligned rows.
+pub fn matrix_table(m: &Mat<f64>) -> String {
+    let mut s = String::new();
+    for i in 0..m.nrows() {
+        let row: Vec<String> = (0..m.ncols()).map(|j| format!("{:>12.6}", m[(i, j)])).collect();
+        s.push_str(&format!("  {}\n", row.join(" ")));
+    }
+    s
+}

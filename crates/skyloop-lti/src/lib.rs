@@ -1,0 +1,11 @@
+//! LTI models, transfer-function expressions with delays, interconnection and classical analysis.
+//!
+//! Continuous time unless `dt > 0`; frequencies are rad/s unless a name says `_hz`.
+
+pub mod error;
+pub mod json;
+pub mod ss;
+
+pub use error::LtiError;
+pub use faer::{c64, Mat, MatRef};
+pub use ss::StateSpace;
