@@ -1,1 +1,10 @@
-//! skyloop-linalg.
+//! Dense numerics on faer: balancing, real Schur form and reordering, Sylvester, Lyapunov
+//! (also in Cholesky-factor form), CARE and DARE, matrix exponential.
+//!
+//! Ported from the published algorithms (LAPACK dgebal/dlahqr/dtrexc/dlaexc/dlasy2/dtrsyl,
+//! Hammarling, Laub's ordered-Schur Riccati method); no Fortran.
+
+pub mod error;
+
+pub use error::{LinalgError, Result};
+pub use faer::{c64, Mat, MatRef};

@@ -30,5 +30,15 @@ pub enum LtiError {
     Io(String),
 }
 
+impl From<skyloop_linalg::LinalgError> for LtiError {
+    fn from(e: skyloop_linalg::LinalgError) -> Self {
+        match e {
+            skyloop_linalg::LinalgError::Dimension(m) => LtiError::Dimension(m),
+            skyloop_linalg::LinalgError::InvalidArgument(m) => LtiError::InvalidArgument(m),
+            other => LtiError::Numerical(other.to_string()),
+        }
+    }
+}
+
 /// Result alias used across skyloop-lti.
 pub type Result<T> = std::result::Result<T, LtiError>;
