@@ -3,6 +3,7 @@
 //! Continuous time unless `dt > 0`; frequencies are rad/s unless a name says `_hz`.
 
 pub mod error;
+pub mod freqresp;
 pub mod json;
 pub mod ss;
 
