@@ -12,5 +12,6 @@ pub use faer::{c64, Mat, MatRef};
 pub use ss::StateSpace;
 pub mod convert;
 pub mod expr;
+pub mod interconnect;
 pub mod poly;
 pub mod tf;
