@@ -5,6 +5,8 @@
 pub mod error;
 pub mod freqresp;
 pub mod json;
+pub mod margins;
+pub mod roots;
 pub mod ss;
 
 pub use error::LtiError;
