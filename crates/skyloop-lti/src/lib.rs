@@ -6,6 +6,7 @@ pub mod error;
 pub mod freqresp;
 pub mod json;
 pub mod margins;
+pub mod norms;
 pub mod roots;
 pub mod ss;
 
