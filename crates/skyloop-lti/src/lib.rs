@@ -13,3 +13,7 @@ pub mod ss;
 pub use error::LtiError;
 pub use faer::{c64, Mat, MatRef};
 pub use ss::StateSpace;
+pub mod convert;
+pub mod expr;
+pub mod poly;
+pub mod tf;
