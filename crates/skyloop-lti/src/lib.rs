@@ -5,6 +5,9 @@
 pub mod error;
 pub mod freqresp;
 pub mod json;
+pub mod margins;
+pub mod norms;
+pub mod roots;
 pub mod ss;
 
 pub use error::LtiError;
