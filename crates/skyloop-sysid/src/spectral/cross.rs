@@ -27,7 +27,7 @@ impl Cross {
         }
     }
 
-    /// (G, γ²): open loop Φ_yu/Φ_uu; closed loop Φ_yr/Φ_ur with the combined coherence.
+    /// (G, γ²): open loop Φ_yu/Φ_uu; closed loop Φ_yr/Φ_ur with the signal-to-noise coherence.
     pub fn response(&self, closed: bool) -> (C64, f64) {
         if !closed {
             let g = self.yu / self.uu;
@@ -35,9 +35,11 @@ impl Cross {
             (g, coh)
         } else {
             let g = self.yr / self.ur;
-            let c_yr = (self.yr.norm_sqr() / (self.yy * self.rr)).clamp(1e-12, 1.0);
-            let c_ur = (self.ur.norm_sqr() / (self.uu * self.rr)).clamp(1e-12, 1.0);
-            let coh = 1.0 / (1.0 / c_yr + 1.0 / c_ur - 1.0);
+            // Noise spectrum of y = G·u + v from the residual e = y − Ĝ·u, and the part of u driven by r.
+            let vv = (self.yy - 2.0 * (g.conj() * self.yu).re + g.norm_sqr() * self.uu).max(0.0);
+            let u_r = self.ur.norm_sqr() / self.rr;
+            let signal = g.norm_sqr() * u_r;
+            let coh = signal / (signal + vv);
             (g, coh)
         }
     }

@@ -4,7 +4,7 @@
 //!
 //! Open loop: G = Φ_yu/Φ_uu and γ² = |Φ_yu|²/(Φ_uu·Φ_yy). Closed loop with a measured excitation r
 //! (injected anywhere in the loop, uncorrelated with the noise): G = Φ_yr/Φ_ur, which stays unbiased
-//! under feedback; its coherence combines those of r→y and r→u (see [`Frf::coherence`]).
+//! under feedback; its coherence is the signal-to-noise one (see [`Frf::coherence`]).
 
 mod cross;
 pub mod etfe;
@@ -112,8 +112,10 @@ pub struct Frf {
     pub freq_hz: Vec<f64>,
     /// Complex response G(j2πf).
     pub response: Vec<C64>,
-    /// Squared coherence in [0, 1]. Closed loop: γ² with 1/γ² − 1 = (1/γ²_ry − 1) + (1/γ²_ru − 1),
-    /// the coherence whose random-error formula matches the ratio of the two estimates.
+    /// Squared coherence in [0, 1]. Closed loop: γ² = |G|²Φ_u⁽ʳ⁾/(|G|²Φ_u⁽ʳ⁾ + Φ_vv), with Φ_u⁽ʳ⁾ = |Φ_ur|²/Φ_rr
+    /// the part of u driven by r and Φ_vv the spectrum of the residual y − Ĝu; it reduces to the
+    /// ordinary coherence in open loop and makes the variance formula of the estimator
+    /// (Var Ĝ = Φ_vv·Φ_rr/(ν·|Φ_ur|²)) take the same form as for H1.
     pub coherence: Vec<f64>,
     /// Equivalent number of independent averages ν behind each estimate.
     pub dof: Vec<f64>,
