@@ -8,3 +8,6 @@ pub mod error;
 
 pub use error::{LinalgError, Result};
 pub use faer::{c64, Mat, MatRef};
+pub mod balance;
+mod dense;
+pub mod schur;
