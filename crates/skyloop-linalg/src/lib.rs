@@ -10,4 +10,5 @@ pub use error::{LinalgError, Result};
 pub use faer::{c64, Mat, MatRef};
 pub mod balance;
 mod dense;
+pub mod riccati;
 pub mod schur;
