@@ -11,4 +11,5 @@ pub use faer::{c64, Mat, MatRef};
 pub mod balance;
 mod dense;
 pub mod expm;
+pub mod riccati;
 pub mod schur;
