@@ -10,4 +10,6 @@ pub use error::{LinalgError, Result};
 pub use faer::{c64, Mat, MatRef};
 pub mod balance;
 mod dense;
+pub mod lyapunov;
 pub mod schur;
+pub mod sylvester;
