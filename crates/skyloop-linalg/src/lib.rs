@@ -13,3 +13,4 @@ mod dense;
 pub mod lyapunov;
 pub mod schur;
 pub mod sylvester;
+pub mod expm;

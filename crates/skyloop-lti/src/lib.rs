@@ -5,6 +5,9 @@
 pub mod error;
 pub mod freqresp;
 pub mod json;
+pub mod margins;
+pub mod norms;
+pub mod roots;
 pub mod ss;
 
 pub use error::LtiError;
@@ -14,6 +17,7 @@ pub mod convert;
 pub mod expr;
 pub mod gramian;
 pub mod minreal;
+pub mod interconnect;
 pub mod poly;
 pub mod reduce;
 pub mod stabsep;
