@@ -9,3 +9,4 @@ pub mod error;
 pub use error::{LinalgError, Result};
 pub use faer::{c64, Mat, MatRef};
 pub mod expm;
+pub mod logm;
