@@ -16,3 +16,4 @@ pub mod expr;
 pub mod interconnect;
 pub mod poly;
 pub mod tf;
+pub mod timeresp;
