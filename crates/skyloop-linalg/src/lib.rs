@@ -16,3 +16,4 @@ pub mod sylvester;
 pub mod expm;
 pub mod riccati;
 pub mod schur;
+pub mod logm;
