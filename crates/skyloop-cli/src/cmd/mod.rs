@@ -1,6 +1,8 @@
 //! One module per subcommand; `run` dispatches.
 
 mod bode;
+mod freqresp;
+mod margins;
 mod nyquist;
 mod plot_args;
 mod show;
@@ -16,6 +18,10 @@ pub enum Command {
     Bode(bode::Args),
     /// Nyquist plot of one or more SISO loop transfers to an SVG or PNG file.
     Nyquist(nyquist::Args),
+    /// Complex frequency response at given frequencies (Hz), exact with delays.
+    Freqresp(freqresp::Args),
+    /// Gain, phase, delay and disk margins of a SISO loop transfer L = P·C, and closed-loop stability.
+    Margins(margins::Args),
 }
 
 /// Runs one subcommand; the error text is what the user sees.
@@ -24,5 +30,7 @@ pub fn run(cmd: Command) -> Result<(), String> {
         Command::Show(a) => show::run(a),
         Command::Bode(a) => bode::run(a),
         Command::Nyquist(a) => nyquist::run(a),
+        Command::Freqresp(a) => freqresp::run(a),
+        Command::Margins(a) => margins::run(a),
     }
 }
