@@ -11,5 +11,6 @@ pub mod error;
 pub mod signal;
 
 pub use error::{Result, SysidError};
+pub mod fit;
 pub mod logs;
 pub mod spectral;
