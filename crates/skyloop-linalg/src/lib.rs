@@ -11,3 +11,4 @@ pub use faer::{c64, Mat, MatRef};
 pub mod balance;
 mod dense;
 pub mod schur;
+pub mod expm;

@@ -22,7 +22,7 @@ pub fn tf_to_ss(tf: &TransferFunction) -> Result<StateSpace> {
     }
     let (ny, nu) = (tf.ny(), tf.nu());
     let (in_extra, out_extra) = split_io_delays(&tf.io_delay)?;
-    let blocks: Vec<Vec<(Mat<f64>, Mat<f64>, Mat<f64>, f64)>> = (0..ny)
+    let blocks: Vec<Vec<Realization>> = (0..ny)
         .map(|i| {
             (0..nu)
                 .map(|j| siso_realization(&tf.num[i][j], &tf.den[i][j]))
@@ -54,6 +54,9 @@ pub fn tf_to_ss(tf: &TransferFunction) -> Result<StateSpace> {
     let output_delay = (0..ny).map(|i| tf.output_delay[i] + out_extra[i]).collect();
     StateSpace::new(a, b, c, d, tf.dt)?.with_delays(input_delay, output_delay)
 }
+
+/// (A, B, C, D) of one SISO entry.
+type Realization = (Mat<f64>, Mat<f64>, Mat<f64>, f64);
 
 /// Splits an [output][input] delay matrix into per-input plus per-output delays when possible.
 fn split_io_delays(io: &[Vec<f64>]) -> Result<(Vec<f64>, Vec<f64>)> {
@@ -113,7 +116,7 @@ pub fn cancel_common_roots(num: &Poly, den: &Poly) -> Result<(Poly, Poly)> {
 }
 
 /// Scaled controllable canonical realization (A, B, C, D) of a proper SISO `num/den`.
-fn siso_realization(num: &Poly, den: &Poly) -> (Mat<f64>, Mat<f64>, Mat<f64>, f64) {
+fn siso_realization(num: &Poly, den: &Poly) -> Realization {
     let (num, den) = cancel_common_roots(num, den).unwrap_or_else(|_| (num.clone(), den.clone()));
     let n = den.degree();
     let lead = den.leading();

@@ -389,26 +389,75 @@ pub fn default_grid(sys: &StateSpace, n: usize) -> Result<Vec<f64>> {
     Ok(logspace(lo.log10(), hi.log10(), n.max(2)))
 }
 
-/// Smallest and largest characteristic frequency (rad/s) of the model: non-zero pole magnitudes
-/// (discrete poles mapped to s = ln z / dt) and 1/delay; (1, 1) for a static gain without delay.
-pub fn dynamics_range(sys: &StateSpace) -> Result<(f64, f64)> {
-    let mut mags: Vec<f64> = Vec::new();
-    if sys.nx() > 0 {
-        let eig = sys
-            .a
-            .eigenvalues()
-            .map_err(|e| LtiError::Numerical(format!("eigenvalues of A: {e:?}")))?;
-        for p in eig {
-            let m = if sys.dt > 0.0 {
-                (p.ln() / sys.dt).norm()
-            } else {
-                p.norm()
-            };
-            if m.is_finite() && m > 1e-12 {
-                mags.push(m);
+/// Open-loop poles sorted into what frequency analysis needs (s-plane view; discrete poles mapped
+/// by s = ln z / dt).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PoleSummary {
+    /// Number of poles numerically at the origin (s = 0, z = 1): integrators.
+    pub origin: usize,
+    /// Scatter radius (rad/s) of that cluster: a multiple integrator's computed poles split by
+    /// about eps^(1/k)·‖A‖, so everything within 1e-7·‖A‖ of the origin counts as an integrator.
+    pub origin_radius: f64,
+    /// Other poles on the imaginary axis (unit circle), as frequencies ω ≥ 0 in rad/s.
+    pub axis_w: Vec<f64>,
+    /// Number of poles strictly in the open right half-plane (outside the unit circle).
+    pub unstable: usize,
+    /// Magnitudes in rad/s of all poles outside the origin cluster (discrete poles at z = 0 excluded).
+    pub mags: Vec<f64>,
+}
+
+/// Classifies the eigenvalues of A (see [`PoleSummary`]).
+pub fn pole_summary(sys: &StateSpace) -> Result<PoleSummary> {
+    let mut out = PoleSummary {
+        origin: 0,
+        origin_radius: 0.0,
+        axis_w: Vec::new(),
+        unstable: 0,
+        mags: Vec::new(),
+    };
+    if sys.nx() == 0 {
+        return Ok(out);
+    }
+    let eig = sys
+        .a
+        .eigenvalues()
+        .map_err(|e| LtiError::Numerical(format!("eigenvalues of A: {e:?}")))?;
+    let norm_a = sys.a.norm_l2().max(1.0);
+    let tol0 = 1e-7 * norm_a;
+    for p in eig {
+        let (near0, s, boundary_dist) = if sys.dt > 0.0 {
+            ((p - 1.0).norm() <= tol0, p.ln() / sys.dt, p.norm() - 1.0)
+        } else {
+            (p.norm() <= tol0, p, p.re)
+        };
+        if near0 {
+            out.origin += 1;
+            out.origin_radius = out.origin_radius.max(s.norm());
+            continue;
+        }
+        if !(s.re.is_finite() && s.im.is_finite()) {
+            continue; // z = 0: a pure delay state, stable and without a frequency
+        }
+        out.mags.push(s.norm());
+        let scale = if sys.dt > 0.0 { 1.0 } else { p.norm().max(1.0) };
+        if boundary_dist.abs() <= 1e-9 * scale {
+            if s.im >= 0.0 {
+                out.axis_w.push(s.im);
             }
+        } else if boundary_dist > 0.0 {
+            out.unstable += 1;
         }
     }
+    out.axis_w.sort_by(f64::total_cmp);
+    Ok(out)
+}
+
+/// Smallest and largest characteristic frequency (rad/s) of the model: magnitudes of the poles
+/// outside the origin cluster (discrete poles mapped to s = ln z / dt) and 1/delay; (1, 1) when
+/// there are none.
+pub fn dynamics_range(sys: &StateSpace) -> Result<(f64, f64)> {
+    let mut mags = pole_summary(sys)?.mags;
+    mags.retain(|&m| m > 0.0);
     for &t in sys.input_delay.iter().chain(&sys.output_delay) {
         if t > 0.0 {
             mags.push(1.0 / t);

@@ -5,6 +5,9 @@
 pub mod error;
 pub mod freqresp;
 pub mod json;
+pub mod margins;
+pub mod norms;
+pub mod roots;
 pub mod ss;
 
 pub use error::LtiError;
@@ -12,5 +15,6 @@ pub use faer::{c64, Mat, MatRef};
 pub use ss::StateSpace;
 pub mod convert;
 pub mod expr;
+pub mod interconnect;
 pub mod poly;
 pub mod tf;

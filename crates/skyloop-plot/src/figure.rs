@@ -154,6 +154,12 @@ impl Figure {
         crate::render::save(self, path)
     }
 
+    /// Renders the figure as an SVG document in memory (for embedding in HTML reports).
+    pub fn to_svg_string(&self) -> Result<String> {
+        self.check()?;
+        crate::render::svg_string(self)
+    }
+
     /// Rejects figures that cannot be drawn: no panels, series of unequal length, no finite data.
     fn check(&self) -> Result<()> {
         if self.panels.is_empty() {

@@ -12,8 +12,10 @@ pub mod hsv;
 pub mod mu;
 pub mod nyquist;
 mod render;
+pub mod report;
 pub mod sigma;
 pub mod traces;
 
 pub use error::PlotError;
 pub use figure::{Band, Figure, Marker, Panel, Series, SeriesStyle};
+pub use report::Report;

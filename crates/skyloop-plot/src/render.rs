@@ -53,6 +53,24 @@ pub(crate) fn save(fig: &Figure, path: &Path) -> Result<()> {
     }
 }
 
+/// Renders `fig` to an SVG string.
+pub(crate) fn svg_string(fig: &Figure) -> Result<String> {
+    let size = (fig.width, fig.panel_height * fig.panels.len() as u32 + 40);
+    let mut buf = String::new();
+    {
+        let root = SVGBackend::with_string(&mut buf, size).into_drawing_area();
+        draw_figure(fig, &root).map_err(|e| PlotError::Draw {
+            path: "<svg>".into(),
+            message: e,
+        })?;
+        root.present().map_err(|e| PlotError::Draw {
+            path: "<svg>".into(),
+            message: e.to_string(),
+        })?;
+    }
+    Ok(buf)
+}
+
 fn draw_figure<DB: DrawingBackend>(fig: &Figure, root: &DrawingArea<DB, Shift>) -> std::result::Result<(), String> {
     root.fill(&WHITE).map_err(|e| e.to_string())?;
     let root = root.titled(&fig.title, ("sans-serif", 22)).map_err(|e| e.to_string())?;

@@ -212,3 +212,20 @@ fn bad_input_is_refused() {
         Err(PlotError::Draw { .. })
     ));
 }
+
+#[test]
+fn html_report_inlines_figures_and_escapes_text() {
+    use skyloop_plot::bode::bode_figure;
+    use skyloop_plot::Report;
+    let mut r = Report::new("Design <bicopter>");
+    r.section("Margins")
+        .text("PM & GM of L = P·C")
+        .key_values(&[("phase margin [deg]", "65.8".into())])
+        .figure(bode_figure("L", &[lag()], &BodeMarks::default()), "loop transfer");
+    let p = out("report.html");
+    r.save(&p).expect("report");
+    let html = std::fs::read_to_string(&p).expect("html");
+    assert!(html.contains("Design &lt;bicopter&gt;"));
+    assert!(html.contains("PM &amp; GM"));
+    assert!(html.contains("<svg") && html.contains("loop transfer") && html.contains("<td>65.8</td>"));
+}

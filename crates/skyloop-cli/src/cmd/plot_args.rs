@@ -70,11 +70,14 @@ impl PlotArgs {
     }
 }
 
-/// A legend label for a model argument: the expression itself, shortened when long.
+/// A legend label for a model argument: the expression itself, its middle elided when long (products
+/// of models often share a long prefix, so both ends are kept).
 fn label(arg: &str) -> String {
     let chars: Vec<char> = arg.chars().collect();
     if chars.len() > 48 {
-        format!("{}…", chars[..47].iter().collect::<String>())
+        let head: String = chars[..22].iter().collect();
+        let tail: String = chars[chars.len() - 22..].iter().collect();
+        format!("{head}…{tail}")
     } else {
         arg.to_string()
     }
