@@ -8,3 +8,7 @@ pub mod error;
 
 pub use error::{LinalgError, Result};
 pub use faer::{c64, Mat, MatRef};
+pub mod balance;
+mod dense;
+pub mod schur;
+pub mod expm;

@@ -3,9 +3,18 @@
 //! Continuous time unless `dt > 0`; frequencies are rad/s unless a name says `_hz`.
 
 pub mod error;
+pub mod freqresp;
 pub mod json;
+pub mod margins;
+pub mod norms;
+pub mod roots;
 pub mod ss;
 
 pub use error::LtiError;
 pub use faer::{c64, Mat, MatRef};
 pub use ss::StateSpace;
+pub mod convert;
+pub mod expr;
+pub mod interconnect;
+pub mod poly;
+pub mod tf;

@@ -1,0 +1,317 @@
+//! A small column-major square work matrix and the elementary transformations (Householder
+//! reflectors, Givens rotations) the Schur and reordering kernels are built from. The kernels run
+//! on a plain `Vec<f64>` so that their inner loops are contiguous and cheap.
+
+use faer::{Mat, MatRef};
+use std::ops::{Index, IndexMut, Range};
+
+/// Square column-major work matrix.
+#[derive(Debug, Clone)]
+pub(crate) struct Dm {
+    pub n: usize,
+    pub d: Vec<f64>,
+}
+
+impl Index<(usize, usize)> for Dm {
+    type Output = f64;
+    #[inline(always)]
+    fn index(&self, (i, j): (usize, usize)) -> &f64 {
+        &self.d[i + j * self.n]
+    }
+}
+
+impl IndexMut<(usize, usize)> for Dm {
+    #[inline(always)]
+    fn index_mut(&mut self, (i, j): (usize, usize)) -> &mut f64 {
+        &mut self.d[i + j * self.n]
+    }
+}
+
+impl Dm {
+    pub fn zeros(n: usize) -> Dm {
+        Dm { n, d: vec![0.0; n * n] }
+    }
+
+    pub fn identity(n: usize) -> Dm {
+        let mut m = Dm::zeros(n);
+        for i in 0..n {
+            m[(i, i)] = 1.0;
+        }
+        m
+    }
+
+    pub fn from_mat(a: MatRef<f64>) -> Dm {
+        let n = a.nrows();
+        let mut m = Dm::zeros(n);
+        for j in 0..n {
+            for i in 0..n {
+                m[(i, j)] = a[(i, j)];
+            }
+        }
+        m
+    }
+
+    pub fn to_mat(&self) -> Mat<f64> {
+        Mat::from_fn(self.n, self.n, |i, j| self[(i, j)])
+    }
+
+    /// Rows `r1`, `r2` over columns `cols`: `x ← c·x + s·y`, `y ← c·y − s·x` (BLAS drot).
+    #[inline]
+    pub fn rot_rows(&mut self, r1: usize, r2: usize, cols: Range<usize>, c: f64, s: f64) {
+        let n = self.n;
+        for j in cols {
+            let x = self.d[r1 + j * n];
+            let y = self.d[r2 + j * n];
+            self.d[r1 + j * n] = c * x + s * y;
+            self.d[r2 + j * n] = c * y - s * x;
+        }
+    }
+
+    /// Columns `c1`, `c2` over rows `rows`, same rotation as [`Dm::rot_rows`].
+    #[inline]
+    pub fn rot_cols(&mut self, c1: usize, c2: usize, rows: Range<usize>, c: f64, s: f64) {
+        let n = self.n;
+        for i in rows {
+            let x = self.d[i + c1 * n];
+            let y = self.d[i + c2 * n];
+            self.d[i + c1 * n] = c * x + s * y;
+            self.d[i + c2 * n] = c * y - s * x;
+        }
+    }
+
+    /// `C ← (I − τ·u·uᵀ)·C` on rows `r0..r0+u.len()` and columns `cols` (dlarfx side 'L').
+    #[inline]
+    pub fn refl_left(&mut self, u: &[f64], tau: f64, r0: usize, cols: Range<usize>) {
+        if tau == 0.0 {
+            return;
+        }
+        let n = self.n;
+        for j in cols {
+            let col = &mut self.d[r0 + j * n..r0 + j * n + u.len()];
+            let s: f64 = col.iter().zip(u).map(|(x, v)| x * v).sum();
+            let ts = tau * s;
+            for (x, v) in col.iter_mut().zip(u) {
+                *x -= ts * v;
+            }
+        }
+    }
+
+    /// `C ← C·(I − τ·u·uᵀ)` on columns `c0..c0+u.len()` and rows `rows` (dlarfx side 'R').
+    #[inline]
+    pub fn refl_right(&mut self, u: &[f64], tau: f64, c0: usize, rows: Range<usize>) {
+        if tau == 0.0 {
+            return;
+        }
+        let n = self.n;
+        for i in rows {
+            let mut s = 0.0;
+            for (k, v) in u.iter().enumerate() {
+                s += self.d[i + (c0 + k) * n] * v;
+            }
+            let ts = tau * s;
+            for (k, v) in u.iter().enumerate() {
+                self.d[i + (c0 + k) * n] -= ts * v;
+            }
+        }
+    }
+}
+
+/// Householder reflector (LAPACK dlarfg): returns `(β, τ)` and overwrites `x` with `v[1..]` so that
+/// `(I − τ·[1;v]·[1;v]ᵀ)·[α; x] = [β; 0]`.
+#[inline]
+pub(crate) fn larfg(alpha: f64, x: &mut [f64]) -> (f64, f64) {
+    let xnorm = x.iter().fold(0.0f64, |acc, v| acc.hypot(*v));
+    if xnorm == 0.0 {
+        return (alpha, 0.0);
+    }
+    let beta = -alpha.hypot(xnorm).copysign(alpha);
+    let tau = (beta - alpha) / beta;
+    let inv = 1.0 / (alpha - beta);
+    for v in x.iter_mut() {
+        *v *= inv;
+    }
+    (beta, tau)
+}
+
+/// Plane rotation (LAPACK dlartg): `(c, s, r)` with `[c s; −s c]·[f; g] = [r; 0]`.
+#[inline]
+pub(crate) fn lartg(f: f64, g: f64) -> (f64, f64, f64) {
+    if g == 0.0 {
+        (1.0, 0.0, f)
+    } else if f == 0.0 {
+        (0.0, 1.0, g)
+    } else {
+        let r = f.hypot(g).copysign(f);
+        (f / r, g / r, r)
+    }
+}
+
+/// Fortran `SIGN(a, b)`: |a| with the sign of b.
+#[inline]
+pub(crate) fn sign(a: f64, b: f64) -> f64 {
+    if b >= 0.0 {
+        a.abs()
+    } else {
+        -a.abs()
+    }
+}
+
+/// Standardized 2×2 block (LAPACK dlanv2).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Lanv2 {
+    pub a: f64,
+    pub b: f64,
+    pub c: f64,
+    pub d: f64,
+    pub cs: f64,
+    pub sn: f64,
+}
+
+/// Schur factorization of a real 2×2 matrix in standardized form (LAPACK dlanv2):
+/// `[a b; c d] = [cs −sn; sn cs]·[aa bb; cc dd]·[cs sn; −sn cs]` with either `cc = 0` (real
+/// eigenvalues) or `aa = dd` and `bb·cc < 0` (complex pair).
+pub(crate) fn lanv2(mut a: f64, mut b: f64, mut c: f64, mut d: f64) -> Lanv2 {
+    const MULTPL: f64 = 4.0;
+    let eps = f64::EPSILON;
+    // 2^-485: the square root of safmin/eps, rounded to a power of 2 (dlanv2's SAFMN2).
+    let safmn2 = 2f64.powi(-485);
+    let safmx2 = 1.0 / safmn2;
+    let (mut cs, mut sn);
+    if c == 0.0 {
+        cs = 1.0;
+        sn = 0.0;
+    } else if b == 0.0 {
+        // Swap rows and columns.
+        cs = 0.0;
+        sn = 1.0;
+        std::mem::swap(&mut a, &mut d);
+        b = -c;
+        c = 0.0;
+    } else if a - d == 0.0 && sign(1.0, b) != sign(1.0, c) {
+        cs = 1.0;
+        sn = 0.0;
+    } else {
+        let mut temp = a - d;
+        let mut p = 0.5 * temp;
+        let bcmax = b.abs().max(c.abs());
+        let bcmis = b.abs().min(c.abs()) * sign(1.0, b) * sign(1.0, c);
+        let mut scale = p.abs().max(bcmax);
+        let mut z = (p / scale) * p + (bcmax / scale) * bcmis;
+        if z >= MULTPL * eps {
+            // Real eigenvalues: compute a and d.
+            z = p + sign(scale.sqrt() * z.sqrt(), p);
+            a = d + z;
+            d -= (bcmax / z) * bcmis;
+            let tau = c.hypot(z);
+            cs = z / tau;
+            sn = c / tau;
+            b -= c;
+            c = 0.0;
+        } else {
+            // Complex or nearly equal real eigenvalues: make the diagonal elements equal.
+            let mut count = 0;
+            let mut sigma = b + c;
+            loop {
+                count += 1;
+                scale = temp.abs().max(sigma.abs());
+                if scale >= safmx2 {
+                    sigma *= safmn2;
+                    temp *= safmn2;
+                    if count <= 20 {
+                        continue;
+                    }
+                }
+                if scale <= safmn2 {
+                    sigma *= safmx2;
+                    temp *= safmx2;
+                    if count <= 20 {
+                        continue;
+                    }
+                }
+                break;
+            }
+            p = 0.5 * temp;
+            let mut tau = sigma.hypot(temp);
+            cs = (0.5 * (1.0 + sigma.abs() / tau)).sqrt();
+            sn = -(p / (tau * cs)) * sign(1.0, sigma);
+            let aa = a * cs + b * sn;
+            let bb = -a * sn + b * cs;
+            let cc = c * cs + d * sn;
+            let dd = -c * sn + d * cs;
+            a = aa * cs + cc * sn;
+            b = bb * cs + dd * sn;
+            c = -aa * sn + cc * cs;
+            d = -bb * sn + dd * cs;
+            temp = 0.5 * (a + d);
+            a = temp;
+            d = temp;
+            if c != 0.0 {
+                if b != 0.0 {
+                    if sign(1.0, b) == sign(1.0, c) {
+                        // Real eigenvalues: reduce to upper triangular form.
+                        let sab = b.abs().sqrt();
+                        let sac = c.abs().sqrt();
+                        p = sign(sab * sac, c);
+                        tau = 1.0 / (b + c).abs().sqrt();
+                        a = temp + p;
+                        d = temp - p;
+                        b -= c;
+                        c = 0.0;
+                        let cs1 = sab * tau;
+                        let sn1 = sac * tau;
+                        let t = cs * cs1 - sn * sn1;
+                        sn = cs * sn1 + sn * cs1;
+                        cs = t;
+                    }
+                } else {
+                    b = -c;
+                    c = 0.0;
+                    let t = cs;
+                    cs = -sn;
+                    sn = t;
+                }
+            }
+        }
+    }
+    Lanv2 { a, b, c, d, cs, sn }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lanv2_reconstructs_and_standardizes() {
+        // Hand-picked 2×2 matrices covering every branch: triangular, b = 0, complex pair,
+        // real pair, nearly equal real eigenvalues.
+        let cases = [
+            [1.0, 2.0, 0.0, 3.0],
+            [1.0, 0.0, 5.0, 3.0],
+            [1.0, -4.0, 2.0, 1.5],
+            [4.0, 1.0, 2.0, -3.0],
+            [1.0, 1e-9, 1e-9, 1.0],
+            [0.0, 1.0, -1.0, 0.0],
+            [2.0, 3.0, 3.0, 2.0],
+        ];
+        for m in cases {
+            let r = lanv2(m[0], m[1], m[2], m[3]);
+            let (cs, sn) = (r.cs, r.sn);
+            assert!((cs * cs + sn * sn - 1.0).abs() < 1e-15);
+            // [a b; c d] = G·S·Gᵀ with G = [cs −sn; sn cs]
+            let g = [[cs, -sn], [sn, cs]];
+            let s = [[r.a, r.b], [r.c, r.d]];
+            for i in 0..2 {
+                for j in 0..2 {
+                    let mut v = 0.0;
+                    for k in 0..2 {
+                        for l in 0..2 {
+                            v += g[i][k] * s[k][l] * g[j][l];
+                        }
+                    }
+                    assert!((v - m[2 * i + j]).abs() < 1e-14, "{m:?}");
+                }
+            }
+            assert!(r.c == 0.0 || (r.a == r.d && r.b * r.c < 0.0), "{m:?} -> {r:?}");
+        }
+    }
+}

@@ -1,0 +1,760 @@
+//! Real Schur decomposition `A = Q·T·Qᵀ` and reordering of the Schur form.
+//!
+//! Householder reduction to Hessenberg form (LAPACK dgehd2/dorghr), then the Francis double-shift
+//! QR iteration with aggressive small-subdiagonal deflation and exceptional shifts (dlahqr),
+//! accumulating `Q`; 2×2 blocks are standardized (dlanv2). Reordering swaps adjacent 1×1/2×2
+//! diagonal blocks by orthogonal similarities (dtrexc/dlaexc), solving the small Sylvester equation
+//! of each swap with complete pivoting (as dlasy2), and rejects a swap whose result would not be
+//! upper quasi-triangular to working accuracy.
+
+use faer::{c64, Mat, MatRef};
+
+use crate::dense::{lanv2, larfg, lartg, Dm};
+use crate::{LinalgError, Result};
+
+/// Real Schur form `A = Q·T·Qᵀ`: `Q` orthogonal, `T` upper quasi-triangular with standardized 2×2
+/// blocks (equal diagonal, off-diagonals of opposite sign) for complex-conjugate eigenvalue pairs.
+#[derive(Debug, Clone)]
+pub struct Schur {
+    /// Quasi-upper-triangular factor `T`.
+    pub t: Mat<f64>,
+    /// Orthogonal factor `Q` (columns are Schur vectors).
+    pub q: Mat<f64>,
+}
+
+impl Schur {
+    /// Eigenvalues in the order of the diagonal blocks of `T` (a complex pair as `+im` then `−im`).
+    pub fn eigenvalues(&self) -> Vec<c64> {
+        block_eigenvalues(&Dm::from_mat(self.t.as_ref()))
+    }
+
+    /// Sizes (1 or 2) of the diagonal blocks of `T`, top to bottom.
+    pub fn block_sizes(&self) -> Vec<usize> {
+        let n = self.t.nrows();
+        let mut out = Vec::new();
+        let mut k = 0;
+        while k < n {
+            let nb = if k + 1 < n && self.t[(k + 1, k)] != 0.0 { 2 } else { 1 };
+            out.push(nb);
+            k += nb;
+        }
+        out
+    }
+}
+
+fn block_eigenvalues(t: &Dm) -> Vec<c64> {
+    let n = t.n;
+    let mut out = Vec::with_capacity(n);
+    let mut k = 0;
+    while k < n {
+        if k + 1 < n && t[(k + 1, k)] != 0.0 {
+            let re = t[(k, k)];
+            let im = t[(k, k + 1)].abs().sqrt() * t[(k + 1, k)].abs().sqrt();
+            out.push(c64::new(re, im));
+            out.push(c64::new(re, -im));
+            k += 2;
+        } else {
+            out.push(c64::new(t[(k, k)], 0.0));
+            k += 1;
+        }
+    }
+    out
+}
+
+fn check_square_finite(a: MatRef<f64>, what: &str) -> Result<()> {
+    if a.nrows() != a.ncols() {
+        return Err(LinalgError::Dimension(format!(
+            "{what}: matrix is {}x{}, not square",
+            a.nrows(),
+            a.ncols()
+        )));
+    }
+    for j in 0..a.ncols() {
+        for i in 0..a.nrows() {
+            if !a[(i, j)].is_finite() {
+                return Err(LinalgError::InvalidArgument(format!(
+                    "{what}: matrix has NaN or infinite entries"
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Real Schur decomposition `A = Q·T·Qᵀ` of a square matrix (no balancing, so `Q` is orthogonal).
+pub fn real_schur(a: MatRef<f64>) -> Result<Schur> {
+    check_square_finite(a, "real_schur")?;
+    let (t, q) = schur_dm(Dm::from_mat(a))?;
+    Ok(Schur {
+        t: t.to_mat(),
+        q: q.to_mat(),
+    })
+}
+
+/// Eigenvalues of a square matrix: balancing (permutation and scaling, [`crate::balance`]) followed
+/// by the real Schur form of the balanced matrix. More accurate than `real_schur(a)?.eigenvalues()`
+/// for badly scaled matrices; the order is that of the Schur form.
+pub fn eigenvalues(a: MatRef<f64>) -> Result<Vec<c64>> {
+    check_square_finite(a, "eigenvalues")?;
+    let bal = crate::balance::balance(a);
+    let (t, _) = schur_dm(Dm::from_mat(bal.a.as_ref()))?;
+    Ok(block_eigenvalues(&t))
+}
+
+/// Schur form on work matrices: returns `(T, Q)`.
+pub(crate) fn schur_dm(mut h: Dm) -> Result<(Dm, Dm)> {
+    let mut q = hessenberg(&mut h);
+    lahqr(&mut h, &mut q)?;
+    Ok((h, q))
+}
+
+/// Householder reduction `A = Q·H·Qᵀ` in place (dgehd2), returning the accumulated `Q` (dorghr).
+fn hessenberg(h: &mut Dm) -> Dm {
+    let n = h.n;
+    let mut q = Dm::identity(n);
+    if n < 3 {
+        return q;
+    }
+    let mut v = vec![0.0; n];
+    let mut w = vec![0.0; n];
+    for k in 0..n - 2 {
+        let m = n - k - 1; // length of the reflector, acting on rows/cols k+1..n
+        v[0] = 1.0;
+        for i in 1..m {
+            v[i] = h[(k + 1 + i, k)];
+        }
+        let (beta, tau) = larfg(h[(k + 1, k)], &mut v[1..m]);
+        h[(k + 1, k)] = beta;
+        for i in k + 2..n {
+            h[(i, k)] = 0.0;
+        }
+        if tau == 0.0 {
+            continue;
+        }
+        let vk = &v[..m];
+        h.refl_left(vk, tau, k + 1, k + 1..n);
+        // Right application H ← H·(I − τvvᵀ) and Q ← Q·(I − τvvᵀ) column-wise (contiguous).
+        for mat in [&mut *h, &mut q] {
+            let nn = mat.n;
+            w[..nn].iter_mut().for_each(|x| *x = 0.0);
+            for (jj, vj) in vk.iter().enumerate() {
+                let col = &mat.d[(k + 1 + jj) * nn..(k + 2 + jj) * nn];
+                for (wi, ci) in w.iter_mut().zip(col) {
+                    *wi += vj * ci;
+                }
+            }
+            for (jj, vj) in vk.iter().enumerate() {
+                let f = tau * vj;
+                let col = &mut mat.d[(k + 1 + jj) * nn..(k + 2 + jj) * nn];
+                for (ci, wi) in col.iter_mut().zip(w.iter()) {
+                    *ci -= f * wi;
+                }
+            }
+        }
+    }
+    q
+}
+
+/// Francis double-shift QR on an upper Hessenberg matrix (LAPACK dlahqr with WANTT = WANTZ = true),
+/// accumulating the transformations into `z`.
+fn lahqr(h: &mut Dm, z: &mut Dm) -> Result<()> {
+    let n = h.n;
+    if n <= 1 {
+        return Ok(());
+    }
+    const DAT1: f64 = 0.75;
+    const DAT2: f64 = -0.4375;
+    const KEXSH: usize = 10;
+    for j in 0..n.saturating_sub(3) {
+        h[(j + 2, j)] = 0.0;
+        h[(j + 3, j)] = 0.0;
+    }
+    if n >= 3 {
+        h[(n - 1, n - 3)] = 0.0;
+    }
+    let ilo = 0usize;
+    let ihi = n - 1;
+    let nh = ihi - ilo + 1;
+    let safmin = f64::MIN_POSITIVE;
+    let ulp = f64::EPSILON;
+    let smlnum = safmin * (nh as f64 / ulp);
+    let itmax = 30 * nh.max(10);
+    let mut kdefl = 0usize;
+    let (i1, i2) = (0usize, n - 1);
+
+    let mut i = ihi as isize;
+    while i >= ilo as isize {
+        let iu = i as usize;
+        let mut l = ilo;
+        let mut converged = false;
+        for _its in 0..=itmax {
+            // Look for a single small subdiagonal element.
+            let mut k = iu;
+            while k > l {
+                let hkk1 = h[(k, k - 1)].abs();
+                if hkk1 <= smlnum {
+                    break;
+                }
+                let mut tst = h[(k - 1, k - 1)].abs() + h[(k, k)].abs();
+                if tst == 0.0 {
+                    if k >= ilo + 2 {
+                        tst += h[(k - 1, k - 2)].abs();
+                    }
+                    if k < ihi {
+                        tst += h[(k + 1, k)].abs();
+                    }
+                }
+                // Ahues & Tisseur's conservative deflation criterion (LAWN 122).
+                if hkk1 <= ulp * tst {
+                    let ab = hkk1.max(h[(k - 1, k)].abs());
+                    let ba = hkk1.min(h[(k - 1, k)].abs());
+                    let dkk = (h[(k - 1, k - 1)] - h[(k, k)]).abs();
+                    let aa = h[(k, k)].abs().max(dkk);
+                    let bb = h[(k, k)].abs().min(dkk);
+                    let s = aa + ab;
+                    if ba * (ab / s) <= smlnum.max(ulp * (bb * (aa / s))) {
+                        break;
+                    }
+                }
+                k -= 1;
+            }
+            l = k;
+            if l > ilo {
+                h[(l, l - 1)] = 0.0;
+            }
+            if l + 1 >= iu {
+                converged = true;
+                break;
+            }
+            kdefl += 1;
+
+            let (h11, h12, h21, h22);
+            if kdefl % (2 * KEXSH) == 0 {
+                let s = h[(iu, iu - 1)].abs() + h[(iu - 1, iu - 2)].abs();
+                h11 = DAT1 * s + h[(iu, iu)];
+                h12 = DAT2 * s;
+                h21 = s;
+                h22 = h11;
+            } else if kdefl % KEXSH == 0 {
+                let s = h[(l + 1, l)].abs() + h[(l + 2, l + 1)].abs();
+                h11 = DAT1 * s + h[(l, l)];
+                h12 = DAT2 * s;
+                h21 = s;
+                h22 = h11;
+            } else {
+                h11 = h[(iu - 1, iu - 1)];
+                h21 = h[(iu, iu - 1)];
+                h12 = h[(iu - 1, iu)];
+                h22 = h[(iu, iu)];
+            }
+            let s = h11.abs() + h12.abs() + h21.abs() + h22.abs();
+            let (rt1r, rt1i, rt2r, rt2i);
+            if s == 0.0 {
+                rt1r = 0.0;
+                rt1i = 0.0;
+                rt2r = 0.0;
+                rt2i = 0.0;
+            } else {
+                let (h11, h12, h21, h22) = (h11 / s, h12 / s, h21 / s, h22 / s);
+                let tr = (h11 + h22) / 2.0;
+                let det = (h11 - tr) * (h22 - tr) - h12 * h21;
+                let rtdisc = det.abs().sqrt();
+                if det >= 0.0 {
+                    rt1r = tr * s;
+                    rt2r = rt1r;
+                    rt1i = rtdisc * s;
+                    rt2i = -rt1i;
+                } else {
+                    // Real shifts: use the one closer to h22 twice.
+                    let a = tr + rtdisc;
+                    let b = tr - rtdisc;
+                    let r = if (a - h22).abs() <= (b - h22).abs() {
+                        a * s
+                    } else {
+                        b * s
+                    };
+                    rt1r = r;
+                    rt2r = r;
+                    rt1i = 0.0;
+                    rt2i = 0.0;
+                }
+            }
+
+            // Look for two consecutive small subdiagonal elements.
+            let mut m = iu - 2;
+            let mut v = [0.0f64; 3];
+            loop {
+                let h21s0 = h[(m + 1, m)];
+                let s = (h[(m, m)] - rt2r).abs() + rt2i.abs() + h21s0.abs();
+                let h21s = h21s0 / s;
+                v[0] = h21s * h[(m, m + 1)] + (h[(m, m)] - rt1r) * ((h[(m, m)] - rt2r) / s) - rt1i * (rt2i / s);
+                v[1] = h21s * (h[(m, m)] + h[(m + 1, m + 1)] - rt1r - rt2r);
+                v[2] = h21s * h[(m + 2, m + 1)];
+                let s = v[0].abs() + v[1].abs() + v[2].abs();
+                v[0] /= s;
+                v[1] /= s;
+                v[2] /= s;
+                if m == l {
+                    break;
+                }
+                let h00 = h[(m, m - 1)].abs() * (v[1].abs() + v[2].abs());
+                let h01 = v[0].abs() * (h[(m - 1, m - 1)].abs() + h[(m, m)].abs() + h[(m + 1, m + 1)].abs());
+                if h00 <= ulp * h01 {
+                    break;
+                }
+                m -= 1;
+            }
+
+            // Double-shift QR sweep (bulge chase) over rows/columns m..=i.
+            for k in m..iu {
+                let nr = 3.min(iu - k + 1);
+                if k > m {
+                    for r in 0..nr {
+                        v[r] = h[(k + r, k - 1)];
+                    }
+                }
+                let (beta, t1) = larfg(v[0], &mut v[1..nr]);
+                v[0] = beta;
+                if k > m {
+                    h[(k, k - 1)] = v[0];
+                    h[(k + 1, k - 1)] = 0.0;
+                    if k + 1 < iu {
+                        h[(k + 2, k - 1)] = 0.0;
+                    }
+                } else if m > l {
+                    // Avoids a sign flip bug when v[1], v[2] underflow (dlahqr comment).
+                    h[(k, k - 1)] *= 1.0 - t1;
+                }
+                let v2 = v[1];
+                let t2 = t1 * v2;
+                let nn = h.n;
+                if nr == 3 {
+                    let v3 = v[2];
+                    let t3 = t1 * v3;
+                    for j in k..=i2 {
+                        let o = j * nn;
+                        let sum = h.d[k + o] + v2 * h.d[k + 1 + o] + v3 * h.d[k + 2 + o];
+                        h.d[k + o] -= sum * t1;
+                        h.d[k + 1 + o] -= sum * t2;
+                        h.d[k + 2 + o] -= sum * t3;
+                    }
+                    let jmax = (k + 3).min(iu);
+                    let (c0, c1, c2) = (k * nn, (k + 1) * nn, (k + 2) * nn);
+                    for j in i1..=jmax {
+                        let sum = h.d[j + c0] + v2 * h.d[j + c1] + v3 * h.d[j + c2];
+                        h.d[j + c0] -= sum * t1;
+                        h.d[j + c1] -= sum * t2;
+                        h.d[j + c2] -= sum * t3;
+                    }
+                    for j in 0..nn {
+                        let sum = z.d[j + c0] + v2 * z.d[j + c1] + v3 * z.d[j + c2];
+                        z.d[j + c0] -= sum * t1;
+                        z.d[j + c1] -= sum * t2;
+                        z.d[j + c2] -= sum * t3;
+                    }
+                } else if nr == 2 {
+                    for j in k..=i2 {
+                        let o = j * nn;
+                        let sum = h.d[k + o] + v2 * h.d[k + 1 + o];
+                        h.d[k + o] -= sum * t1;
+                        h.d[k + 1 + o] -= sum * t2;
+                    }
+                    let (c0, c1) = (k * nn, (k + 1) * nn);
+                    for j in i1..=iu {
+                        let sum = h.d[j + c0] + v2 * h.d[j + c1];
+                        h.d[j + c0] -= sum * t1;
+                        h.d[j + c1] -= sum * t2;
+                    }
+                    for j in 0..nn {
+                        let sum = z.d[j + c0] + v2 * z.d[j + c1];
+                        z.d[j + c0] -= sum * t1;
+                        z.d[j + c1] -= sum * t2;
+                    }
+                }
+            }
+        }
+        if !converged {
+            return Err(LinalgError::NoConvergence(format!(
+                "real_schur: QR iteration did not converge for eigenvalue {} of {} after {} iterations",
+                iu + 1,
+                n,
+                itmax
+            )));
+        }
+        if l + 1 == iu {
+            // A 2×2 block converged: standardize it and apply the rotation to the rest.
+            let r = lanv2(h[(iu - 1, iu - 1)], h[(iu - 1, iu)], h[(iu, iu - 1)], h[(iu, iu)]);
+            h[(iu - 1, iu - 1)] = r.a;
+            h[(iu - 1, iu)] = r.b;
+            h[(iu, iu - 1)] = r.c;
+            h[(iu, iu)] = r.d;
+            if i2 > iu {
+                h.rot_rows(iu - 1, iu, iu + 1..i2 + 1, r.cs, r.sn);
+            }
+            h.rot_cols(iu - 1, iu, i1..iu - 1, r.cs, r.sn);
+            let nn = z.n;
+            z.rot_cols(iu - 1, iu, 0..nn, r.cs, r.sn);
+        }
+        kdefl = 0;
+        i = l as isize - 1;
+    }
+    Ok(())
+}
+
+/// Move the selected eigenvalues of a real Schur form to the leading diagonal block (as LAPACK
+/// dtrsen without condition estimates). A complex pair is selected when `select` accepts either of
+/// its eigenvalues. Returns the size of the leading block. Fails, leaving `s` a valid Schur form
+/// of the same matrix, when a swap is rejected because it would lose accuracy (eigenvalues of the
+/// two blocks too close for a stable swap).
+pub fn reorder_schur(s: &mut Schur, select: impl Fn(c64) -> bool) -> Result<usize> {
+    let n = s.t.nrows();
+    if s.t.ncols() != n || s.q.nrows() != n || s.q.ncols() != n {
+        return Err(LinalgError::Dimension(format!(
+            "reorder_schur: T is {}x{}, Q is {}x{}",
+            n,
+            s.t.ncols(),
+            s.q.nrows(),
+            s.q.ncols()
+        )));
+    }
+    let mut t = Dm::from_mat(s.t.as_ref());
+    let mut q = Dm::from_mat(s.q.as_ref());
+    let res = reorder_dm(&mut t, &mut q, &select);
+    s.t = t.to_mat();
+    s.q = q.to_mat();
+    res
+}
+
+/// [`reorder_schur`] on work matrices.
+pub(crate) fn reorder_dm(t: &mut Dm, q: &mut Dm, select: &dyn Fn(c64) -> bool) -> Result<usize> {
+    let n = t.n;
+    let mut ks = 0usize;
+    let mut k = 0usize;
+    while k < n {
+        let nb = if k + 1 < n && t[(k + 1, k)] != 0.0 { 2 } else { 1 };
+        let selected = if nb == 1 {
+            select(c64::new(t[(k, k)], 0.0))
+        } else {
+            let re = t[(k, k)];
+            let im = t[(k, k + 1)].abs().sqrt() * t[(k + 1, k)].abs().sqrt();
+            select(c64::new(re, im)) || select(c64::new(re, -im))
+        };
+        if selected {
+            if k != ks {
+                trexc_up(t, q, k, ks)?;
+            }
+            ks += nb;
+        }
+        k += nb;
+    }
+    Ok(ks)
+}
+
+/// Move the diagonal block starting at `ifst` up to start at `ilst` (`ilst < ifst`) by adjacent
+/// swaps (the upward branch of LAPACK dtrexc).
+fn trexc_up(t: &mut Dm, q: &mut Dm, ifst: usize, ilst: usize) -> Result<()> {
+    let n = t.n;
+    let mut nbf = if ifst + 1 < n && t[(ifst + 1, ifst)] != 0.0 {
+        2
+    } else {
+        1
+    };
+    let mut here = ifst;
+    let block_above = |t: &Dm, here: usize| {
+        if here >= 2 && t[(here - 1, here - 2)] != 0.0 {
+            2
+        } else {
+            1
+        }
+    };
+    while here > ilst {
+        if nbf == 1 || nbf == 2 {
+            let nbnext = block_above(t, here);
+            laexc(t, q, here - nbnext, nbnext, nbf)?;
+            here -= nbnext;
+            if nbf == 2 && t[(here + 1, here)] == 0.0 {
+                // The 2×2 block split into two 1×1 blocks during the swap.
+                nbf = 3;
+            }
+        } else {
+            // Two 1×1 blocks that must be moved one at a time.
+            let mut nbnext = block_above(t, here);
+            laexc(t, q, here - nbnext, nbnext, 1)?;
+            if nbnext == 1 {
+                laexc(t, q, here, 1, 1)?;
+                here -= 1;
+            } else {
+                if t[(here, here - 1)] == 0.0 {
+                    nbnext = 1;
+                }
+                if nbnext == 2 {
+                    laexc(t, q, here - 1, 2, 1)?;
+                } else {
+                    laexc(t, q, here, 1, 1)?;
+                    laexc(t, q, here - 1, 1, 1)?;
+                }
+                here -= 2;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Swap adjacent diagonal blocks `T11` (order `n1`, starting at `j1`) and `T22` (order `n2`) by an
+/// orthogonal similarity, updating `Q` (LAPACK dlaexc).
+fn laexc(t: &mut Dm, q: &mut Dm, j1: usize, n1: usize, n2: usize) -> Result<()> {
+    let n = t.n;
+    let (j2, j3, j4) = (j1 + 1, j1 + 2, j1 + 3);
+    if n1 == 1 && n2 == 1 {
+        let t11 = t[(j1, j1)];
+        let t22 = t[(j2, j2)];
+        let (cs, sn, _) = lartg(t[(j1, j2)], t22 - t11);
+        if j3 < n {
+            t.rot_rows(j1, j2, j3..n, cs, sn);
+        }
+        t.rot_cols(j1, j2, 0..j1, cs, sn);
+        t[(j1, j1)] = t22;
+        t[(j2, j2)] = t11;
+        q.rot_cols(j1, j2, 0..n, cs, sn);
+        return Ok(());
+    }
+
+    let nd = n1 + n2;
+    let mut d = Dm::zeros(nd);
+    let mut dnorm = 0.0f64;
+    for jj in 0..nd {
+        for ii in 0..nd {
+            d[(ii, jj)] = t[(j1 + ii, j1 + jj)];
+            dnorm = dnorm.max(d[(ii, jj)].abs());
+        }
+    }
+    let eps = f64::EPSILON;
+    let smlnum = f64::MIN_POSITIVE / eps;
+    let thresh = (10.0 * eps * dnorm).max(smlnum);
+    // Solve T11·X − X·T22 = scale·T12.
+    let tl: Vec<f64> = (0..n1 * n1).map(|e| d[(e % n1, e / n1)]).collect();
+    let tr: Vec<f64> = (0..n2 * n2).map(|e| d[(n1 + e % n2, n1 + e / n2)]).collect();
+    let b: Vec<f64> = (0..n1 * n2).map(|e| d[(e % n1, n1 + e / n1)]).collect();
+    let (x, scale) = small_sylvester(&tl, n1, &tr, n2, &b);
+    let xm = |i: usize, j: usize| x[i + j * n1];
+
+    let reject = |what: f64| -> Result<()> {
+        if what > thresh {
+            Err(LinalgError::NoSolution(format!(
+                "reorder_schur: swapping the diagonal blocks at rows {} and {} would lose accuracy \
+                 (error {:.2e} > {:.2e}); their eigenvalues are too close to reorder stably",
+                j1 + 1,
+                j1 + n1 + 1,
+                what,
+                thresh
+            )))
+        } else {
+            Ok(())
+        }
+    };
+
+    match (n1, n2) {
+        (1, 2) => {
+            let mut u = [scale, xm(0, 0), xm(0, 1)];
+            let (beta, tau) = {
+                let (head, tail) = u.split_at_mut(2);
+                let r = larfg(tail[0], head);
+                tail[0] = r.0;
+                r
+            };
+            let _ = beta;
+            u[2] = 1.0;
+            let t11 = t[(j1, j1)];
+            d.refl_left(&u, tau, 0, 0..3);
+            d.refl_right(&u, tau, 0, 0..3);
+            reject(d[(2, 0)].abs().max(d[(2, 1)].abs()).max((d[(2, 2)] - t11).abs()))?;
+            t.refl_left(&u, tau, j1, j1..n);
+            t.refl_right(&u, tau, j1, 0..j2 + 1);
+            t[(j3, j1)] = 0.0;
+            t[(j3, j2)] = 0.0;
+            t[(j3, j3)] = t11;
+            q.refl_right(&u, tau, j1, 0..n);
+        }
+        (2, 1) => {
+            let mut u = [-xm(0, 0), -xm(1, 0), scale];
+            let (_, tau) = larfg(u[0], &mut u[1..3]);
+            u[0] = 1.0;
+            let t33 = t[(j3, j3)];
+            d.refl_left(&u, tau, 0, 0..3);
+            d.refl_right(&u, tau, 0, 0..3);
+            reject(d[(1, 0)].abs().max(d[(2, 0)].abs()).max((d[(0, 0)] - t33).abs()))?;
+            t.refl_right(&u, tau, j1, 0..j3 + 1);
+            t.refl_left(&u, tau, j1, j2..n);
+            t[(j1, j1)] = t33;
+            t[(j2, j1)] = 0.0;
+            t[(j3, j1)] = 0.0;
+            q.refl_right(&u, tau, j1, 0..n);
+        }
+        _ => {
+            let mut u1 = [-xm(0, 0), -xm(1, 0), scale];
+            let (_, tau1) = larfg(u1[0], &mut u1[1..3]);
+            u1[0] = 1.0;
+            let temp = -tau1 * (xm(0, 1) + u1[1] * xm(1, 1));
+            let mut u2 = [-temp * u1[1] - xm(1, 1), -temp * u1[2], scale];
+            let (_, tau2) = larfg(u2[0], &mut u2[1..3]);
+            u2[0] = 1.0;
+            d.refl_left(&u1, tau1, 0, 0..4);
+            d.refl_right(&u1, tau1, 0, 0..4);
+            d.refl_left(&u2, tau2, 1, 0..4);
+            d.refl_right(&u2, tau2, 1, 0..4);
+            reject(
+                d[(2, 0)]
+                    .abs()
+                    .max(d[(2, 1)].abs())
+                    .max(d[(3, 0)].abs())
+                    .max(d[(3, 1)].abs()),
+            )?;
+            t.refl_left(&u1, tau1, j1, j1..n);
+            t.refl_right(&u1, tau1, j1, 0..j4 + 1);
+            t.refl_left(&u2, tau2, j2, j1..n);
+            t.refl_right(&u2, tau2, j2, 0..j4 + 1);
+            t[(j3, j1)] = 0.0;
+            t[(j3, j2)] = 0.0;
+            t[(j4, j1)] = 0.0;
+            t[(j4, j2)] = 0.0;
+            q.refl_right(&u1, tau1, j1, 0..n);
+            q.refl_right(&u2, tau2, j2, 0..n);
+        }
+    }
+
+    // Standardize the new 2×2 blocks.
+    let standardize = |t: &mut Dm, q: &mut Dm, p: usize| {
+        let r = lanv2(t[(p, p)], t[(p, p + 1)], t[(p + 1, p)], t[(p + 1, p + 1)]);
+        t[(p, p)] = r.a;
+        t[(p, p + 1)] = r.b;
+        t[(p + 1, p)] = r.c;
+        t[(p + 1, p + 1)] = r.d;
+        if p + 2 < n {
+            t.rot_rows(p, p + 1, p + 2..n, r.cs, r.sn);
+        }
+        t.rot_cols(p, p + 1, 0..p, r.cs, r.sn);
+        q.rot_cols(p, p + 1, 0..n, r.cs, r.sn);
+    };
+    if n2 == 2 {
+        standardize(t, q, j1);
+    }
+    if n1 == 2 {
+        standardize(t, q, j1 + n2);
+    }
+    Ok(())
+}
+
+/// Solve `TL·X − X·TR = scale·B` for `X` (`n1×n2`, column-major), `n1, n2 ∈ {1, 2}`, by Gaussian
+/// elimination with complete pivoting on the Kronecker form; tiny pivots are raised to `smin` and
+/// `scale ≤ 1` guards against overflow (the method of LAPACK dlasy2).
+fn small_sylvester(tl: &[f64], n1: usize, tr: &[f64], n2: usize, b: &[f64]) -> (Vec<f64>, f64) {
+    let eps = f64::EPSILON;
+    let smlnum = f64::MIN_POSITIVE / eps;
+    let m = n1 * n2;
+    let tmax = tl.iter().chain(tr.iter()).fold(0.0f64, |a, v| a.max(v.abs()));
+    let smin = (eps * tmax).max(smlnum);
+    // Kronecker matrix K = I⊗TL − TRᵀ⊗I acting on vec(X) (column-major).
+    let mut k = [[0.0f64; 4]; 4];
+    for j in 0..n2 {
+        for i in 0..n1 {
+            let row = i + j * n1;
+            for p in 0..n1 {
+                k[row][p + j * n1] += tl[i + p * n1];
+            }
+            for p in 0..n2 {
+                k[row][i + p * n1] -= tr[p + j * n2];
+            }
+        }
+    }
+    let mut rhs = [0.0f64; 4];
+    rhs[..m].copy_from_slice(&b[..m]);
+    let mut colperm = [0usize, 1, 2, 3];
+    for step in 0..m {
+        // Complete pivoting.
+        let (mut pr, mut pc, mut pv) = (step, step, -1.0);
+        for (r, krow) in k.iter().enumerate().take(m).skip(step) {
+            for (c, kv) in krow.iter().enumerate().take(m).skip(step) {
+                if kv.abs() > pv {
+                    pv = kv.abs();
+                    pr = r;
+                    pc = c;
+                }
+            }
+        }
+        k.swap(step, pr);
+        rhs.swap(step, pr);
+        if pc != step {
+            for row in k.iter_mut() {
+                row.swap(step, pc);
+            }
+            colperm.swap(step, pc);
+        }
+        if k[step][step].abs() < smin {
+            k[step][step] = smin;
+        }
+        for r in step + 1..m {
+            let f = k[r][step] / k[step][step];
+            if f != 0.0 {
+                for c in step..m {
+                    k[r][c] -= f * k[step][c];
+                }
+                rhs[r] -= f * rhs[step];
+            }
+        }
+    }
+    // Scale the right-hand side if the solution might overflow.
+    let mut scale = 1.0;
+    let bmax = rhs[..m].iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let umin = (0..m).fold(f64::INFINITY, |a, i| a.min(k[i][i].abs()));
+    if bmax > 0.0 && 8.0 * smlnum * bmax > umin * (1.0 / smlnum).min(1.0 / eps) {
+        scale = (1.0 / 8.0) / bmax;
+        for v in rhs[..m].iter_mut() {
+            *v *= scale;
+        }
+    }
+    let mut y = [0.0f64; 4];
+    for r in (0..m).rev() {
+        let mut s = rhs[r];
+        for c in r + 1..m {
+            s -= k[r][c] * y[c];
+        }
+        y[r] = s / k[r][r];
+    }
+    let mut x = vec![0.0; m];
+    for p in 0..m {
+        x[colperm[p]] = y[p];
+    }
+    (x, scale)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn small_sylvester_all_sizes() {
+        // Random-looking but fixed blocks; checks TL·X − X·TR = scale·B directly.
+        let tl2 = [1.0, -3.0, 2.0, 1.0]; // column-major [[1, 2], [-3, 1]]
+        let tr2 = [-4.0, 1.0, -5.0, -4.0];
+        let tl1 = [2.5];
+        let tr1 = [-0.5];
+        for (tl, n1) in [(&tl1[..], 1), (&tl2[..], 2)] {
+            for (tr, n2) in [(&tr1[..], 1), (&tr2[..], 2)] {
+                let b: Vec<f64> = (0..n1 * n2).map(|e| 1.0 + e as f64).collect();
+                let (x, scale) = small_sylvester(tl, n1, tr, n2, &b);
+                for i in 0..n1 {
+                    for j in 0..n2 {
+                        let mut r = -scale * b[i + j * n1];
+                        for p in 0..n1 {
+                            r += tl[i + p * n1] * x[p + j * n1];
+                        }
+                        for p in 0..n2 {
+                            r -= x[i + p * n1] * tr[p + j * n2];
+                        }
+                        assert!(r.abs() < 1e-14, "n1={n1} n2={n2} r={r}");
+                    }
+                }
+            }
+        }
+    }
+}
