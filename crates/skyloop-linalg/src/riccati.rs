@@ -11,6 +11,9 @@
 //! `X` must be stabilizing (closed-loop eigenvalues strictly inside the left half-plane / unit disc);
 //! otherwise `LinalgError::NoSolution` explains why.
 
+// `!(x < tol)` comparisons are deliberate: they also reject NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use faer::linalg::solvers::{FullPivLu, Solve};
 use faer::{c64, Mat, MatRef};
 
