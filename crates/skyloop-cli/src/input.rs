@@ -12,7 +12,7 @@ pub fn load_model(arg: &str) -> Result<StateSpace, String> {
     if arg.ends_with(".json") {
         return Err(format!("no such file: {arg}"));
     }
-    Err(format!("'{arg}' is not a file, and expressions are not supported yet"))
+    skyloop_lti::expr::parse_model(arg).map_err(|e| format!("'{arg}' is not a file; as an expression: {e}"))
 }
 
 /// Parses a comma-separated list of finite numbers such as `0.1,1,10`.

@@ -1,2 +1,16 @@
 //! Runtime controllers for flight computers: no allocation, no std.
 #![cfg_attr(not(feature = "std"), no_std)]
+
+pub mod error;
+pub mod pid;
+pub mod real;
+pub mod sos;
+pub mod ss;
+pub mod ssi;
+
+pub use error::{ControlError, Result};
+pub use pid::{AntiWindup, Pid, PidGains};
+pub use real::Real;
+pub use sos::{Biquad, SosController};
+pub use ss::SsController;
+pub use ssi::{SsiPi, SsiPiGains};

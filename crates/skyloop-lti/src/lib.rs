@@ -3,9 +3,25 @@
 //! Continuous time unless `dt > 0`; frequencies are rad/s unless a name says `_hz`.
 
 pub mod error;
+pub mod freqresp;
 pub mod json;
+pub mod margins;
+pub mod norms;
+pub mod roots;
 pub mod ss;
 
 pub use error::LtiError;
 pub use faer::{c64, Mat, MatRef};
 pub use ss::StateSpace;
+pub mod analysis;
+pub mod convert;
+pub mod discretize;
+pub mod expr;
+pub mod gramian;
+pub mod minreal;
+pub mod interconnect;
+pub mod poly;
+pub mod reduce;
+pub mod stabsep;
+pub mod tf;
+pub mod timeresp;

@@ -1,1 +1,20 @@
 //! skyloop-sim.
+pub mod analysis;
+pub mod disturbance;
+pub mod error;
+pub mod flight;
+pub mod linearize;
+pub mod math;
+pub mod montecarlo;
+pub mod presets;
+pub mod rigid;
+pub mod scenario;
+pub mod sensors;
+pub mod sim;
+pub mod vehicle;
+
+pub use error::{Result, SimError};
+pub use linearize::{linearize, Linearization};
+pub use scenario::Scenario;
+pub use sim::{simulate, Metrics, Sample, Simulation};
+pub use vehicle::{Vehicle, VehicleSpec};

@@ -1,0 +1,112 @@
+//! The plotting subcommands write real files and refuse bad input with exit status 2.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("skyloop-cli-plots-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir.join(name)
+}
+
+/// 1/(s+1) as LTI JSON, and a 2×2 static gain (a model Nyquist must refuse).
+fn models() -> (PathBuf, PathBuf) {
+    let siso = tmp("lag.json");
+    std::fs::write(&siso, r#"{"a":[[-1.0]],"b":[[1.0]],"c":[[1.0]],"d":[[0.0]],"dt":0.0}"#).expect("write");
+    let mimo = tmp("mimo.json");
+    std::fs::write(&mimo, r#"{"a":[[-1.0,0.0],[0.0,-2.0]],"b":[[1.0,0.0],[0.0,1.0]],"c":[[1.0,0.0],[0.0,1.0]],"d":[[0.0,0.0],[0.0,0.0]],"dt":0.0}"#)
+        .expect("write");
+    (siso, mimo)
+}
+
+fn skyloop(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_skyloop"))
+        .args(args)
+        .output()
+        .expect("run skyloop")
+}
+
+#[test]
+fn bode_and_nyquist_write_svg_and_png() {
+    let (siso, mimo) = models();
+    let out = tmp("bode.svg");
+    let r = skyloop(&[
+        "bode",
+        siso.to_str().unwrap_or_default(),
+        mimo.to_str().unwrap_or_default(),
+        "--out",
+        out.to_str().unwrap_or_default(),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let svg = std::fs::read_to_string(&out).expect("svg");
+    assert!(svg.starts_with("<svg") && svg.contains("out 2 ← in 2"));
+
+    let out = tmp("nyq.png");
+    let r = skyloop(&[
+        "nyquist",
+        siso.to_str().unwrap_or_default(),
+        "--out",
+        out.to_str().unwrap_or_default(),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert_eq!(&std::fs::read(&out).expect("png")[..4], b"\x89PNG");
+}
+
+#[test]
+fn plotting_bad_input_exits_2() {
+    let (siso, mimo) = models();
+    let cases: Vec<Vec<String>> = vec![
+        vec![
+            "bode".into(),
+            siso.display().to_string(),
+            "--out".into(),
+            tmp("x.jpg").display().to_string(),
+        ],
+        vec![
+            "nyquist".into(),
+            mimo.display().to_string(),
+            "--out".into(),
+            tmp("n.svg").display().to_string(),
+        ],
+        vec![
+            "bode".into(),
+            siso.display().to_string(),
+            "--out".into(),
+            tmp("b.svg").display().to_string(),
+            "--hz-min".into(),
+            "10".into(),
+            "--hz-max".into(),
+            "1".into(),
+        ],
+        vec![
+            "bode".into(),
+            "no_such_model.json".into(),
+            "--out".into(),
+            tmp("c.svg").display().to_string(),
+        ],
+    ];
+    for c in cases {
+        let args: Vec<&str> = c.iter().map(String::as_str).collect();
+        let r = skyloop(&args);
+        assert_eq!(
+            r.status.code(),
+            Some(2),
+            "{c:?}: {}",
+            String::from_utf8_lossy(&r.stderr)
+        );
+        assert!(String::from_utf8_lossy(&r.stderr).starts_with("error: "), "{c:?}");
+    }
+}
+
+#[test]
+fn bode_marks_the_bicopter_margins() {
+    // P from eq. (8) and C from eq. (12) of the bicopter paper; the paper prints PM 65.8° at 1.47 Hz, GM 7.25 dB.
+    let l = "0.0887*exp(-0.032*s)/(0.0256*s+1) * (42^2 - s^2)/s * 2.221e5/(s^2+666.4*s+2.221e5) * \
+             24.02*(s+54.01)*(s+0.2474)*(s^2+139.3*s+2.624e4)/(s*(s^2+24.14*s+8544)*(s^2+232.4*s+7.041e4))";
+    let out = tmp("bicopter_l.svg");
+    let r = skyloop(&["bode", l, "--margins", "--out", out.to_str().unwrap_or_default()]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let svg = std::fs::read_to_string(&out).expect("svg");
+    assert!(svg.contains("PM 65.") && svg.contains("at 1.47"), "margins not marked");
+    assert!(svg.contains("GM 7.2"), "gain margin not marked");
+}

@@ -1,0 +1,291 @@
+//! System norms: H∞ (peak gain) by the Boyd–Balakrishnan / Bruinsma–Steinbuch two-step algorithm.
+//!
+//! γ is a singular value of G(jω) exactly when jω is an eigenvalue of the Hamiltonian
+//! H(γ) = [A − B R⁻¹DᵀC, −γ B R⁻¹Bᵀ; γ CᵀS⁻¹C, −Aᵀ + CᵀD R⁻¹Bᵀ], R = DᵀD − γ²I, S = DDᵀ − γ²I
+//! (Bruinsma & Steinbuch, Systems & Control Letters 14, 1990). Each step raises the lower bound to
+//! the largest gain at the midpoints of the intervals where σ_max > γ; when H((1 + 2ε)γ) has no
+//! imaginary eigenvalue, the norm lies in [γ, (1 + 2ε)γ]. Discrete models go through the bilinear
+//! map z = (1 + s)/(1 − s), which preserves the norm. Input/output delays do not change |G(jω)|, so
+//! they are ignored here.
+
+use crate::error::{LtiError, Result};
+use crate::freqresp::{pole_summary, FreqEvaluator};
+use crate::ss::StateSpace;
+use faer::linalg::solvers::Solve;
+use faer::{c64, Mat};
+
+/// Relative accuracy of the H∞ computation.
+const REL_TOL: f64 = 1e-10;
+
+/// H∞ norm of `sys` and the frequency (rad/s) where the peak gain is reached, to relative 1e-8
+/// (1e-10 nominal). Infinite (with NaN frequency) when the model is unstable or has poles on the
+/// stability boundary; use [`linf_norm`] for the peak gain of an unstable model.
+pub fn hinf_norm(sys: &StateSpace) -> Result<(f64, f64)> {
+    let poles = pole_summary(sys)?;
+    if poles.unstable > 0 || poles.origin > 0 || !poles.axis_w.is_empty() {
+        return Ok((f64::INFINITY, f64::NAN));
+    }
+    linf_norm(sys)
+}
+
+/// L∞ norm (peak gain over all frequencies) of `sys` and its frequency in rad/s; infinite when
+/// poles lie on the imaginary axis (unit circle). Equals the H∞ norm for stable models; for
+/// unstable ones this is what python-control's `linfnorm` and MATLAB's `norm(sys, Inf)` return.
+pub fn linf_norm(sys: &StateSpace) -> Result<(f64, f64)> {
+    sys.validate()?;
+    let poles = pole_summary(sys)?;
+    if poles.origin > 0 || !poles.axis_w.is_empty() {
+        return Ok((f64::INFINITY, poles.axis_w.first().copied().unwrap_or(0.0)));
+    }
+    if sys.dt > 0.0 {
+        let c = bilinear_to_continuous(sys)?;
+        let (g, wc) = linf_continuous(&c)?;
+        // s = j·tan(θ/2) on the unit circle z = e^{jθ}, θ = ω·dt.
+        let w = if wc.is_infinite() {
+            std::f64::consts::PI / sys.dt
+        } else {
+            2.0 * wc.atan() / sys.dt
+        };
+        return Ok((g, w));
+    }
+    let delay_free = StateSpace::new(sys.a.clone(), sys.b.clone(), sys.c.clone(), sys.d.clone(), 0.0)?;
+    linf_continuous(&delay_free)
+}
+
+/// Largest singular value of G(jω).
+fn sigma_max(ev: &FreqEvaluator, w: f64) -> Result<f64> {
+    let g = ev.eval(c64::new(0.0, w))?;
+    sigma_max_of(&g)
+}
+
+fn sigma_max_of(g: &Mat<c64>) -> Result<f64> {
+    if g.nrows() == 1 || g.ncols() == 1 {
+        let mut s = 0.0;
+        for j in 0..g.ncols() {
+            for i in 0..g.nrows() {
+                s += g[(i, j)].norm_sqr();
+            }
+        }
+        return Ok(s.sqrt());
+    }
+    let sv = g
+        .singular_values()
+        .map_err(|e| LtiError::Numerical(format!("singular values: {e:?}")))?;
+    Ok(sv.iter().cloned().fold(0.0, f64::max))
+}
+
+fn sigma_max_real(d: &Mat<f64>) -> Result<f64> {
+    if d.nrows() == 0 || d.ncols() == 0 {
+        return Ok(0.0);
+    }
+    let g = Mat::from_fn(d.nrows(), d.ncols(), |i, j| c64::new(d[(i, j)], 0.0));
+    sigma_max_of(&g)
+}
+
+/// The two-step algorithm for a continuous model without imaginary-axis poles.
+fn linf_continuous(sys: &StateSpace) -> Result<(f64, f64)> {
+    let (n, ny, nu) = (sys.nx(), sys.ny(), sys.nu());
+    let d_gain = sigma_max_real(&sys.d)?;
+    if n == 0 || ny == 0 || nu == 0 {
+        return Ok((d_gain, 0.0));
+    }
+    let ev = FreqEvaluator::new(sys)?;
+    let eig = crate::freqresp::balanced_eigenvalues(&sys.a)?;
+    // Initial lower bound: ω = 0, ω = ∞, and the magnitudes of the poles (cheap at O(n²) each).
+    let (mut gamma, mut w_peak) = (d_gain, f64::INFINITY);
+    let try_w = |w: f64, gamma: &mut f64, w_peak: &mut f64| -> Result<()> {
+        let s = sigma_max(&ev, w)?;
+        if s > *gamma {
+            *gamma = s;
+            *w_peak = w;
+        }
+        Ok(())
+    };
+    try_w(0.0, &mut gamma, &mut w_peak)?;
+    for p in &eig {
+        try_w(p.norm(), &mut gamma, &mut w_peak)?;
+        if p.im != 0.0 {
+            try_w(p.im.abs(), &mut gamma, &mut w_peak)?;
+        }
+    }
+    if gamma == 0.0 {
+        return Ok((0.0, 0.0));
+    }
+    for _iter in 0..100 {
+        let level = (1.0 + 2.0 * REL_TOL) * gamma;
+        let freqs = imaginary_axis_crossings(sys, level)?;
+        if freqs.is_empty() {
+            break;
+        }
+        let mut improved = false;
+        let mut cand: Vec<f64> = freqs.windows(2).map(|p| 0.5 * (p[0] + p[1])).collect();
+        cand.extend_from_slice(&freqs);
+        let before = gamma;
+        for w in cand {
+            try_w(w, &mut gamma, &mut w_peak)?;
+        }
+        if gamma > before * (1.0 + REL_TOL) {
+            improved = true;
+        }
+        if !improved {
+            break;
+        }
+    }
+    // Polish the peak locally (the bound is already within 2·REL_TOL).
+    if w_peak.is_finite() && w_peak > 0.0 {
+        let (a, b) = (w_peak * (1.0 - 1e-3), w_peak * (1.0 + 1e-3));
+        let (x, fx) = crate::roots::golden_max(|w| sigma_max(&ev, w).unwrap_or(0.0), a, b, 1e-12);
+        if fx > gamma {
+            gamma = fx;
+            w_peak = x;
+        }
+    }
+    Ok((gamma, w_peak))
+}
+
+/// Non-negative frequencies ω where `gamma` is a singular value of G(jω), from the imaginary
+/// eigenvalues of the Hamiltonian H(γ), sorted.
+fn imaginary_axis_crossings(sys: &StateSpace, gamma: f64) -> Result<Vec<f64>> {
+    let (n, ny, nu) = (sys.nx(), sys.ny(), sys.nu());
+    let (a, b, c, d) = (&sys.a, &sys.b, &sys.c, &sys.d);
+    let g2 = gamma * gamma;
+    let r = Mat::from_fn(nu, nu, |i, j| {
+        let s: f64 = (0..ny).map(|k| d[(k, i)] * d[(k, j)]).sum();
+        if i == j {
+            s - g2
+        } else {
+            s
+        }
+    });
+    let s_mat = Mat::from_fn(ny, ny, |i, j| {
+        let s: f64 = (0..nu).map(|k| d[(i, k)] * d[(j, k)]).sum();
+        if i == j {
+            s - g2
+        } else {
+            s
+        }
+    });
+    let r_lu = r.partial_piv_lu();
+    let s_lu = s_mat.partial_piv_lu();
+    let rinv_dt_c = r_lu.solve(d.transpose() * c); // R⁻¹DᵀC
+    let rinv_bt = r_lu.solve(b.transpose()); // R⁻¹Bᵀ
+    let sinv_c = s_lu.solve(c); // S⁻¹C
+    let h11 = a - b * &rinv_dt_c;
+    let h12 = b * &rinv_bt * (-gamma);
+    let h21 = c.transpose() * &sinv_c * gamma;
+    let h22 = -(a.transpose()) + c.transpose() * d * &rinv_bt;
+    let mut h = Mat::<f64>::zeros(2 * n, 2 * n);
+    h.as_mut().submatrix_mut(0, 0, n, n).copy_from(&h11);
+    h.as_mut().submatrix_mut(0, n, n, n).copy_from(&h12);
+    h.as_mut().submatrix_mut(n, 0, n, n).copy_from(&h21);
+    h.as_mut().submatrix_mut(n, n, n, n).copy_from(&h22);
+    if !h.norm_l2().is_finite() {
+        return Err(LtiError::Numerical(format!(
+            "Hamiltonian at gamma = {gamma} is not finite"
+        )));
+    }
+    let eig = h
+        .eigenvalues()
+        .map_err(|e| LtiError::Numerical(format!("Hamiltonian eigenvalues: {e:?}")))?;
+    let scale = h.norm_l2().max(1.0);
+    let mut w: Vec<f64> = eig
+        .iter()
+        .filter(|l| l.re.abs() <= 1e-8 * scale.max(l.norm()) && l.im >= 0.0)
+        .map(|l| l.im)
+        .collect();
+    w.sort_by(f64::total_cmp);
+    Ok(w)
+}
+
+/// The continuous model with the same H∞/L∞ norm under z = (1 + s)/(1 − s):
+/// Ac = (A + I)⁻¹(A − I), Bc = √2 (A + I)⁻¹B, Cc = √2 C(A + I)⁻¹, Dc = D − C(A + I)⁻¹B.
+fn bilinear_to_continuous(sys: &StateSpace) -> Result<StateSpace> {
+    let n = sys.nx();
+    let ap = &sys.a + Mat::<f64>::identity(n, n);
+    let lu = ap.partial_piv_lu();
+    let inv = lu.solve(Mat::<f64>::identity(n, n));
+    if !inv.norm_l2().is_finite() {
+        return Err(LtiError::Numerical("A has an eigenvalue at z = -1".into()));
+    }
+    let am = &sys.a - Mat::<f64>::identity(n, n);
+    let r2 = std::f64::consts::SQRT_2;
+    let ac = &inv * &am;
+    let bc = &inv * &sys.b * r2;
+    let cc = &sys.c * &inv * r2;
+    let dc = &sys.d - &sys.c * &inv * &sys.b;
+    StateSpace::new(ac, bc, cc, dc, 0.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ss(a: &[Vec<f64>], b: &[Vec<f64>], c: &[Vec<f64>], d: &[Vec<f64>], dt: f64) -> StateSpace {
+        StateSpace::from_rows(a, b, c, d, dt).unwrap()
+    }
+
+    #[test]
+    fn lightly_damped_second_order_closed_form() {
+        // G = 1/(s² + 2ζs + 1), ζ = 0.05: peak 1/(2ζ√(1−ζ²)) at ω = √(1 − 2ζ²) (closed form).
+        let z = 0.05;
+        let g = ss(
+            &[vec![0.0, 1.0], vec![-1.0, -2.0 * z]],
+            &[vec![0.0], vec![1.0]],
+            &[vec![1.0, 0.0]],
+            &[vec![0.0]],
+            0.0,
+        );
+        let (n, w) = hinf_norm(&g).unwrap();
+        let exact = 1.0 / (2.0 * z * (1.0 - z * z).sqrt());
+        assert!((n - exact).abs() < 1e-9 * exact, "{n} vs {exact}");
+        assert!((w - (1.0 - 2.0 * z * z).sqrt()).abs() < 1e-5);
+    }
+
+    #[test]
+    fn hamiltonian_has_imaginary_eigenvalue_at_a_singular_value() {
+        // Residual check of the Hamiltonian: γ = σ_max(G(jω0)) ⇒ jω0 is one of its eigenvalues.
+        let g = ss(
+            &[vec![-1.0, 2.0, 0.0], vec![-2.0, -0.5, 1.0], vec![0.0, 0.0, -3.0]],
+            &[vec![1.0, 0.0], vec![0.0, 1.0], vec![1.0, 1.0]],
+            &[vec![1.0, 0.0, 1.0], vec![0.0, 2.0, 0.0]],
+            &[vec![0.1, 0.0], vec![0.2, 0.3]],
+            0.0,
+        );
+        let ev = FreqEvaluator::new(&g).unwrap();
+        let w0 = 0.7;
+        let gamma = sigma_max(&ev, w0).unwrap();
+        let ws = imaginary_axis_crossings(&g, gamma).unwrap();
+        assert!(ws.iter().any(|&w| (w - w0).abs() < 1e-7), "{ws:?}");
+    }
+
+    #[test]
+    fn bilinear_map_preserves_the_response() {
+        // G_d(e^{jθ}) = G_c(j tan(θ/2)).
+        let g = ss(
+            &[vec![0.5, 0.1], vec![-0.2, 0.3]],
+            &[vec![1.0], vec![0.5]],
+            &[vec![1.0, -1.0]],
+            &[vec![0.2]],
+            0.1,
+        );
+        let c = bilinear_to_continuous(&g).unwrap();
+        let th: f64 = 0.8;
+        let gd = FreqEvaluator::new(&g).unwrap().eval(c64::new(0.0, th / 0.1)).unwrap()[(0, 0)];
+        let gc = FreqEvaluator::new(&c)
+            .unwrap()
+            .eval(c64::new(0.0, (th / 2.0).tan()))
+            .unwrap()[(0, 0)];
+        assert!((gd - gc).norm() < 1e-13);
+    }
+
+    #[test]
+    fn unstable_and_integrating_models() {
+        let unstable = ss(&[vec![1.0]], &[vec![1.0]], &[vec![1.0]], &[vec![0.0]], 0.0);
+        assert!(hinf_norm(&unstable).unwrap().0.is_infinite());
+        // L∞ of 1/(s − 1) is 1 at ω = 0 (closed form).
+        let (n, w) = linf_norm(&unstable).unwrap();
+        assert!((n - 1.0).abs() < 1e-12 && w == 0.0);
+        let integ = ss(&[vec![0.0]], &[vec![1.0]], &[vec![1.0]], &[vec![0.0]], 0.0);
+        assert!(linf_norm(&integ).unwrap().0.is_infinite());
+    }
+}

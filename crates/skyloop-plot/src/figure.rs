@@ -1,0 +1,206 @@
+//! The data model every plot is built from: a figure is a vertical stack of panels, each holding
+//! line/point series, shaded bands and marker lines.
+
+use crate::error::{PlotError, Result};
+
+/// How a series is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SeriesStyle {
+    /// A solid line through the points.
+    Line,
+    /// A dashed line through the points.
+    Dashed,
+    /// Filled circles at the points.
+    Points,
+    /// Vertical stems from the bottom of the axis to each point (bar-like).
+    Stems,
+}
+
+/// One curve: x and y values of equal length and a legend label (empty: no legend entry).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Series {
+    /// Legend text; empty for none.
+    pub label: String,
+    /// Abscissae, in the panel's x unit.
+    pub x: Vec<f64>,
+    /// Ordinates, in the panel's y unit.
+    pub y: Vec<f64>,
+    /// How to draw it.
+    pub style: SeriesStyle,
+    /// Palette index; `None` picks the next colour.
+    pub color: Option<usize>,
+}
+
+impl Series {
+    /// A solid line with a label.
+    pub fn line(label: impl Into<String>, x: Vec<f64>, y: Vec<f64>) -> Self {
+        Series {
+            label: label.into(),
+            x,
+            y,
+            style: SeriesStyle::Line,
+            color: None,
+        }
+    }
+
+    /// The same series with another style.
+    pub fn styled(mut self, style: SeriesStyle) -> Self {
+        self.style = style;
+        self
+    }
+
+    /// The same series with a fixed palette colour.
+    pub fn colored(mut self, index: usize) -> Self {
+        self.color = Some(index);
+        self
+    }
+}
+
+/// A shaded region between a lower and an upper curve over the same x values (confidence bands).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Band {
+    /// Legend text; empty for none.
+    pub label: String,
+    /// Abscissae.
+    pub x: Vec<f64>,
+    /// Lower edge.
+    pub lower: Vec<f64>,
+    /// Upper edge.
+    pub upper: Vec<f64>,
+    /// Palette index of the fill.
+    pub color: usize,
+}
+
+/// A labelled vertical (`at_x`) or horizontal (`at_y`) reference line, e.g. a crossover frequency.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Marker {
+    /// A vertical line at this x.
+    Vertical {
+        /// Position on the x axis.
+        x: f64,
+        /// Text drawn next to the line.
+        label: String,
+    },
+    /// A horizontal line at this y.
+    Horizontal {
+        /// Position on the y axis.
+        y: f64,
+        /// Text drawn next to the line.
+        label: String,
+    },
+    /// A single labelled point, e.g. the critical point −1 of a Nyquist plot.
+    Point {
+        /// Position on the x axis.
+        x: f64,
+        /// Position on the y axis.
+        y: f64,
+        /// Text drawn next to the point.
+        label: String,
+    },
+}
+
+/// One set of axes.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Panel {
+    /// Caption above the axes (may be empty).
+    pub title: String,
+    /// x-axis description with its unit.
+    pub x_label: String,
+    /// y-axis description with its unit.
+    pub y_label: String,
+    /// Logarithmic x axis (frequencies).
+    pub x_log: bool,
+    /// Logarithmic y axis (singular values).
+    pub y_log: bool,
+    /// Curves.
+    pub series: Vec<Series>,
+    /// Shaded bands, drawn below the curves.
+    pub bands: Vec<Band>,
+    /// Reference lines and points.
+    pub markers: Vec<Marker>,
+    /// Fixed y range; `None` fits the data.
+    pub y_range: Option<(f64, f64)>,
+    /// Fixed x range; `None` fits the data.
+    pub x_range: Option<(f64, f64)>,
+}
+
+/// A titled stack of panels sharing the figure width.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Figure {
+    /// Caption of the whole figure.
+    pub title: String,
+    /// Panels from top to bottom.
+    pub panels: Vec<Panel>,
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels of each panel.
+    pub panel_height: u32,
+}
+
+impl Figure {
+    /// A figure with the default size (960 px wide, 360 px per panel).
+    pub fn new(title: impl Into<String>, panels: Vec<Panel>) -> Self {
+        Figure {
+            title: title.into(),
+            panels,
+            width: 960,
+            panel_height: 360,
+        }
+    }
+
+    /// Writes the figure to `path`; the format follows the extension (`.svg` or `.png`).
+    pub fn save(&self, path: &std::path::Path) -> Result<()> {
+        self.check()?;
+        crate::render::save(self, path)
+    }
+
+    /// Renders the figure as an SVG document in memory (for embedding in HTML reports).
+    pub fn to_svg_string(&self) -> Result<String> {
+        self.check()?;
+        crate::render::svg_string(self)
+    }
+
+    /// Rejects figures that cannot be drawn: no panels, series of unequal length, no finite data.
+    fn check(&self) -> Result<()> {
+        if self.panels.is_empty() {
+            return Err(PlotError::Data("a figure needs at least one panel".into()));
+        }
+        for p in &self.panels {
+            for s in &p.series {
+                if s.x.len() != s.y.len() {
+                    return Err(PlotError::Data(format!(
+                        "series '{}' has {} x values but {} y values",
+                        s.label,
+                        s.x.len(),
+                        s.y.len()
+                    )));
+                }
+            }
+            for b in &p.bands {
+                if b.x.len() != b.lower.len() || b.x.len() != b.upper.len() {
+                    return Err(PlotError::Data(format!(
+                        "band '{}' has edges of unequal length",
+                        b.label
+                    )));
+                }
+            }
+            let finite = p.series.iter().any(|s| {
+                s.x.iter()
+                    .zip(&s.y)
+                    .any(|(x, y)| usable(*x, p.x_log) && usable(*y, p.y_log))
+            });
+            if !finite {
+                return Err(PlotError::Data(format!(
+                    "panel '{}' has no finite data to draw",
+                    p.title
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Whether a value can be placed on an axis (finite, and positive on a log axis).
+pub(crate) fn usable(v: f64, log: bool) -> bool {
+    v.is_finite() && (!log || v > 0.0)
+}

@@ -1,0 +1,94 @@
+//! Measured frequency responses (from flight data) with confidence bands and coherence, and fitted
+//! models overlaid, as in the bicopter paper's identification figures.
+
+use std::path::Path;
+
+use crate::bode::BodeData;
+use crate::error::Result;
+use crate::figure::{Band, Figure, Panel, Series, SeriesStyle};
+
+/// A non-parametric estimate over frequency.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct FrfEstimate {
+    /// Frequencies, Hz.
+    pub freq_hz: Vec<f64>,
+    /// Magnitude, dB.
+    pub mag_db: Vec<f64>,
+    /// Phase, degrees.
+    pub phase_deg: Vec<f64>,
+    /// Magnitude confidence band (lower, upper), dB; empty vectors for none.
+    pub mag_band_db: (Vec<f64>, Vec<f64>),
+    /// Phase confidence band (lower, upper), degrees; empty vectors for none.
+    pub phase_band_deg: (Vec<f64>, Vec<f64>),
+    /// Squared coherence in [0, 1]; empty for none.
+    pub coherence: Vec<f64>,
+}
+
+/// Builds the figure: magnitude and phase with bands and fitted models, and coherence when present.
+pub fn frf_figure(title: &str, est: &FrfEstimate, fits: &[BodeData]) -> Figure {
+    let f = &est.freq_hz;
+    let mut mag = Panel {
+        x_label: "frequency [Hz]".into(),
+        y_label: "magnitude [dB]".into(),
+        x_log: true,
+        ..Panel::default()
+    };
+    let mut phase = Panel {
+        x_label: "frequency [Hz]".into(),
+        y_label: "phase [deg]".into(),
+        x_log: true,
+        ..Panel::default()
+    };
+    if !est.mag_band_db.0.is_empty() {
+        mag.bands.push(Band {
+            label: "confidence".into(),
+            x: f.clone(),
+            lower: est.mag_band_db.0.clone(),
+            upper: est.mag_band_db.1.clone(),
+            color: 0,
+        });
+    }
+    if !est.phase_band_deg.0.is_empty() {
+        phase.bands.push(Band {
+            label: String::new(),
+            x: f.clone(),
+            lower: est.phase_band_deg.0.clone(),
+            upper: est.phase_band_deg.1.clone(),
+            color: 0,
+        });
+    }
+    mag.series
+        .push(Series::line("measured", f.clone(), est.mag_db.clone()).colored(0));
+    phase
+        .series
+        .push(Series::line("", f.clone(), est.phase_deg.clone()).colored(0));
+    for (k, fit) in fits.iter().enumerate() {
+        mag.series.push(
+            Series::line(fit.label.clone(), fit.freq_hz.clone(), fit.mag_db.clone())
+                .styled(SeriesStyle::Dashed)
+                .colored(k + 1),
+        );
+        phase.series.push(
+            Series::line("", fit.freq_hz.clone(), fit.phase_deg.clone())
+                .styled(SeriesStyle::Dashed)
+                .colored(k + 1),
+        );
+    }
+    let mut panels = vec![mag, phase];
+    if !est.coherence.is_empty() {
+        panels.push(Panel {
+            x_label: "frequency [Hz]".into(),
+            y_label: "coherence".into(),
+            x_log: true,
+            y_range: Some((0.0, 1.05)),
+            series: vec![Series::line("", f.clone(), est.coherence.clone()).colored(2)],
+            ..Panel::default()
+        });
+    }
+    Figure::new(title, panels)
+}
+
+/// Writes a measured-FRF plot to `path` (`.svg` or `.png`).
+pub fn plot_frf(path: &Path, title: &str, est: &FrfEstimate, fits: &[BodeData]) -> Result<()> {
+    frf_figure(title, est, fits).save(path)
+}

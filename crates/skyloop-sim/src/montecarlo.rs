@@ -1,0 +1,180 @@
+//! Monte Carlo: many runs over sampled vehicle parameters, disturbance magnitudes and noise seeds, in
+//! parallel (rayon) with a progress bar; summary statistics of the metrics.
+
+use crate::disturbance::DisturbanceSpec;
+use crate::error::{check_min, Result, SimError};
+use crate::scenario::Scenario;
+use crate::sim::{log_every, Metrics, Simulation};
+use rand::rngs::SmallRng;
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
+use rayon::prelude::*;
+
+/// Monte Carlo settings as written in a scenario.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MonteCarloSpec {
+    /// Number of runs.
+    pub runs: usize,
+    /// Base seed; run i uses seed + i.
+    #[serde(default)]
+    pub seed: u64,
+    /// Relative standard deviation of the mass.
+    #[serde(default)]
+    pub mass_sd: f64,
+    /// Relative standard deviation of each principal inertia.
+    #[serde(default)]
+    pub inertia_sd: f64,
+    /// Relative standard deviation of disturbance magnitudes.
+    #[serde(default)]
+    pub disturbance_sd: f64,
+}
+
+/// Statistics of one metric over the runs.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Stat {
+    /// Mean.
+    pub mean: f64,
+    /// Sample standard deviation.
+    pub std: f64,
+    /// Minimum.
+    pub min: f64,
+    /// 95th percentile (nearest rank).
+    pub p95: f64,
+    /// Maximum.
+    pub max: f64,
+}
+
+/// Summary of a Monte Carlo study.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Summary {
+    /// Runs done.
+    pub runs: usize,
+    /// Runs that crashed.
+    pub crashed: usize,
+    /// Runs whose error never settled.
+    pub unsettled: usize,
+    /// max_abs_error statistics.
+    pub max_abs_error: Stat,
+    /// rms_error statistics.
+    pub rms_error: Stat,
+    /// settling_time_s statistics over the runs that settled (None if none did).
+    pub settling_time_s: Option<Stat>,
+    /// saturated_fraction statistics.
+    pub saturated_fraction: Stat,
+}
+
+/// Statistics of a sample (empty → None).
+pub fn stat(v: &[f64]) -> Option<Stat> {
+    if v.is_empty() {
+        return None;
+    }
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let var = if v.len() > 1 {
+        v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)
+    } else {
+        0.0
+    };
+    let mut s = v.to_vec();
+    s.sort_by(|a, b| a.total_cmp(b));
+    let rank = ((0.95 * n).ceil() as usize).clamp(1, s.len()) - 1;
+    Some(Stat {
+        mean,
+        std: var.sqrt(),
+        min: s[0],
+        p95: s[rank],
+        max: s[s.len() - 1],
+    })
+}
+
+fn scaled(d: &DisturbanceSpec, k: f64) -> DisturbanceSpec {
+    let mut d = *d;
+    match &mut d {
+        DisturbanceSpec::Torque { torque_n_m, .. } => *torque_n_m = torque_n_m.map(|v| v * k),
+        DisturbanceSpec::TorqueGust { peak_n_m, .. } => *peak_n_m = peak_n_m.map(|v| v * k),
+        DisturbanceSpec::Gust1Cos { velocity_m_s, .. } => *velocity_m_s = velocity_m_s.map(|v| v * k),
+        DisturbanceSpec::Dryden { sigma_m_s, .. } => *sigma_m_s *= k.max(0.0),
+        DisturbanceSpec::Pendulum { mass_kg, .. } | DisturbanceSpec::Payload { mass_kg, .. } => *mass_kg *= k.max(0.05),
+    }
+    d
+}
+
+/// One Monte Carlo run with index `i`.
+pub fn run_one(scn: &Scenario, mc: &MonteCarloSpec, i: usize) -> Result<Metrics> {
+    let seed = mc.seed.wrapping_add(i as u64);
+    let mut rng = SmallRng::seed_from_u64(seed ^ 0x5eed_5eed);
+    let nrm = Normal::new(0.0, 1.0).map_err(|e| SimError::Param(e.to_string()))?;
+    let nominal = scn.vehicle.resolve()?;
+    let mut spec = nominal;
+    let b = spec.body_mut();
+    b.mass_kg *= (1.0 + mc.mass_sd * nrm.sample(&mut rng)).max(0.2);
+    for j in b.inertia_kg_m2.iter_mut() {
+        *j *= (1.0 + mc.inertia_sd * nrm.sample(&mut rng)).max(0.2);
+    }
+    if let crate::vehicle::VehicleSpec::Bicopter(bc) = &mut spec {
+        let r = bc.im_kg_m2 / bc.jx();
+        let jx = bc.body.inertia_kg_m2[0];
+        bc.im_kg_m2 = r * jx;
+        bc.ib_kg_m2 = (1.0 - r) * jx;
+    }
+    let dist: Vec<DisturbanceSpec> = scn
+        .disturbance
+        .iter()
+        .map(|d| scaled(d, 1.0 + mc.disturbance_sd * nrm.sample(&mut rng)))
+        .collect();
+    for d in &dist {
+        if let DisturbanceSpec::Payload { mass_kg, position_m } = d {
+            spec.body_mut().add_point_mass(*mass_kg, *position_m);
+        }
+    }
+    let mut sim = Simulation::with_vehicle(scn, spec.build()?, &nominal.build()?, &dist, seed)?;
+    let every = log_every(scn)?;
+    Ok(sim.run(scn.sim.duration_s, every, scn.sim.settle_band).1)
+}
+
+/// Runs the study in parallel (all rayon threads); `progress` shows an indicatif bar on stderr.
+pub fn run(scn: &Scenario, mc: &MonteCarloSpec, progress: bool) -> Result<(Vec<Metrics>, Summary)> {
+    if mc.runs == 0 {
+        return Err(SimError::Param("monte_carlo.runs must be at least 1".into()));
+    }
+    check_min(mc.mass_sd, 0.0, "monte_carlo.mass_sd")?;
+    check_min(mc.inertia_sd, 0.0, "monte_carlo.inertia_sd")?;
+    check_min(mc.disturbance_sd, 0.0, "monte_carlo.disturbance_sd")?;
+    // Fail fast on a bad scenario before spawning work.
+    Simulation::new(scn, mc.seed)?;
+    let bar = if progress {
+        indicatif::ProgressBar::new(mc.runs as u64)
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let all: Result<Vec<Metrics>> = (0..mc.runs)
+        .into_par_iter()
+        .map(|i| {
+            let r = run_one(scn, mc, i);
+            bar.inc(1);
+            r
+        })
+        .collect();
+    bar.finish_and_clear();
+    let all = all?;
+    let col = |f: &dyn Fn(&Metrics) -> f64| all.iter().map(f).collect::<Vec<f64>>();
+    let settled: Vec<f64> = all.iter().filter_map(|m| m.settling_time_s).collect();
+    let empty = Stat {
+        mean: 0.0,
+        std: 0.0,
+        min: 0.0,
+        p95: 0.0,
+        max: 0.0,
+    };
+    let summary = Summary {
+        runs: all.len(),
+        crashed: all.iter().filter(|m| m.crashed).count(),
+        unsettled: all.len() - settled.len(),
+        max_abs_error: stat(&col(&|m| m.max_abs_error)).unwrap_or(empty),
+        rms_error: stat(&col(&|m| m.rms_error)).unwrap_or(empty),
+        settling_time_s: stat(&settled),
+        saturated_fraction: stat(&col(&|m| m.saturated_fraction)).unwrap_or(empty),
+    };
+    Ok((all, summary))
+}

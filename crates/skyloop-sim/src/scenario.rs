@@ -1,0 +1,185 @@
+//! Scenario files (TOML): vehicle, simulation settings, controller, gyro, reference steps, disturbances
+//! and an optional Monte Carlo section. See `examples/*.toml` for commented files.
+
+use crate::disturbance::DisturbanceSpec;
+use crate::error::{check_pos, Result, SimError};
+use crate::flight::{ControllerSpec, Mode};
+use crate::math::V3;
+use crate::montecarlo::MonteCarloSpec;
+use crate::sensors::GyroSpec;
+use crate::vehicle::VehicleSpec;
+
+/// A vehicle given by preset name (with optional overrides of the rigid body) or in full.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(untagged)]
+pub enum VehicleEntry {
+    /// `preset = "quadrotor-ssi"` (see `presets::NAMES`).
+    Preset {
+        /// Preset name.
+        preset: String,
+        /// Replaces the preset's mass (kg).
+        #[serde(default)]
+        mass_kg: Option<f64>,
+        /// Replaces the preset's inertia (kg·m²).
+        #[serde(default)]
+        inertia_kg_m2: Option<V3>,
+    },
+    /// All parameters, with `kind`.
+    Full(VehicleSpec),
+}
+
+impl VehicleEntry {
+    /// The parameters this entry names.
+    pub fn resolve(&self) -> Result<VehicleSpec> {
+        match self {
+            VehicleEntry::Preset {
+                preset,
+                mass_kg,
+                inertia_kg_m2,
+            } => {
+                let mut v = VehicleSpec::preset(preset)?;
+                if let Some(m) = mass_kg {
+                    v.body_mut().mass_kg = *m;
+                }
+                if let Some(j) = inertia_kg_m2 {
+                    v.body_mut().inertia_kg_m2 = *j;
+                    if let VehicleSpec::Bicopter(b) = &mut v {
+                        // keep the identified ratio Im/(Ib + Im)
+                        let r = b.im_kg_m2 / b.jx();
+                        b.im_kg_m2 = r * j[0];
+                        b.ib_kg_m2 = (1.0 - r) * j[0];
+                    }
+                }
+                Ok(v)
+            }
+            VehicleEntry::Full(v) => Ok(*v),
+        }
+    }
+}
+
+/// Simulation settings.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimSpec {
+    /// Simulated time (s).
+    pub duration_s: f64,
+    /// RK4 step frequency (Hz); controller rates must divide it.
+    pub physics_hz: f64,
+    /// Initial hover altitude (m).
+    #[serde(default = "alt")]
+    pub altitude_m: f64,
+    /// Logging frequency (Hz); 0 = every rate-loop sample.
+    #[serde(default)]
+    pub log_hz: f64,
+    /// Roll or pitch beyond this counts as a crash (rad).
+    #[serde(default = "crash_tilt")]
+    pub crash_tilt_rad: f64,
+    /// Settling band (absolute, in the tracked unit); the band is max(this, 2 % of the last step).
+    #[serde(default = "settle")]
+    pub settle_band: f64,
+    /// Actuator slew-rate limits (input units per s), one per input; empty = none.
+    #[serde(default)]
+    pub actuator_rate_limit: Vec<f64>,
+    /// Random seed (gyro noise, turbulence).
+    #[serde(default)]
+    pub seed: u64,
+}
+
+fn alt() -> f64 {
+    10.0
+}
+fn crash_tilt() -> f64 {
+    1.4
+}
+fn settle() -> f64 {
+    0.01
+}
+
+/// One reference step: from `t_s` on the setpoint is the entry matching the controller mode.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RefStep {
+    /// Time (s).
+    pub t_s: f64,
+    /// Roll, pitch, yaw (rad), attitude mode.
+    #[serde(default)]
+    pub attitude_rad: Option<V3>,
+    /// NED position relative to the start (m), position mode.
+    #[serde(default)]
+    pub position_m: Option<V3>,
+    /// Body rates (rad/s), rate mode.
+    #[serde(default)]
+    pub rate_rad_s: Option<V3>,
+}
+
+impl RefStep {
+    /// The value for `mode`.
+    pub fn value(&self, mode: Mode) -> Result<V3> {
+        let (v, name) = match mode {
+            Mode::Attitude => (self.attitude_rad, "attitude_rad"),
+            Mode::Position => (self.position_m, "position_m"),
+            Mode::Rate => (self.rate_rad_s, "rate_rad_s"),
+        };
+        let v = v.ok_or_else(|| SimError::Scenario(format!("reference at t_s = {} needs {name}", self.t_s)))?;
+        if v.iter().all(|x| x.is_finite()) && self.t_s.is_finite() {
+            Ok(v)
+        } else {
+            Err(SimError::Scenario(format!(
+                "reference at t_s = {} is not finite",
+                self.t_s
+            )))
+        }
+    }
+}
+
+/// A whole scenario file.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// Free-text title.
+    #[serde(default)]
+    pub name: String,
+    /// The vehicle.
+    pub vehicle: VehicleEntry,
+    /// Simulation settings.
+    pub sim: SimSpec,
+    /// The flight controller.
+    pub controller: ControllerSpec,
+    /// Gyro model.
+    #[serde(default)]
+    pub gyro: GyroSpec,
+    /// Reference steps (sorted by time).
+    #[serde(default)]
+    pub reference: Vec<RefStep>,
+    /// Disturbances.
+    #[serde(default)]
+    pub disturbance: Vec<DisturbanceSpec>,
+    /// Monte Carlo settings (used by `montecarlo::run`).
+    #[serde(default)]
+    pub monte_carlo: Option<MonteCarloSpec>,
+}
+
+impl Scenario {
+    /// Parses TOML text.
+    pub fn from_toml(text: &str) -> Result<Self> {
+        let s: Scenario = toml::from_str(text).map_err(|e| SimError::Scenario(e.to_string()))?;
+        s.validate()?;
+        Ok(s)
+    }
+
+    /// Checks what can be checked without building.
+    pub fn validate(&self) -> Result<()> {
+        check_pos(self.sim.duration_s, "sim.duration_s")?;
+        check_pos(self.sim.physics_hz, "sim.physics_hz")?;
+        if self.sim.duration_s * self.sim.physics_hz > 1e9 {
+            return Err(SimError::Param("sim.duration_s × physics_hz exceeds 1e9 steps".into()));
+        }
+        for r in &self.reference {
+            r.value(self.controller.mode)?;
+        }
+        if self.reference.windows(2).any(|w| w[1].t_s < w[0].t_s) {
+            return Err(SimError::Scenario("reference steps must be sorted by t_s".into()));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,332 @@
+//! Non-parametric frequency-response estimates from input/output records: ETFE, Welch (H1),
+//! Blackman–Tukey SPA and SPAFDR (frequency-dependent resolution), each with squared coherence and an
+//! equivalent number of averages from which confidence bands follow.
+//!
+//! Open loop: G = Φ_yu/Φ_uu and γ² = |Φ_yu|²/(Φ_uu·Φ_yy). Closed loop with a measured excitation r
+//! (injected anywhere in the loop, uncorrelated with the noise): G = Φ_yr/Φ_ur, which stays unbiased
+//! under feedback; its coherence is the signal-to-noise one (see [`Frf::coherence`]).
+
+mod cross;
+pub mod etfe;
+pub mod spa;
+pub mod spafdr;
+pub mod welch;
+pub mod window;
+
+pub use window::Window;
+
+use num_complex::Complex64 as C64;
+
+use crate::error::{invalid, Result, SysidError};
+use crate::logs::{detrend, Detrend};
+pub(crate) use cross::Cross;
+
+/// Input/output records sampled every `dt_s` seconds; `r` is a measured excitation for closed loop.
+#[derive(Debug, Clone, Copy)]
+pub struct IoData<'a> {
+    /// Plant input.
+    pub u: &'a [f64],
+    /// Plant output.
+    pub y: &'a [f64],
+    /// External excitation (closed-loop experiments), or `None` for open loop.
+    pub r: Option<&'a [f64]>,
+    /// Sample interval, s.
+    pub dt_s: f64,
+}
+
+/// Which estimator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// Empirical transfer-function estimate: ratio of full-record DFTs.
+    Etfe,
+    /// Welch's averaged modified periodograms (H1 estimator).
+    Welch,
+    /// Blackman–Tukey: Hann lag window on the correlation functions.
+    Spa,
+    /// Frequency-dependent resolution: Hann smoothing of the periodograms whose width grows with frequency.
+    Spafdr,
+}
+
+impl std::str::FromStr for Method {
+    type Err = SysidError;
+    fn from_str(s: &str) -> Result<Method> {
+        match s.to_ascii_lowercase().as_str() {
+            "etfe" => Ok(Method::Etfe),
+            "welch" | "h1" | "tfestimate" => Ok(Method::Welch),
+            "spa" | "bt" => Ok(Method::Spa),
+            "spafdr" => Ok(Method::Spafdr),
+            _ => Err(invalid(format!("unknown method '{s}' (etfe, welch, spa, spafdr)"))),
+        }
+    }
+}
+
+/// Options of every estimator; fields an estimator does not use are ignored.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Options {
+    /// Estimator.
+    pub method: Method,
+    /// Lowest frequency reported, Hz (`None`: the lowest the record resolves).
+    pub fmin_hz: Option<f64>,
+    /// Highest frequency reported, Hz (`None`: Nyquist).
+    pub fmax_hz: Option<f64>,
+    /// Trend removed from the whole record first.
+    pub detrend: Detrend,
+    /// Welch: segment length (`None`: the power of two giving about 8 segments at 50 % overlap).
+    pub nfft: Option<usize>,
+    /// Welch: data window.
+    pub window: Window,
+    /// Welch: overlap fraction of consecutive segments, in [0, 1).
+    pub overlap: f64,
+    /// SPA: lag-window half width M in samples (`None`: min(N/10, 30) as MATLAB's spa).
+    pub lag_window: Option<usize>,
+    /// SPA and SPAFDR: number of output frequencies (SPA: linear spacing; SPAFDR: logarithmic).
+    pub n_freq: usize,
+    /// SPAFDR: relative resolution (full width of the Hann smoothing window / frequency); ETFE: unused.
+    pub resolution: f64,
+    /// ETFE: Hann smoothing width in bins (1 = the raw ratio Y/U).
+    pub smoothing_bins: usize,
+}
+
+impl Default for Options {
+    fn default() -> Options {
+        Options {
+            method: Method::Spafdr,
+            fmin_hz: None,
+            fmax_hz: None,
+            detrend: Detrend::Mean,
+            nfft: None,
+            window: Window::Hann,
+            overlap: 0.5,
+            lag_window: None,
+            n_freq: 100,
+            resolution: 0.15,
+            smoothing_bins: 1,
+        }
+    }
+}
+
+/// A frequency-response estimate.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Frf {
+    /// Frequencies, Hz (increasing).
+    pub freq_hz: Vec<f64>,
+    /// Complex response G(j2πf).
+    pub response: Vec<C64>,
+    /// Squared coherence in [0, 1]. Closed loop: γ² = |G|²Φ_u⁽ʳ⁾/(|G|²Φ_u⁽ʳ⁾ + Φ_vv), with Φ_u⁽ʳ⁾ = |Φ_ur|²/Φ_rr
+    /// the part of u driven by r and Φ_vv the spectrum of the residual y − Ĝu; it reduces to the
+    /// ordinary coherence in open loop and makes the variance formula of the estimator
+    /// (Var Ĝ = Φ_vv·Φ_rr/(ν·|Φ_ur|²)) take the same form as for H1.
+    pub coherence: Vec<f64>,
+    /// Equivalent number of independent averages ν behind each estimate.
+    pub dof: Vec<f64>,
+}
+
+impl Frf {
+    /// |G|.
+    pub fn mag(&self) -> Vec<f64> {
+        self.response.iter().map(|g| g.norm()).collect()
+    }
+
+    /// 20·log10|G|, dB.
+    pub fn mag_db(&self) -> Vec<f64> {
+        self.response.iter().map(|g| 20.0 * g.norm().log10()).collect()
+    }
+
+    /// Phase, degrees, unwrapped along frequency.
+    pub fn phase_deg(&self) -> Vec<f64> {
+        unwrap_deg(self.response.iter().map(|g| g.arg().to_degrees()))
+    }
+
+    /// Normalized random error of |G| (and standard deviation of the phase in rad):
+    /// ε = √((1 − γ²)/(2 ν γ²)) (Bendat & Piersol, Random Data, eq. 9.90).
+    pub fn rel_std(&self) -> Vec<f64> {
+        self.coherence
+            .iter()
+            .zip(&self.dof)
+            .map(|(&c, &n)| {
+                let c = c.clamp(1e-12, 1.0);
+                ((1.0 - c) / (2.0 * n.max(1.0) * c)).sqrt()
+            })
+            .collect()
+    }
+
+    /// Magnitude band (lower, upper), dB, at ±z standard errors (z = 1.96 for ≈ 95 %).
+    pub fn mag_band_db(&self, z: f64) -> (Vec<f64>, Vec<f64>) {
+        let m = self.mag_db();
+        let e = self.rel_std();
+        let lo = m
+            .iter()
+            .zip(&e)
+            .map(|(m, e)| m + 20.0 * (1.0 - (z * e).min(0.999)).log10())
+            .collect();
+        let hi = m
+            .iter()
+            .zip(&e)
+            .map(|(m, e)| m + 20.0 * (1.0 + z * e).log10())
+            .collect();
+        (lo, hi)
+    }
+
+    /// Phase band (lower, upper), degrees, at ±z standard errors.
+    pub fn phase_band_deg(&self, z: f64) -> (Vec<f64>, Vec<f64>) {
+        let p = self.phase_deg();
+        let e = self.rel_std();
+        let d: Vec<f64> = e
+            .iter()
+            .map(|e| (z * e).min(std::f64::consts::PI).to_degrees())
+            .collect();
+        (
+            p.iter().zip(&d).map(|(p, d)| p - d).collect(),
+            p.iter().zip(&d).map(|(p, d)| p + d).collect(),
+        )
+    }
+
+    /// The points with fmin_hz ≤ f ≤ fmax_hz.
+    pub fn restrict(&self, fmin_hz: f64, fmax_hz: f64) -> Frf {
+        let keep: Vec<usize> = (0..self.freq_hz.len())
+            .filter(|&i| self.freq_hz[i] >= fmin_hz && self.freq_hz[i] <= fmax_hz)
+            .collect();
+        Frf {
+            freq_hz: keep.iter().map(|&i| self.freq_hz[i]).collect(),
+            response: keep.iter().map(|&i| self.response[i]).collect(),
+            coherence: keep.iter().map(|&i| self.coherence[i]).collect(),
+            dof: keep.iter().map(|&i| self.dof[i]).collect(),
+        }
+    }
+
+    pub(crate) fn from_cross(points: Vec<(f64, Cross, f64)>, closed: bool) -> Result<Frf> {
+        let mut f = Frf {
+            freq_hz: vec![],
+            response: vec![],
+            coherence: vec![],
+            dof: vec![],
+        };
+        for (hz, c, nu) in points {
+            let (g, coh) = c.response(closed);
+            if g.re.is_finite() && g.im.is_finite() && coh.is_finite() {
+                f.freq_hz.push(hz);
+                f.response.push(g);
+                f.coherence.push(coh.clamp(0.0, 1.0));
+                f.dof.push(nu);
+            }
+        }
+        if f.freq_hz.is_empty() {
+            return Err(SysidError::NotEnoughData(
+                "no frequency in range where the input has power (is the input constant?)".into(),
+            ));
+        }
+        Ok(f)
+    }
+}
+
+/// Unwraps a phase sequence in degrees (jumps over 180° are removed).
+pub fn unwrap_deg(p: impl Iterator<Item = f64>) -> Vec<f64> {
+    let mut out: Vec<f64> = Vec::new();
+    let mut offset = 0.0;
+    let mut prev: Option<f64> = None;
+    for x in p {
+        if let Some(q) = prev {
+            let d = x + offset - q;
+            offset -= 360.0 * (d / 360.0).round();
+        }
+        let v = x + offset;
+        out.push(v);
+        prev = Some(v);
+    }
+    out
+}
+
+/// Checked, detrended copies of the records.
+pub(crate) struct Prepared {
+    pub u: Vec<f64>,
+    pub y: Vec<f64>,
+    pub r: Option<Vec<f64>>,
+    pub dt: f64,
+}
+
+pub(crate) fn prepare(d: &IoData, how: Detrend, min_len: usize) -> Result<Prepared> {
+    if !(d.dt_s.is_finite() && d.dt_s > 0.0) {
+        return Err(invalid(format!("sample interval must be positive, got {} s", d.dt_s)));
+    }
+    let n = d.u.len();
+    if d.y.len() != n || d.r.is_some_and(|r| r.len() != n) {
+        return Err(invalid(format!(
+            "input, output (and excitation) differ in length: {}, {}{}",
+            n,
+            d.y.len(),
+            d.r.map(|r| format!(", {}", r.len())).unwrap_or_default()
+        )));
+    }
+    if n < min_len {
+        return Err(SysidError::NotEnoughData(format!(
+            "{n} samples; this estimate needs at least {min_len}"
+        )));
+    }
+    let check = |x: &[f64], what: &str| -> Result<Vec<f64>> {
+        if let Some(i) = x.iter().position(|v| !v.is_finite()) {
+            return Err(invalid(format!("{what} sample {i} is not finite")));
+        }
+        let mut v = x.to_vec();
+        detrend(&mut v, how);
+        Ok(v)
+    };
+    Ok(Prepared {
+        u: check(d.u, "input")?,
+        y: check(d.y, "output")?,
+        r: d.r.map(|r| check(r, "excitation")).transpose()?,
+        dt: d.dt_s,
+    })
+}
+
+/// Frequency limits (Hz) after defaults: [fmin or `lowest`, fmax or Nyquist].
+pub(crate) fn limits(o: &Options, lowest: f64, dt: f64) -> Result<(f64, f64)> {
+    let nyq = 0.5 / dt;
+    let lo = o.fmin_hz.unwrap_or(lowest);
+    let hi = o.fmax_hz.unwrap_or(nyq).min(nyq);
+    if !(lo.is_finite() && hi.is_finite() && lo >= 0.0 && hi > lo) {
+        return Err(invalid(format!(
+            "frequency range [{lo}, {hi}] Hz is empty or outside [0, Nyquist {nyq} Hz]"
+        )));
+    }
+    Ok((lo, hi))
+}
+
+/// Estimates the frequency response with the chosen method.
+pub fn estimate(d: &IoData, o: &Options) -> Result<Frf> {
+    match o.method {
+        Method::Etfe => etfe::etfe(d, o),
+        Method::Welch => welch::welch(d, o),
+        Method::Spa => spa::spa(d, o),
+        Method::Spafdr => spafdr::spafdr(d, o),
+    }
+}
+
+/// A planned real-input FFT of one length.
+pub(crate) struct Rfft {
+    plan: std::sync::Arc<dyn realfft::RealToComplex<f64>>,
+    n: usize,
+}
+
+impl Rfft {
+    pub fn new(n: usize) -> Rfft {
+        Rfft {
+            plan: realfft::RealFftPlanner::<f64>::new().plan_fft_forward(n),
+            n,
+        }
+    }
+
+    /// X_k, k = 0..=n/2, of `x` (zero-padded or cut to n) multiplied by `window` when given.
+    pub fn run(&self, x: &[f64], window: Option<&[f64]>) -> Result<Vec<C64>> {
+        let mut buf = vec![0.0; self.n];
+        let m = x.len().min(self.n);
+        match window {
+            Some(w) => buf[..m].iter_mut().zip(x).zip(w).for_each(|((b, x), w)| *b = x * w),
+            None => buf[..m].copy_from_slice(&x[..m]),
+        }
+        let mut out = self.plan.make_output_vec();
+        self.plan
+            .process(&mut buf, &mut out)
+            .map_err(|e| SysidError::Numerical(format!("FFT failed: {e}")))?;
+        Ok(out)
+    }
+}

@@ -1,0 +1,189 @@
+//! Every sample flight log is read or refused with a clear message; channels have sane content;
+//! truncated, corrupt and foreign files give errors (or notes) instead of panics.
+
+use std::path::{Path, PathBuf};
+
+use skyloop_sysid::logs::{blackbox, Log, LogFormat, OpenOptions};
+
+fn data(name: &str) -> PathBuf {
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/logs")).join(name)
+}
+
+fn open(name: &str) -> Log {
+    Log::open(&data(name), &OpenOptions::default()).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+fn temp_with(name: &str, bytes: &[u8]) -> PathBuf {
+    let p = std::env::temp_dir().join(format!("skyloop-sysid-{}-{name}", std::process::id()));
+    std::fs::write(&p, bytes).unwrap();
+    p
+}
+
+const ALL: [&str; 10] = [
+    "sample.ulg",
+    "sample_log_small.ulg",
+    "sample_px4_events.ulg",
+    "sample_logging_tagged_and_default_params.ulg",
+    "sample_appended_multiple.ulg",
+    "6ba1abc7-b433-4029-b8f5-3b2bb12d3b6c.ulg",
+    "esc_status_log.ulg",
+    "btfl_001.bbl",
+    "LOG00037.BFL",
+    "btfl_all.bbl",
+];
+
+#[test]
+fn every_sample_log_reads() {
+    for name in ALL {
+        let log = open(name);
+        let info = log.info();
+        assert!(!info.is_empty(), "{name}");
+        // Durations from SOURCES.md: every sample holds more than 10 s of data; none a day.
+        assert!(
+            log.duration_s() > 10.0 && log.duration_s() < 86400.0,
+            "{name}: {}",
+            log.duration_s()
+        );
+        let expect = if name.ends_with(".ulg") {
+            LogFormat::Ulog
+        } else {
+            LogFormat::Blackbox
+        };
+        assert_eq!(log.format, expect);
+        for g in &info {
+            assert!(
+                g.samples > 0 && g.fields.iter().all(|f| log.channel(f).is_ok()),
+                "{name} {}",
+                g.name
+            );
+        }
+    }
+}
+
+#[test]
+fn px4_channels() {
+    // SITL hover log (SOURCES.md): angular velocity is logged per axis in rad/s.
+    let log = open("sample_px4_events.ulg");
+    let (t, p) = log.channel("vehicle_angular_velocity.xyz[0]").unwrap();
+    assert_eq!(t.len(), p.len());
+    assert!(t.windows(2).all(|w| w[1] >= w[0]));
+    assert!(p.iter().all(|x| x.abs() < 20.0));
+    // Multi-instance topics get [k] after the topic name.
+    let log = open("esc_status_log.ulg");
+    assert!(log.channel("actuator_outputs[1].output[0]").is_ok());
+    assert!(log.channel("esc_status.esc[5].esc_rpm").is_ok());
+    let e = log.channel("vehicle_angular_velocity.xyz[7]").unwrap_err().to_string();
+    assert!(
+        e.contains("vehicle_angular_velocity.xyz[7]") && e.contains("esc_status_log.ulg"),
+        "{e}"
+    );
+}
+
+#[test]
+fn betaflight_channels_and_sessions() {
+    // LOG00037.BFL: Betaflight 4.2.0 at 1 kHz (SOURCES.md).
+    let log = open("LOG00037.BFL");
+    let info = log.info();
+    assert!((info[0].rate_hz - 1000.0).abs() < 1.0, "{}", info[0].rate_hz);
+    for f in [
+        "gyroADC[0]",
+        "setpoint[0]",
+        "axisP[0]",
+        "axisI[0]",
+        "axisD[0]",
+        "axisF[0]",
+        "rcCommand[3]",
+    ] {
+        assert!(log.channel(f).is_ok(), "{f}");
+    }
+    let (_, sum) = log.series("axisP[0]+axisI[0]+axisD[0]+axisF[0]").unwrap();
+    let (_, p) = log.channel("axisP[0]").unwrap();
+    assert_eq!(sum.len(), p.len());
+    let e = log.series("gyroADC[7]").unwrap_err().to_string();
+    assert!(e.contains("gyroADC[7]") && e.contains("similar: gyroADC[0]"), "{e}");
+
+    // btfl_all.bbl: 44 sessions; the 4th is a ~145 s acro flight with roll rates of hundreds of deg/s.
+    let bytes = std::fs::read(data("btfl_all.bbl")).unwrap();
+    let s = blackbox::sessions(&bytes, "btfl_all.bbl");
+    assert_eq!(s.len(), 44);
+    assert!(s.iter().any(|s| s.error.is_some()));
+    let best = s.iter().max_by_key(|s| s.main_frames).unwrap();
+    assert_eq!(best.index, 4);
+    assert!((best.duration_s - 145.0).abs() < 5.0, "{}", best.duration_s);
+    let log = open("btfl_all.bbl");
+    let (_, roll) = log.channel("gyroADC[0]").unwrap();
+    let peak = roll.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    assert!(peak > 200.0 && peak < 2000.0, "{peak}");
+    let opts = OpenOptions {
+        session: Some(99),
+        ..Default::default()
+    };
+    let e = Log::open(&data("btfl_all.bbl"), &opts).unwrap_err().to_string();
+    assert!(e.contains("no session 99") && e.contains("44 sessions"), "{e}");
+}
+
+#[test]
+fn truncated_and_corrupt_files() {
+    // A ULog cut in its data section keeps the prefix and says so.
+    let bytes = std::fs::read(data("sample_log_small.ulg")).unwrap();
+    let p = temp_with("cut.ulg", &bytes[..bytes.len() * 2 / 5 + 3]);
+    let log = Log::open(&p, &OpenOptions::default()).unwrap();
+    assert!(
+        log.notes
+            .iter()
+            .any(|n| n.contains("truncated") || n.contains("corrupt")),
+        "{:?}",
+        log.notes
+    );
+    // Cut inside the header: refused.
+    let p = temp_with("head.ulg", &bytes[..40]);
+    let e = Log::open(&p, &OpenOptions::default()).unwrap_err().to_string();
+    assert!(e.contains("head.ulg"), "{e}");
+    // Garbage in the middle of the data: read or refused, never a panic.
+    let mut bad = bytes.clone();
+    for (i, b) in bad.iter_mut().enumerate().skip(bytes.len() / 2).take(5000) {
+        *b = (i * 7919 % 251) as u8;
+    }
+    let p = temp_with("garbage.ulg", &bad);
+    if let Ok(log) = Log::open(&p, &OpenOptions::default()) {
+        assert!(!log.notes.is_empty());
+    }
+
+    // A blackbox file cut in its headers is refused; cut in the data, it keeps what decodes.
+    let bytes = std::fs::read(data("LOG00037.BFL")).unwrap();
+    let p = temp_with("head.bfl", &bytes[..300]);
+    let e = Log::open(&p, &OpenOptions::default()).unwrap_err().to_string();
+    assert!(e.contains("head.bfl"), "{e}");
+    let p = temp_with("cut.bfl", &bytes[..bytes.len() / 3]);
+    let log = Log::open(&p, &OpenOptions::default()).unwrap();
+    assert!(
+        log.duration_s() > 2.0 && log.duration_s() < 10.0,
+        "{}",
+        log.duration_s()
+    );
+
+    // Neither format, not text.
+    let p = temp_with("noise.bin", &[0u8, 159, 146, 150, 1, 2, 3, 255]);
+    let e = Log::open(&p, &OpenOptions::default()).unwrap_err().to_string();
+    assert!(e.contains("not a ULog, blackbox or CSV"), "{e}");
+    let e = Log::open(Path::new("/nonexistent/x.ulg"), &OpenOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("cannot read /nonexistent/x.ulg"), "{e}");
+}
+
+#[test]
+fn resampled_flight_segment() {
+    let log = open("LOG00037.BFL");
+    let u = log
+        .uniform(
+            &["axisP[0]+axisI[0]+axisD[0]+axisF[0]", "gyroADC[0]"],
+            None,
+            Some(2.0),
+            Some(12.0),
+        )
+        .unwrap();
+    assert!((u.rate_hz() - 1000.0).abs() < 1.0);
+    assert!((u.len() as f64 - 10_000.0).abs() <= 2.0, "{}", u.len());
+    assert!(log.uniform(&["gyroADC[0]"], None, Some(100.0), Some(200.0)).is_err());
+}
