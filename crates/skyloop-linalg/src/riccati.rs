@@ -42,6 +42,9 @@ pub struct RiccatiOptions {
     pub balance: bool,
     /// Scale `Q` and `G = B·R⁻¹·Bᵀ` to equal norms before forming the Hamiltonian (CARE).
     pub scale: bool,
+    /// Maximum number of Newton (Kleinman) refinement steps after the Schur solution (CARE); each
+    /// step solves one Lyapunov equation and is kept only if it halves the residual.
+    pub newton_steps: usize,
     /// Hamiltonian eigenvalues with |Re λ| ≤ `axis_tol`·‖H‖ count as on the imaginary axis (CARE);
     /// for the DARE, closed-loop eigenvalues with |λ| ≥ 1 − `axis_tol` count as on the unit circle.
     pub axis_tol: f64,
@@ -54,6 +57,7 @@ impl Default for RiccatiOptions {
         RiccatiOptions {
             balance: true,
             scale: true,
+            newton_steps: 0,
             axis_tol: 1e2 * f64::EPSILON,
             max_iter: 100,
         }
@@ -312,7 +316,47 @@ pub fn care_with(
     let xp = lu.solve(&u21t);
     let x = Mat::from_fn(n, n, |i, j| sigma * 0.5 * (xp[(i, j)] + xp[(j, i)]) / (d1[i] * d1[j]));
 
-    care_finish(a, b, q, &red, x)
+    let mut sol = care_finish(a, b, q, &red, x)?;
+    for _ in 0..opts.newton_steps {
+        // At rounding level a Newton step cannot improve X, only move it around (ill-conditioned
+        // problems such as CAREX 2.4 lose accuracy that way): refine only above it, and keep a step
+        // only if it halves the residual.
+        if sol.residual <= 2.0 * f64::EPSILON {
+            break;
+        }
+        match newton_care_step(a, b, q, &red, &sol)? {
+            Some(better) if better.residual < 0.5 * sol.residual => sol = better,
+            _ => break,
+        }
+    }
+    Ok(sol)
+}
+
+/// One Newton (Kleinman) step `X ← X + N` with `A_clᵀ·N + N·A_cl + Res(X) = 0`, `A_cl = A − B·K`:
+/// the linearization of the CARE at `X` (Benner & Byers's refinement without line search).
+fn newton_care_step(
+    a: MatRef<f64>,
+    b: MatRef<f64>,
+    q: MatRef<f64>,
+    red: &Reduced,
+    sol: &RiccatiSolution,
+) -> Result<Option<RiccatiSolution>> {
+    let x = &sol.x;
+    let xbs = x * b + &red.s;
+    let aterm = a.transpose() * x;
+    let res = symmetrize((&aterm + aterm.transpose() - &xbs * &sol.k + q).as_ref());
+    let acl = a - b * &sol.k;
+    let step = match crate::lyapunov::lyap(acl.transpose(), res.as_ref()) {
+        Ok(n) => n,
+        Err(LinalgError::NoSolution(_)) | Err(LinalgError::Singular(_)) => return Ok(None),
+        Err(e) => return Err(e),
+    };
+    let xn = symmetrize((x + &step).as_ref());
+    match care_finish(a, b, q, red, xn) {
+        Ok(s) => Ok(Some(s)),
+        Err(LinalgError::NoSolution(_)) => Ok(None),
+        Err(e) => Err(e),
+    }
 }
 
 /// Gain `K = R⁻¹(BᵀX + Sᵀ)` and relative residual of a CARE solution candidate.
