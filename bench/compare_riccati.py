@@ -1,11 +1,13 @@
 #!/usr/bin/env python3
 """Side-by-side timings: skyloop-linalg CARE/DARE/Schur vs scipy and SLICOT (python-control + slycot).
 
-Our timings come from criterion (crates/skyloop-linalg/benches/riccati.rs); pass --run to run the
-benchmark first, otherwise the last results in $CARGO_TARGET_DIR/criterion (default target/) are read.
-The problems are the same fixtures (tests/fixtures/riccati/*.json) on both sides.
+Both sides are timed as best-of-N wall time of one solve (robust on a shared, busy machine): ours by
+`cargo run --release -p skyloop-linalg --example time_riccati`, the references with timeit. With
+--criterion the fastest criterion sample of `benches/riccati.rs` (last `cargo bench` run, in
+$CARGO_TARGET_DIR/criterion) is used instead. The problems are the same fixtures
+(tests/fixtures/riccati/*.json) on both sides.
 
-    python3 bench/compare_riccati.py --run
+    python3 bench/compare_riccati.py
 """
 import argparse
 import json
@@ -35,11 +37,10 @@ def case(file, name):
     sys.exit(f"case {name} not in {file}")
 
 
-def best_of(f, number=None):
-    t = timeit.Timer(f)
-    if number is None:
-        number, _ = t.autorange()
-    return min(t.repeat(repeat=5, number=number)) / number
+def best_of(f, repeat=30):
+    """Fastest single call out of `repeat` (the statistic the Rust example uses too)."""
+    f()  # warm-up
+    return min(timeit.repeat(f, number=1, repeat=repeat))
 
 
 def criterion_best_s(name):
@@ -57,10 +58,13 @@ def criterion_best_s(name):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--run", action="store_true", help="run `cargo bench -p skyloop-linalg --bench riccati` first")
+    ap.add_argument("--criterion", action="store_true", help="use the last criterion results instead")
     args = ap.parse_args()
-    if args.run:
-        subprocess.run(["cargo", "bench", "-p", "skyloop-linalg", "--bench", "riccati"], cwd=ROOT, check=True)
+    ours_all = {}
+    if not args.criterion:
+        out = subprocess.run(["cargo", "run", "--release", "-q", "-p", "skyloop-linalg", "--example", "time_riccati"],
+                             cwd=ROOT, check=True, capture_output=True, text=True).stdout
+        ours_all = json.loads(out)
 
     a, b, q, r = case("care.json", "random_n50_m10")
     ad, bd, qd, rd = case("dare.json", "random_n50_m5")
@@ -72,11 +76,11 @@ def main():
         ("dare_n50", "slycot SB02MD (control.dare)", lambda: control.dare(ad, bd, qd, rd, method="slycot")),
         ("schur_n100", "scipy.linalg.schur (LAPACK dgees)", lambda: sla.schur(m)),
     ]
-    print("best-of timings (single-threaded BLAS for the references)")
+    print("best-of timings (single-threaded BLAS for the references; ours single-threaded)")
     print(f"{'benchmark':<12} {'reference':<34} {'reference':>12} {'skyloop':>12} {'speed-up':>9}")
     for bench, who, f in rows:
         ref = best_of(f)
-        ours = criterion_best_s(bench)
+        ours = criterion_best_s(bench) if args.criterion else ours_all.get(bench)
         ours_s = f"{ours * 1e3:9.3f} ms" if ours else "    (none)"
         ratio = f"{ref / ours:8.1f}x" if ours else "        -"
         print(f"{bench:<12} {who:<34} {ref * 1e3:9.3f} ms {ours_s} {ratio}")
