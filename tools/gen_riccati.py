@@ -218,10 +218,70 @@ for n in [5, 21]:
     carex_case("4.1", "Laub 1979, Ex.6: ill-conditioned Riccati equation", a, b, c, np.eye(1), np.eye(1), None,
                float(n))
 
+# ---------------------------------------------------------------- DAREX (BB02AD definitions)
+# Benner, Laub & Mehrmann, "... II: discrete-time case", TU Chemnitz SPC 95_23, 1995.
+darex = []
+
+
+def darex_case(label, note, a, b, c, q0, r, x_exact=None, param=None):
+    q = c.T @ q0 @ c
+    q = (q + q.T) / 2  # exactly symmetric (python-control checks)
+    case = dare_case(label, a, b, q, r, None, x_exact, param)
+    case["note"] = note
+    darex.append(case)
+
+
+# Example 1.1 (Van Dooren 1981, Ex. II: singular R), X = I.
+darex_case("1.1", "Van Dooren 1981, Ex. II: singular R", np.array([[2.0, -1], [1, 0]]), np.array([[1.0], [0]]),
+           np.array([[0.0, 1]]), np.eye(1), np.zeros((1, 1)), np.eye(2))
+# Example 1.3 (Jonckheere 1981: (A,B) controllable, no solution X <= 0), X = [[1, 2], [2, 2 + √5]].
+darex_case("1.3", "Jonckheere 1981", np.array([[0.0, 1], [0, 0]]), np.array([[0.0], [1]]), np.eye(2),
+           np.array([[1.0, 2], [2, 4]]), np.eye(1), np.array([[1.0, 2], [2, 2 + np.sqrt(5)]]))
+# Example 2.1 (Laub 1979, Ex. 2: uncontrollable-unobservable data), X = (1 + √(1 + 4r))/2 · Q.
+for eps in [1.0, 1e3, 1e7]:
+    q0 = np.array([[9.0, 6], [6, 4]])
+    darex_case("2.1", "Laub 1979, Ex. 2: uncontrollable-unobservable data", np.array([[4.0, 3], [-4.5, -3.5]]),
+               np.array([[1.0], [-1]]), np.eye(2), q0, eps * np.eye(1), (1 + np.sqrt(1 + 4 * eps)) / 2 * q0, eps)
+# Example 2.2 (Laub 1979, Ex. 3: increasingly ill-conditioned R).
+for eps in [1.0, 1e3, 1e7]:
+    darex_case("2.2", "Laub 1979, Ex. 3: increasingly ill-conditioned R", np.diag([0.9512, 0.9048]),
+               np.array([[4.877, 4.877], [-1.1895, 3.569]]), np.eye(2), np.diag([0.005, 0.02]),
+               np.diag([1 / (3 * eps), 3 * eps]), None, eps)
+# Example 2.3 (increasingly badly scaled system as eps -> oo), X = diag(1, 1 + eps²).
+for eps in [1.0, 1e3, 1e6]:
+    darex_case("2.3", "increasingly badly scaled system as eps -> oo", np.array([[0.0, eps], [0, 0]]),
+               np.array([[0.0], [1]]), np.eye(2), np.eye(2), np.eye(1), np.diag([1.0, 1 + eps**2]), eps)
+# Example 2.4 (Petkov et al. 1989: increasingly bad scaling as eps -> oo).
+for eps in [1.0, 1e3, 1e7]:
+    v = np.eye(3) - 2.0 / 3.0 * np.ones((3, 3))
+    x = v @ np.diag([eps, eps * (1 + np.sqrt(5)) / 2, eps * (9 + np.sqrt(85)) / 2]) @ v
+    darex_case("2.4", "Petkov et al. 1989: increasingly bad scaling as eps -> oo", v @ np.diag([0.0, 1, 3]) @ v,
+               np.eye(3), v, eps * np.eye(3), eps * np.eye(3), x, eps)
+# Example 2.5 (Pappas et al. 1980: process control of paper machine), n = 4, delta = K = 1, r = 0.25.
+for tau in [1e3, 1e9]:
+    alpha, beta, r = 1 - 1 / tau, 1 / tau, 0.25
+    a = np.zeros((4, 4))
+    a[0, 0] = alpha
+    a[1:, :-1] += np.eye(3)
+    b = np.zeros((4, 1))
+    b[0, 0] = beta
+    c = np.zeros((1, 4))
+    c[0, 3] = 1
+    t = r * (alpha + 1) * (alpha - 1) + beta**2
+    x = np.eye(4)
+    x[0, 0] = (t + np.sqrt(t * t + 4 * beta**2 * r)) / 2 / beta**2
+    darex_case("2.5", "Pappas et al. 1980: process control of paper machine", a, b, c, np.eye(1), r * np.eye(1), x, tau)
+# Example 4.1 (Pappas et al. 1980, Ex. 3): shift matrix, X = diag(1, ..., n).
+for n in [5, 50]:
+    b = np.zeros((n, 1))
+    b[-1, 0] = 1
+    darex_case("4.1", "Pappas et al. 1980, Ex. 3", np.diag(np.ones(n - 1), 1), b, np.eye(n), np.eye(n), np.eye(1),
+               np.diag(np.arange(1.0, n + 1)), float(n))
+
 os.makedirs(OUT, exist_ok=True)
 meta = "tools/gen_riccati.py: scipy %s solve_*_are, python-control %s + slycot (SB02MD/SG02AD)" % (
     __import__("scipy").__version__, control.__version__)
-for name, cases in [("care", care), ("dare", dare), ("carex", carex)]:
+for name, cases in [("care", care), ("dare", dare), ("carex", carex), ("darex", darex)]:
     with open(os.path.join(OUT, name + ".json"), "w") as f:
         json.dump({"generator": meta, "cases": cases}, f)
     print(f"wrote {len(cases)} cases to {OUT}/{name}.json")

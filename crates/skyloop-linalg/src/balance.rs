@@ -102,34 +102,28 @@ pub fn try_balance_with(a: MatRef<f64>, job: BalanceJob) -> Result<Balanced> {
     if job.permute {
         // Rows whose off-diagonal part (within columns ilo..=ihi) is zero hold an isolated
         // eigenvalue: move them to the bottom.
-        'rows: loop {
-            for i in (ilo..=ihi).rev() {
-                let isolated = (ilo..=ihi).all(|j| j == i || b[(i, j)] == 0.0);
-                if isolated {
+        while ilo < ihi {
+            let found = (ilo..=ihi)
+                .rev()
+                .find(|&i| (ilo..=ihi).all(|j| j == i || b[(i, j)] == 0.0));
+            match found {
+                Some(i) => {
                     swap_sym(&mut b, &mut perm, i, ihi);
-                    if ihi == ilo {
-                        break 'rows;
-                    }
                     ihi -= 1;
-                    continue 'rows;
                 }
+                None => break,
             }
-            break;
         }
         // Columns whose off-diagonal part (within rows ilo..=ihi) is zero: move them to the left.
-        'cols: loop {
-            if ilo >= ihi {
-                break;
-            }
-            for j in ilo..=ihi {
-                let isolated = (ilo..=ihi).all(|i| i == j || b[(i, j)] == 0.0);
-                if isolated {
+        while ilo < ihi {
+            let found = (ilo..=ihi).find(|&j| (ilo..=ihi).all(|i| i == j || b[(i, j)] == 0.0));
+            match found {
+                Some(j) => {
                     swap_sym(&mut b, &mut perm, j, ilo);
                     ilo += 1;
-                    continue 'cols;
                 }
+                None => break,
             }
-            break;
         }
     }
 
@@ -177,11 +171,20 @@ fn scale_block(b: &mut Mat<f64>, scale: &mut [f64], ilo: usize, ihi: usize) {
     for _sweep in 0..200 {
         let mut noconv = false;
         for i in ilo..=ihi {
-            let mut c = 0.0f64;
-            let mut r = 0.0f64;
+            // Plain sums of squares: entries are finite and balancing only needs 2-norms to a factor of 2
+            // (hypot per entry would dominate the cost).
+            let mut c2 = 0.0f64;
+            let mut r2 = 0.0f64;
             for k in ilo..=ihi {
-                c = c.hypot(b[(k, i)]);
-                r = r.hypot(b[(i, k)]);
+                c2 += b[(k, i)] * b[(k, i)];
+                r2 += b[(i, k)] * b[(i, k)];
+            }
+            let (mut c, mut r) = (c2.sqrt(), r2.sqrt());
+            let tiny = f64::MIN_POSITIVE / f64::EPSILON;
+            if !c.is_finite() || !r.is_finite() || c2 < tiny || r2 < tiny {
+                // Overflow/underflow of the squares: recompute with scaling.
+                c = (ilo..=ihi).fold(0.0f64, |acc, k| acc.hypot(b[(k, i)]));
+                r = (ilo..=ihi).fold(0.0f64, |acc, k| acc.hypot(b[(i, k)]));
             }
             let mut ca = (0..=ihi).map(|k| b[(k, i)].abs()).fold(0.0, f64::max);
             let mut ra = (ilo..n).map(|k| b[(i, k)].abs()).fold(0.0, f64::max);

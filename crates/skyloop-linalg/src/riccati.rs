@@ -11,6 +11,9 @@
 //! `X` must be stabilizing (closed-loop eigenvalues strictly inside the left half-plane / unit disc);
 //! otherwise `LinalgError::NoSolution` explains why.
 
+// `!(x < tol)` comparisons are deliberate: they also reject NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use faer::linalg::solvers::{FullPivLu, Solve};
 use faer::{c64, Mat, MatRef};
 
@@ -39,6 +42,13 @@ pub struct RiccatiOptions {
     pub balance: bool,
     /// Scale `Q` and `G = B·R⁻¹·Bᵀ` to equal norms before forming the Hamiltonian (CARE).
     pub scale: bool,
+    /// Maximum number of Newton refinement steps after the direct solution (Kleinman for the CARE,
+    /// Hewer for the DARE); each solves one (Stein-)Lyapunov equation and is kept only if it halves
+    /// the residual.
+    pub newton_steps: usize,
+    /// Refine only while the relative residual exceeds this (at rounding level a Newton step cannot
+    /// improve X and on ill-conditioned problems only moves it around).
+    pub refine_above: f64,
     /// Hamiltonian eigenvalues with |Re λ| ≤ `axis_tol`·‖H‖ count as on the imaginary axis (CARE);
     /// for the DARE, closed-loop eigenvalues with |λ| ≥ 1 − `axis_tol` count as on the unit circle.
     pub axis_tol: f64,
@@ -51,6 +61,8 @@ impl Default for RiccatiOptions {
         RiccatiOptions {
             balance: true,
             scale: true,
+            newton_steps: 2,
+            refine_above: 1e-13,
             axis_tol: 1e2 * f64::EPSILON,
             max_iter: 100,
         }
@@ -171,7 +183,7 @@ fn reduce(
     // Reciprocal condition of R from its 1-norm and the 1-norm of its inverse (m is small).
     let rinv = lu.solve(Mat::<f64>::identity(m, m));
     let rcond = 1.0 / (norm1(r.as_ref()) * norm1(rinv.as_ref()));
-    if !(rcond > 1e3 * f64::EPSILON) {
+    if !(rcond > f64::EPSILON) {
         return Err(LinalgError::Singular(format!(
             "{who}: R is singular to working precision (reciprocal condition {rcond:.1e})"
         )));
@@ -309,7 +321,44 @@ pub fn care_with(
     let xp = lu.solve(&u21t);
     let x = Mat::from_fn(n, n, |i, j| sigma * 0.5 * (xp[(i, j)] + xp[(j, i)]) / (d1[i] * d1[j]));
 
-    care_finish(a, b, q, &red, x)
+    let mut sol = care_finish(a, b, q, &red, x)?;
+    for _ in 0..opts.newton_steps {
+        if !(sol.residual > opts.refine_above.max(2.0 * f64::EPSILON)) {
+            break;
+        }
+        match newton_care_step(a, b, q, &red, &sol)? {
+            Some(better) if better.residual < 0.5 * sol.residual => sol = better,
+            _ => break,
+        }
+    }
+    Ok(sol)
+}
+
+/// One Newton (Kleinman) step `X ← X + N` with `A_clᵀ·N + N·A_cl + Res(X) = 0`, `A_cl = A − B·K`:
+/// the linearization of the CARE at `X` (Benner & Byers's refinement without line search).
+fn newton_care_step(
+    a: MatRef<f64>,
+    b: MatRef<f64>,
+    q: MatRef<f64>,
+    red: &Reduced,
+    sol: &RiccatiSolution,
+) -> Result<Option<RiccatiSolution>> {
+    let x = &sol.x;
+    let xbs = x * b + &red.s;
+    let aterm = a.transpose() * x;
+    let res = symmetrize((&aterm + aterm.transpose() - &xbs * &sol.k + q).as_ref());
+    let acl = a - b * &sol.k;
+    let step = match crate::lyapunov::lyap(acl.transpose(), res.as_ref()) {
+        Ok(n) => n,
+        Err(LinalgError::NoSolution(_)) | Err(LinalgError::Singular(_)) => return Ok(None),
+        Err(e) => return Err(e),
+    };
+    let xn = symmetrize((x + &step).as_ref());
+    match care_finish(a, b, q, red, xn) {
+        Ok(s) => Ok(Some(s)),
+        Err(LinalgError::NoSolution(_)) => Ok(None),
+        Err(e) => Err(e),
+    }
 }
 
 /// Gain `K = R⁻¹(BᵀX + Sᵀ)` and relative residual of a CARE solution candidate.
@@ -445,8 +494,44 @@ pub fn dare_with(
             opts.max_iter
         )));
     }
-    let x = hk;
-    dare_finish(a, b, q, r, &red, x, opts)
+    let mut sol = dare_finish(a, b, q, r, &red, hk, opts)?;
+    for _ in 0..opts.newton_steps {
+        if !(sol.residual > opts.refine_above.max(2.0 * f64::EPSILON)) {
+            break;
+        }
+        match newton_dare_step(a, b, q, r, &red, &sol, opts)? {
+            Some(better) if better.residual < 0.5 * sol.residual => sol = better,
+            _ => break,
+        }
+    }
+    Ok(sol)
+}
+
+/// One Newton (Hewer) step `X ← X + N` with `A_clᵀ·N·A_cl − N + Res(X) = 0`, `A_cl = A − B·K`.
+fn newton_dare_step(
+    a: MatRef<f64>,
+    b: MatRef<f64>,
+    q: MatRef<f64>,
+    r: MatRef<f64>,
+    red: &Reduced,
+    sol: &RiccatiSolution,
+    opts: &RiccatiOptions,
+) -> Result<Option<RiccatiSolution>> {
+    let x = &sol.x;
+    let bxas = b.transpose() * x * a + red.s.transpose();
+    let res = symmetrize((a.transpose() * x * a - x - bxas.transpose() * &sol.k + q).as_ref());
+    let acl = a - b * &sol.k;
+    let step = match crate::lyapunov::dlyap(acl.transpose(), res.as_ref()) {
+        Ok(n) => n,
+        Err(LinalgError::NoSolution(_)) | Err(LinalgError::Singular(_)) => return Ok(None),
+        Err(e) => return Err(e),
+    };
+    let xn = symmetrize((x + &step).as_ref());
+    match dare_finish(a, b, q, r, red, xn, opts) {
+        Ok(s) => Ok(Some(s)),
+        Err(LinalgError::NoSolution(_)) => Ok(None),
+        Err(e) => Err(e),
+    }
 }
 
 /// Gain `K = (R + BᵀXB)⁻¹(BᵀXA + Sᵀ)` and relative residual of a DARE solution candidate.

@@ -97,21 +97,25 @@ pub fn real_schur(a: MatRef<f64>) -> Result<Schur> {
 pub fn eigenvalues(a: MatRef<f64>) -> Result<Vec<c64>> {
     check_square_finite(a, "eigenvalues")?;
     let bal = crate::balance::balance(a);
-    let (t, _) = schur_dm(Dm::from_mat(bal.a.as_ref()))?;
-    Ok(block_eigenvalues(&t))
+    let mut h = Dm::from_mat(bal.a.as_ref());
+    let mut z = Dm::zeros(0);
+    hessenberg(&mut h, false);
+    lahqr(&mut h, &mut z)?;
+    Ok(block_eigenvalues(&h))
 }
 
 /// Schur form on work matrices: returns `(T, Q)`.
 pub(crate) fn schur_dm(mut h: Dm) -> Result<(Dm, Dm)> {
-    let mut q = hessenberg(&mut h);
+    let mut q = hessenberg(&mut h, true);
     lahqr(&mut h, &mut q)?;
     Ok((h, q))
 }
 
-/// Householder reduction `A = Q·H·Qᵀ` in place (dgehd2), returning the accumulated `Q` (dorghr).
-fn hessenberg(h: &mut Dm) -> Dm {
+/// Householder reduction `A = Q·H·Qᵀ` in place (dgehd2), returning the accumulated `Q` (dorghr)
+/// when `want_q` (otherwise an empty matrix).
+fn hessenberg(h: &mut Dm, want_q: bool) -> Dm {
     let n = h.n;
-    let mut q = Dm::identity(n);
+    let mut q = if want_q { Dm::identity(n) } else { Dm::zeros(0) };
     if n < 3 {
         return q;
     }
@@ -136,6 +140,9 @@ fn hessenberg(h: &mut Dm) -> Dm {
         // Right application H ← H·(I − τvvᵀ) and Q ← Q·(I − τvvᵀ) column-wise (contiguous).
         for mat in [&mut *h, &mut q] {
             let nn = mat.n;
+            if nn == 0 {
+                continue;
+            }
             w[..nn].iter_mut().for_each(|x| *x = 0.0);
             for (jj, vj) in vk.iter().enumerate() {
                 let col = &mat.d[(k + 1 + jj) * nn..(k + 2 + jj) * nn];
@@ -155,13 +162,14 @@ fn hessenberg(h: &mut Dm) -> Dm {
     q
 }
 
-/// Francis double-shift QR on an upper Hessenberg matrix (LAPACK dlahqr with WANTT = WANTZ = true),
-/// accumulating the transformations into `z`.
+/// Francis double-shift QR on an upper Hessenberg matrix (LAPACK dlahqr with WANTT = true),
+/// accumulating the transformations into `z` unless `z` is empty (WANTZ = false).
 fn lahqr(h: &mut Dm, z: &mut Dm) -> Result<()> {
     let n = h.n;
     if n <= 1 {
         return Ok(());
     }
+    let wantz = z.n == n;
     const DAT1: f64 = 0.75;
     const DAT2: f64 = -0.4375;
     const KEXSH: usize = 10;
@@ -331,44 +339,30 @@ fn lahqr(h: &mut Dm, z: &mut Dm) -> Result<()> {
                 if nr == 3 {
                     let v3 = v[2];
                     let t3 = t1 * v3;
+                    // Rows k..k+3, columns k..=i2 (strided).
                     for j in k..=i2 {
-                        let o = j * nn;
-                        let sum = h.d[k + o] + v2 * h.d[k + 1 + o] + v3 * h.d[k + 2 + o];
-                        h.d[k + o] -= sum * t1;
-                        h.d[k + 1 + o] -= sum * t2;
-                        h.d[k + 2 + o] -= sum * t3;
+                        let col = &mut h.d[j * nn + k..j * nn + k + 3];
+                        let sum = col[0] + v2 * col[1] + v3 * col[2];
+                        col[0] -= sum * t1;
+                        col[1] -= sum * t2;
+                        col[2] -= sum * t3;
                     }
+                    // Columns k..k+3, rows i1..=min(k+3, i) (contiguous).
                     let jmax = (k + 3).min(iu);
-                    let (c0, c1, c2) = (k * nn, (k + 1) * nn, (k + 2) * nn);
-                    for j in i1..=jmax {
-                        let sum = h.d[j + c0] + v2 * h.d[j + c1] + v3 * h.d[j + c2];
-                        h.d[j + c0] -= sum * t1;
-                        h.d[j + c1] -= sum * t2;
-                        h.d[j + c2] -= sum * t3;
-                    }
-                    for j in 0..nn {
-                        let sum = z.d[j + c0] + v2 * z.d[j + c1] + v3 * z.d[j + c2];
-                        z.d[j + c0] -= sum * t1;
-                        z.d[j + c1] -= sum * t2;
-                        z.d[j + c2] -= sum * t3;
+                    apply3_cols(&mut h.d, nn, k, i1..jmax + 1, v2, v3, t1, t2, t3);
+                    if wantz {
+                        apply3_cols(&mut z.d, nn, k, 0..nn, v2, v3, t1, t2, t3);
                     }
                 } else if nr == 2 {
                     for j in k..=i2 {
-                        let o = j * nn;
-                        let sum = h.d[k + o] + v2 * h.d[k + 1 + o];
-                        h.d[k + o] -= sum * t1;
-                        h.d[k + 1 + o] -= sum * t2;
+                        let col = &mut h.d[j * nn + k..j * nn + k + 2];
+                        let sum = col[0] + v2 * col[1];
+                        col[0] -= sum * t1;
+                        col[1] -= sum * t2;
                     }
-                    let (c0, c1) = (k * nn, (k + 1) * nn);
-                    for j in i1..=iu {
-                        let sum = h.d[j + c0] + v2 * h.d[j + c1];
-                        h.d[j + c0] -= sum * t1;
-                        h.d[j + c1] -= sum * t2;
-                    }
-                    for j in 0..nn {
-                        let sum = z.d[j + c0] + v2 * z.d[j + c1];
-                        z.d[j + c0] -= sum * t1;
-                        z.d[j + c1] -= sum * t2;
+                    apply2_cols(&mut h.d, nn, k, i1..iu + 1, v2, t1, t2);
+                    if wantz {
+                        apply2_cols(&mut z.d, nn, k, 0..nn, v2, t1, t2);
                     }
                 }
             }
@@ -392,13 +386,55 @@ fn lahqr(h: &mut Dm, z: &mut Dm) -> Result<()> {
                 h.rot_rows(iu - 1, iu, iu + 1..i2 + 1, r.cs, r.sn);
             }
             h.rot_cols(iu - 1, iu, i1..iu - 1, r.cs, r.sn);
-            let nn = z.n;
-            z.rot_cols(iu - 1, iu, 0..nn, r.cs, r.sn);
+            if wantz {
+                z.rot_cols(iu - 1, iu, 0..n, r.cs, r.sn);
+            }
         }
         kdefl = 0;
         i = l as isize - 1;
     }
     Ok(())
+}
+
+/// Apply the 3-element reflector `I − t1·[1; v2; v3]·[1; v2; v3]ᵀ` from the right to columns
+/// `k..k+3` of the column-major `d` (leading dimension `nn`) over `rows`.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn apply3_cols(
+    d: &mut [f64],
+    nn: usize,
+    k: usize,
+    rows: std::ops::Range<usize>,
+    v2: f64,
+    v3: f64,
+    t1: f64,
+    t2: f64,
+    t3: f64,
+) {
+    let (left, right) = d.split_at_mut((k + 1) * nn);
+    let (mid, rest) = right.split_at_mut(nn);
+    let c0 = &mut left[k * nn + rows.start..k * nn + rows.end];
+    let c1 = &mut mid[rows.start..rows.end];
+    let c2 = &mut rest[rows.start..rows.end];
+    for ((x0, x1), x2) in c0.iter_mut().zip(c1.iter_mut()).zip(c2.iter_mut()) {
+        let sum = *x0 + v2 * *x1 + v3 * *x2;
+        *x0 -= sum * t1;
+        *x1 -= sum * t2;
+        *x2 -= sum * t3;
+    }
+}
+
+/// Two-element version of [`apply3_cols`] on columns `k`, `k+1`.
+#[inline]
+fn apply2_cols(d: &mut [f64], nn: usize, k: usize, rows: std::ops::Range<usize>, v2: f64, t1: f64, t2: f64) {
+    let (left, right) = d.split_at_mut((k + 1) * nn);
+    let c0 = &mut left[k * nn + rows.start..k * nn + rows.end];
+    let c1 = &mut right[rows.start..rows.end];
+    for (x0, x1) in c0.iter_mut().zip(c1.iter_mut()) {
+        let sum = *x0 + v2 * *x1;
+        *x0 -= sum * t1;
+        *x1 -= sum * t2;
+    }
 }
 
 /// Move the selected eigenvalues of a real Schur form to the leading diagonal block (as LAPACK
@@ -695,8 +731,9 @@ fn small_sylvester(tl: &[f64], n1: usize, tr: &[f64], n2: usize, b: &[f64]) -> (
         for r in step + 1..m {
             let f = k[r][step] / k[step][step];
             if f != 0.0 {
-                for c in step..m {
-                    k[r][c] -= f * k[step][c];
+                let prow = k[step];
+                for (x, p) in k[r][step..m].iter_mut().zip(&prow[step..m]) {
+                    *x -= f * p;
                 }
                 rhs[r] -= f * rhs[step];
             }
