@@ -1,8 +1,10 @@
 //! One module per subcommand; `run` dispatches.
 
 mod bode;
+mod minreal;
 mod nyquist;
 mod plot_args;
+mod reduce;
 mod show;
 
 use clap::Subcommand;
@@ -16,6 +18,10 @@ pub enum Command {
     Bode(bode::Args),
     /// Nyquist plot of one or more SISO loop transfers to an SVG or PNG file.
     Nyquist(nyquist::Args),
+    /// Balanced model reduction (truncation or singular perturbation) keeping unstable poles.
+    Reduce(reduce::Args),
+    /// Minimal realization: removes uncontrollable and unobservable states.
+    Minreal(minreal::Args),
 }
 
 /// Runs one subcommand; the error text is what the user sees.
@@ -24,5 +30,7 @@ pub fn run(cmd: Command) -> Result<(), String> {
         Command::Show(a) => show::run(a),
         Command::Bode(a) => bode::run(a),
         Command::Nyquist(a) => nyquist::run(a),
+        Command::Reduce(a) => reduce::run(a),
+        Command::Minreal(a) => minreal::run(a),
     }
 }
