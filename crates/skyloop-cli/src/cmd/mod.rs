@@ -3,8 +3,10 @@
 mod bode;
 mod freqresp;
 mod margins;
+mod minreal;
 mod nyquist;
 mod plot_args;
+mod reduce;
 mod show;
 
 use clap::Subcommand;
@@ -22,6 +24,10 @@ pub enum Command {
     Freqresp(freqresp::Args),
     /// Gain, phase, delay and disk margins of a SISO loop transfer L = P·C, and closed-loop stability.
     Margins(margins::Args),
+    /// Balanced model reduction (truncation or singular perturbation) keeping unstable poles.
+    Reduce(reduce::Args),
+    /// Minimal realization: removes uncontrollable and unobservable states.
+    Minreal(minreal::Args),
 }
 
 /// Runs one subcommand; the error text is what the user sees.
@@ -32,5 +38,7 @@ pub fn run(cmd: Command) -> Result<(), String> {
         Command::Nyquist(a) => nyquist::run(a),
         Command::Freqresp(a) => freqresp::run(a),
         Command::Margins(a) => margins::run(a),
+        Command::Reduce(a) => reduce::run(a),
+        Command::Minreal(a) => minreal::run(a),
     }
 }

@@ -1,0 +1,33 @@
+//! `skyloop minreal MODEL`: removes uncontrollable and unobservable states.
+
+use crate::{input, output};
+use skyloop_lti::json::LtiJson;
+use skyloop_lti::minreal::minreal;
+
+/// Arguments of `skyloop minreal`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Transfer-function expression or path to an LTI JSON file.
+    model: String,
+    /// Relative rank tolerance of the staircase reduction (default √ε, as MATLAB).
+    #[arg(long)]
+    tol: Option<f64>,
+    /// Print the minimal model as LTI JSON instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Computes the minimal realization and prints it.
+pub fn run(a: Args) -> Result<(), String> {
+    let sys = input::load_model(&a.model)?;
+    let m = minreal(&sys, a.tol).map_err(|e| e.to_string())?;
+    if a.json {
+        return output::print_json(&LtiJson::from_ss(&m));
+    }
+    println!("{} -> {} states", sys.nx(), m.nx());
+    for (name, x) in [("A", &m.a), ("B", &m.b), ("C", &m.c), ("D", &m.d)] {
+        println!("{name} =");
+        print!("{}", output::matrix_table(x));
+    }
+    Ok(())
+}
