@@ -14,6 +14,8 @@ pub mod convert;
 pub mod discretize;
 pub mod expr;
 pub mod interconnect;
+pub mod pade;
 pub mod poly;
 pub mod tf;
 pub mod timeresp;
+pub mod zpk;
