@@ -115,7 +115,7 @@ pub fn ss_entry_zpk(sys: &StateSpace, i: usize, j: usize) -> Result<(Vec<c64>, V
 
 /// Restriction of (A, b, c) to the Krylov space of (A, b), the controllable subspace of a single
 /// input: an orthonormal basis by Arnoldi with full re-orthogonalization, stopped when the new
-/// direction is below 1e-10 of the data scale. Returns (QᵀAQ, Qᵀb, Qᵀc) with c given as a column.
+/// direction is below n·1e-13 of the data scale (the rank tolerance of SLICOT AB01ND is n·ε·‖[A B]‖). Returns (QᵀAQ, Qᵀb, Qᵀc) with c given as a column.
 fn krylov_part(a: &Mat<f64>, b: &Mat<f64>, c: &Mat<f64>) -> (Mat<f64>, Mat<f64>, Mat<f64>) {
     let n = a.nrows();
     let scale = a.norm_l2().max(b.norm_l2()).max(f64::MIN_POSITIVE);
@@ -129,7 +129,7 @@ fn krylov_part(a: &Mat<f64>, b: &Mat<f64>, c: &Mat<f64>) -> (Mat<f64>, Mat<f64>,
             }
         }
         let nv = v.iter().map(|x| x * x).sum::<f64>().sqrt();
-        if nv <= 1e-10 * scale {
+        if nv <= 1e-13 * n as f64 * scale {
             break;
         }
         let qn: Vec<f64> = v.iter().map(|x| x / nv).collect();

@@ -2,6 +2,7 @@
 
 use crate::convert::{ss_entry_zpk, tf_to_ss};
 use crate::error::{LtiError, Result};
+use crate::interconnect::series;
 use crate::poly::Poly;
 use crate::ss::StateSpace;
 use crate::tf::TransferFunction;
@@ -84,10 +85,86 @@ impl Zpk {
         Ok(tf)
     }
 
-    /// A state-space realization (via the transfer function).
+    /// A state-space realization: SISO as a cascade of first- and second-order sections (no
+    /// expanded polynomials, so clustered roots stay accurate); MIMO via the transfer function.
     pub fn to_ss(&self) -> Result<StateSpace> {
+        if self.k.len() == 1 && self.k[0].len() == 1 {
+            let s = zpk_sections_ss(&self.z[0][0], &self.p[0][0], self.k[0][0], self.dt)?;
+            return s.with_delays(self.input_delay.clone(), self.output_delay.clone());
+        }
         tf_to_ss(&self.to_tf()?)
     }
+}
+
+/// Real factors of a root list: conjugate pairs as quadratics, real roots as linears.
+fn real_factors(roots: &[c64]) -> Result<Vec<Poly>> {
+    let mut rest: Vec<c64> = roots.to_vec();
+    let mut out = Vec::new();
+    while let Some(r) = rest.pop() {
+        if r.im == 0.0 {
+            out.push(Poly::new(vec![1.0, -r.re]));
+            continue;
+        }
+        let k = rest
+            .iter()
+            .enumerate()
+            .map(|(k, x)| (k, (x - r.conj()).norm()))
+            .fold(None, |acc: Option<(usize, f64)>, b| match acc {
+                Some(a) if a.1 <= b.1 => Some(a),
+                _ => Some(b),
+            })
+            .filter(|(_, d)| *d <= 1e-8 * (1.0 + r.norm()))
+            .map(|(k, _)| k)
+            .ok_or_else(|| LtiError::InvalidArgument(format!("complex root {r} has no conjugate partner")))?;
+        rest.remove(k);
+        out.push(Poly::new(vec![1.0, -2.0 * r.re, r.norm_sqr()]));
+    }
+    Ok(out)
+}
+
+/// SISO realization of `k·Π(s − z)/Π(s − p)` as a series of sections of degree ≤ 2, each zero
+/// factor attached to a pole factor of at least its degree.
+pub(crate) fn zpk_sections_ss(z: &[c64], p: &[c64], k: f64, dt: f64) -> Result<StateSpace> {
+    if z.len() > p.len() {
+        return Err(LtiError::Unsupported("more zeros than poles: improper model".into()));
+    }
+    let mut zf = real_factors(z)?;
+    let mut pf = real_factors(p)?;
+    // Quadratic poles first so quadratic zero factors find a partner.
+    pf.sort_by_key(|f| std::cmp::Reverse(f.degree()));
+    zf.sort_by_key(|f| std::cmp::Reverse(f.degree()));
+    let mut sections: Vec<(Poly, Poly)> = Vec::new();
+    let mut zi = 0;
+    for den in pf {
+        let mut num = Poly::one();
+        while zi < zf.len() && num.degree() + zf[zi].degree() <= den.degree() {
+            num = &num * &zf[zi];
+            zi += 1;
+        }
+        sections.push((num, den));
+    }
+    // Leftover zero factors (a quadratic zero with only linear poles left): merge pairs of sections.
+    while zi < zf.len() {
+        let (n1, d1) = sections
+            .pop()
+            .ok_or_else(|| LtiError::Numerical("zpk sections".into()))?;
+        let (n2, d2) = sections
+            .pop()
+            .ok_or_else(|| LtiError::Numerical("zpk sections".into()))?;
+        let mut num = &n1 * &n2;
+        let den = &d1 * &d2;
+        while zi < zf.len() && num.degree() + zf[zi].degree() <= den.degree() {
+            num = &num * &zf[zi];
+            zi += 1;
+        }
+        sections.insert(0, (num, den));
+    }
+    let mut acc = StateSpace::gain(faer::Mat::from_fn(1, 1, |_, _| k), dt)?;
+    for (num, den) in sections {
+        let sec = tf_to_ss(&TransferFunction::siso(num, den, dt)?)?;
+        acc = series(&acc, &sec)?;
+    }
+    Ok(acc)
 }
 
 #[cfg(test)]
