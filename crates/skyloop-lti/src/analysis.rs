@@ -133,10 +133,23 @@ pub(crate) fn generalized_eigenvalues(mut a: Mat<f64>, mut e: Mat<f64>) -> Resul
         Default::default(),
     )
     .map_err(|err| LtiError::Numerical(format!("QZ failed: {err:?}")))?;
-    let alpha = (0..n)
+    let mut alpha: Vec<c64> = (0..n)
         .map(|k| c64::new(s_re.column_vector()[k], s_im.column_vector()[k]))
         .collect();
-    Ok((alpha, (0..n).map(|k| beta.column_vector()[k]).collect()))
+    let mut beta: Vec<f64> = (0..n).map(|k| beta.column_vector()[k]).collect();
+    // faer 0.24's real QZ without eigenvectors returns a wrong second member of a complex pair
+    // (checked against the eigenvalues of E⁻¹A); the pair is conjugate, so mirror the first member.
+    let mut k = 0;
+    while k < n {
+        if alpha[k].im != 0.0 && k + 1 < n {
+            alpha[k + 1] = alpha[k].conj();
+            beta[k + 1] = beta[k];
+            k += 2;
+        } else {
+            k += 1;
+        }
+    }
+    Ok((alpha, beta))
 }
 
 fn frob(m: &Mat<f64>) -> f64 {
@@ -271,5 +284,26 @@ mod tests {
         assert!((dcgain(&g).unwrap()[(0, 0)] - 1.5).abs() < 1e-13);
         let i = parse_model("1/s").unwrap();
         assert!(dcgain(&i).unwrap()[(0, 0)].is_infinite());
+    }
+}
+
+#[cfg(test)]
+mod qz_tests {
+    use super::*;
+
+    #[test]
+    fn pencil_eigenvalues_match_dense() {
+        let a = Mat::from_fn(3, 3, |i, j| {
+            [[-1.0, 2.0, 0.5], [-4.0, -2.0, 1.0], [0.3, 0.1, -3.0]][i][j]
+        });
+        let e = Mat::from_fn(3, 3, |i, j| [[1.0, 0.2, 0.0], [0.1, 0.7, 0.3], [0.0, 0.4, 1.5]][i][j]);
+        let (al, be) = generalized_eigenvalues(a.clone(), e.clone()).unwrap();
+        let mut want = e.partial_piv_lu().solve(&a).eigenvalues().unwrap();
+        for k in 0..3 {
+            let z = al[k] / be[k];
+            let pos = want.iter().position(|w| (w - z).norm() < 1e-12 * (1.0 + w.norm()));
+            assert!(pos.is_some(), "{z} not among {want:?}");
+            want.remove(pos.unwrap_or(0));
+        }
     }
 }

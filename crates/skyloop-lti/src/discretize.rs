@@ -5,11 +5,9 @@
 //! delay is exact through one extra state per delayed input (Franklin–Powell, modified z-transform).
 
 use crate::analysis::{dcgain, poles, zeros};
-use crate::convert::tf_to_ss;
 use crate::error::{LtiError, Result};
-use crate::poly::Poly;
 use crate::ss::StateSpace;
-use crate::tf::TransferFunction;
+use crate::zpk::{zpk_sections_ss, Zpk};
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
 use skyloop_linalg::expm::expm;
@@ -186,32 +184,49 @@ fn check_regular(lu: &faer::linalg::solvers::FullPivLu<f64>, n: usize, what: &st
 
 /// Pole-zero matching for SISO models: z = e^{sT} for every finite pole and zero, DC gain matched
 /// (for a pole at s = 0 the gain is matched at the real point s₀ = 0.1/dt instead).
-fn matched(sys: &StateSpace, dt: f64) -> Result<StateSpace> {
+pub fn matched_zpk(sys: &StateSpace, dt: f64) -> Result<Zpk> {
     if sys.nu() != 1 || sys.ny() != 1 {
         return Err(LtiError::Unsupported(
             "matched discretization is defined for SISO models only".into(),
         ));
     }
+    if !(dt.is_finite() && dt > 0.0) {
+        return Err(LtiError::InvalidArgument(format!(
+            "sample time must be finite and > 0, got {dt}"
+        )));
+    }
     let z: Vec<c64> = zeros(sys)?.into_iter().map(|s| (s * dt).exp()).collect();
     let p: Vec<c64> = poles(sys)?.into_iter().map(|s| (s * dt).exp()).collect();
-    let num = Poly::from_roots(&z);
-    let den = Poly::from_roots(&p);
+    // Evaluate the discrete gain in product form: expanded polynomials lose the digits of
+    // factors (1 − e^{pT}) that are small when poles cluster near z = 1.
+    let root_ratio = |x: f64| -> f64 {
+        let zx = c64::new(x, 0.0);
+        let n: c64 = z.iter().map(|r| zx - r).product();
+        let d: c64 = p.iter().map(|r| zx - r).product();
+        (n / d).re
+    };
     let g0 = dcgain(sys)?[(0, 0)];
     let (gc, gd) = if g0.is_finite() && g0 != 0.0 {
-        (g0, num.eval_real(1.0) / den.eval_real(1.0))
+        (g0, root_ratio(1.0))
     } else {
         let s0 = 0.1 / dt;
         let gc = eval_real(sys, s0)?;
-        let z0 = (s0 * dt).exp();
-        (gc, num.eval_real(z0) / den.eval_real(z0))
+        (gc, root_ratio((s0 * dt).exp()))
     };
     if gc == 0.0 || !gd.is_finite() || gd == 0.0 {
         return Err(LtiError::Numerical(
             "matched: cannot match the gain (zero or infinite)".into(),
         ));
     }
-    let tf = TransferFunction::siso(num.scale(gc / gd), den, dt)?;
-    tf_to_ss(&tf)
+    let mut out = Zpk::siso(z, p, gc / gd, dt);
+    out.input_delay = sys.input_delay.clone();
+    out.output_delay = sys.output_delay.clone();
+    Ok(out)
+}
+
+fn matched(sys: &StateSpace, dt: f64) -> Result<StateSpace> {
+    let z = matched_zpk(sys, dt)?;
+    zpk_sections_ss(&z.z[0][0], &z.p[0][0], z.k[0][0], dt)
 }
 
 /// C (s₀I − A)⁻¹ B + D at a real point s₀ for a SISO model.
