@@ -111,6 +111,15 @@ fn linf_continuous(sys: &StateSpace) -> Result<(f64, f64)> {
     if gamma == 0.0 {
         return Ok((0.0, 0.0));
     }
+    // Climb the best initial peak locally: when it is the global one, the first Hamiltonian
+    // eigenvalue solve already certifies the bound.
+    if w_peak.is_finite() && w_peak > 0.0 {
+        let (x, fx) = crate::roots::golden_max(|w| sigma_max(&ev, w).unwrap_or(0.0), 0.7 * w_peak, 1.4 * w_peak, 1e-9);
+        if fx > gamma {
+            gamma = fx;
+            w_peak = x;
+        }
+    }
     for _iter in 0..100 {
         let level = (1.0 + 2.0 * REL_TOL) * gamma;
         let freqs = imaginary_axis_crossings(sys, level)?;
