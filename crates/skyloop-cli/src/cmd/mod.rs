@@ -1,9 +1,12 @@
 //! One module per subcommand; `run` dispatches.
 
 mod bode;
+mod identify;
+mod log;
 mod nyquist;
 mod plot_args;
 mod show;
+mod signal;
 
 use clap::Subcommand;
 
@@ -16,6 +19,12 @@ pub enum Command {
     Bode(bode::Args),
     /// Nyquist plot of one or more SISO loop transfers to an SVG or PNG file.
     Nyquist(nyquist::Args),
+    /// Excitation signals (chirp, PRBS, multisine) written as CSV.
+    Signal(signal::Args),
+    /// Frequency response (and parametric fit) from a flight log.
+    Identify(identify::Args),
+    /// Inspect flight logs (ULog, blackbox, CSV).
+    Log(log::Args),
 }
 
 /// Runs one subcommand; the error text is what the user sees.
@@ -24,5 +33,8 @@ pub fn run(cmd: Command) -> Result<(), String> {
         Command::Show(a) => show::run(a),
         Command::Bode(a) => bode::run(a),
         Command::Nyquist(a) => nyquist::run(a),
+        Command::Signal(a) => signal::run(a),
+        Command::Identify(a) => identify::run(a),
+        Command::Log(a) => log::run(a),
     }
 }
