@@ -97,3 +97,16 @@ fn plotting_bad_input_exits_2() {
         assert!(String::from_utf8_lossy(&r.stderr).starts_with("error: "), "{c:?}");
     }
 }
+
+#[test]
+fn bode_marks_the_bicopter_margins() {
+    // P from eq. (8) and C from eq. (12) of the bicopter paper; the paper prints PM 65.8° at 1.47 Hz, GM 7.25 dB.
+    let l = "0.0887*exp(-0.032*s)/(0.0256*s+1) * (42^2 - s^2)/s * 2.221e5/(s^2+666.4*s+2.221e5) * \
+             24.02*(s+54.01)*(s+0.2474)*(s^2+139.3*s+2.624e4)/(s*(s^2+24.14*s+8544)*(s^2+232.4*s+7.041e4))";
+    let out = tmp("bicopter_l.svg");
+    let r = skyloop(&["bode", l, "--margins", "--out", out.to_str().unwrap_or_default()]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let svg = std::fs::read_to_string(&out).expect("svg");
+    assert!(svg.contains("PM 65.") && svg.contains("at 1.47"), "margins not marked");
+    assert!(svg.contains("GM 7.2"), "gain margin not marked");
+}

@@ -46,9 +46,12 @@ impl FreqEvaluator {
     pub fn new(sys: &StateSpace) -> Result<Self> {
         sys.validate()?;
         let (n, ny, nu) = (sys.nx(), sys.ny(), sys.nu());
-        let mut a = sys.a.clone();
-        let mut b = sys.b.clone();
-        let mut c = sys.c.clone();
+        // Balance first (dgebal, T = P·D): Hessenberg reduction of T⁻¹AT with T⁻¹B and CT is far
+        // more accurate for badly scaled (e.g. companion) realizations.
+        let bal = skyloop_linalg::balance::try_balance(sys.a.as_ref())?;
+        let mut a = bal.a.clone();
+        let mut b = Mat::from_fn(n, nu, |i, j| sys.b[(bal.perm[i], j)] / bal.scale[i]);
+        let mut c = Mat::from_fn(ny, n, |i, j| sys.c[(i, bal.perm[j])] * bal.scale[j]);
         hessenberg_reduce(&mut a, &mut b, &mut c);
         let mut delay = vec![0.0; ny * nu];
         for i in 0..ny {
@@ -418,10 +421,7 @@ pub fn pole_summary(sys: &StateSpace) -> Result<PoleSummary> {
     if sys.nx() == 0 {
         return Ok(out);
     }
-    let eig = sys
-        .a
-        .eigenvalues()
-        .map_err(|e| LtiError::Numerical(format!("eigenvalues of A: {e:?}")))?;
+    let eig = balanced_eigenvalues(&sys.a)?;
     let norm_a = sys.a.norm_l2().max(1.0);
     let tol0 = 1e-7 * norm_a;
     for p in eig {
@@ -450,6 +450,31 @@ pub fn pole_summary(sys: &StateSpace) -> Result<PoleSummary> {
     }
     out.axis_w.sort_by(f64::total_cmp);
     Ok(out)
+}
+
+/// Eigenvalues of A after dgebal balancing (skyloop_linalg::balance): eigenvalues isolated by the
+/// permutation are exact (integrators of companion forms stay exactly at 0), the rest come from
+/// faer on the scaled block, which is far better conditioned for companion-like matrices.
+pub fn balanced_eigenvalues(a: &Mat<f64>) -> Result<Vec<c64>> {
+    let bal = skyloop_linalg::balance::try_balance(a.as_ref())?;
+    let n = a.nrows();
+    if n == 0 {
+        return Ok(Vec::new());
+    }
+    let mut eig: Vec<c64> = (0..bal.ilo)
+        .chain(bal.ihi + 1..n)
+        .map(|i| c64::new(bal.a[(i, i)], 0.0))
+        .collect();
+    if bal.ihi + 1 > bal.ilo {
+        let m = bal.ihi + 1 - bal.ilo;
+        let block = bal.a.as_ref().submatrix(bal.ilo, bal.ilo, m, m).to_owned();
+        eig.extend(
+            block
+                .eigenvalues()
+                .map_err(|e| LtiError::Numerical(format!("eigenvalues of A: {e:?}")))?,
+        );
+    }
+    Ok(eig)
 }
 
 /// Smallest and largest characteristic frequency (rad/s) of the model: magnitudes of the poles

@@ -90,10 +90,7 @@ fn linf_continuous(sys: &StateSpace) -> Result<(f64, f64)> {
         return Ok((d_gain, 0.0));
     }
     let ev = FreqEvaluator::new(sys)?;
-    let eig = sys
-        .a
-        .eigenvalues()
-        .map_err(|e| LtiError::Numerical(format!("eigenvalues of A: {e:?}")))?;
+    let eig = crate::freqresp::balanced_eigenvalues(&sys.a)?;
     // Initial lower bound: ω = 0, ω = ∞, and the magnitudes of the poles (cheap at O(n²) each).
     let (mut gamma, mut w_peak) = (d_gain, f64::INFINITY);
     let try_w = |w: f64, gamma: &mut f64, w_peak: &mut f64| -> Result<()> {

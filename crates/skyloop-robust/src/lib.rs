@@ -1,1 +1,3 @@
 //! skyloop-robust.
+pub mod mu;
+pub mod uncertainty;

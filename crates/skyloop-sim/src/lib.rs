@@ -1,4 +1,5 @@
 //! skyloop-sim.
+pub mod analysis;
 pub mod disturbance;
 pub mod error;
 pub mod flight;

@@ -3,6 +3,8 @@
 mod bode;
 mod identify;
 mod log;
+mod freqresp;
+mod margins;
 mod nyquist;
 mod plot_args;
 mod show;
@@ -25,6 +27,10 @@ pub enum Command {
     Identify(identify::Args),
     /// Inspect flight logs (ULog, blackbox, CSV).
     Log(log::Args),
+    /// Complex frequency response at given frequencies (Hz), exact with delays.
+    Freqresp(freqresp::Args),
+    /// Gain, phase, delay and disk margins of a SISO loop transfer L = P·C, and closed-loop stability.
+    Margins(margins::Args),
 }
 
 /// Runs one subcommand; the error text is what the user sees.
@@ -36,5 +42,7 @@ pub fn run(cmd: Command) -> Result<(), String> {
         Command::Signal(a) => signal::run(a),
         Command::Identify(a) => identify::run(a),
         Command::Log(a) => log::run(a),
+        Command::Freqresp(a) => freqresp::run(a),
+        Command::Margins(a) => margins::run(a),
     }
 }

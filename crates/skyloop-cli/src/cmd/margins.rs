@@ -1,0 +1,104 @@
+//! `skyloop margins MODEL [--json]`: gain, phase, delay and disk margins of a SISO loop L = P·C,
+//! exact with delays, and closed-loop stability.
+
+use crate::{input, output};
+use serde_json::{json, Value};
+use skyloop_lti::margins::{allmargin, diskmargin, margin_from};
+use std::f64::consts::PI;
+
+/// Arguments of `skyloop margins`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Loop transfer L (expression or LTI JSON path); the loop is closed as u = −y (L = P·C).
+    model: String,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+fn fin(x: f64) -> Value {
+    if x.is_finite() {
+        json!(x)
+    } else {
+        Value::Null
+    }
+}
+
+fn hz(w: f64) -> f64 {
+    w / (2.0 * PI)
+}
+
+/// Computes every margin and prints them.
+pub fn run(a: Args) -> Result<(), String> {
+    let sys = input::load_model(&a.model)?;
+    let all = allmargin(&sys).map_err(|e| e.to_string())?;
+    let m = margin_from(&all);
+    let dm = diskmargin(&sys).map_err(|e| e.to_string())?;
+    if a.json {
+        return output::print_json(&json!({
+            "gain_margin_db": fin(m.gm_db),
+            "gain_margin_freq_hz": fin(hz(m.gm_w_rad_s)),
+            "phase_margin_deg": fin(m.pm_deg),
+            "phase_margin_freq_hz": fin(hz(m.pm_w_rad_s)),
+            "delay_margin_s": fin(m.delay_margin_s),
+            "disk_margin": {
+                "alpha": fin(dm.alpha),
+                "gain_db": [fin(dm.gain_db[0]), fin(dm.gain_db[1])],
+                "phase_deg": fin(dm.phase_deg),
+                "freq_hz": fin(hz(dm.w_rad_s)),
+            },
+            "closed_loop_stable": all.stable,
+            "all_gain_margins": all.gain_margins.iter()
+                .map(|g| json!({"gm_db": fin(g.gm_db), "freq_hz": hz(g.w_rad_s)}))
+                .collect::<Vec<_>>(),
+            "all_phase_margins": all.phase_margins.iter()
+                .map(|p| json!({"pm_deg": p.pm_deg, "freq_hz": hz(p.w_rad_s)}))
+                .collect::<Vec<_>>(),
+        }));
+    }
+    let opt = |x: f64, unit: &str| {
+        if x.is_finite() {
+            format!("{x:.4} {unit}")
+        } else {
+            "inf".to_string()
+        }
+    };
+    let at = |w: f64| {
+        if w.is_finite() {
+            format!(" at {:.4} Hz", hz(w))
+        } else {
+            String::new()
+        }
+    };
+    println!("closed loop        {}", if all.stable { "stable" } else { "UNSTABLE" });
+    println!("gain margin        {}{}", opt(m.gm_db, "dB"), at(m.gm_w_rad_s));
+    println!("phase margin       {}{}", opt(m.pm_deg, "deg"), at(m.pm_w_rad_s));
+    println!("delay margin       {}", opt(m.delay_margin_s, "s"));
+    println!(
+        "disk margin        alpha {:.4}, gain [{}, {}], phase ±{:.2} deg{}",
+        dm.alpha,
+        opt(dm.gain_db[0], "dB"),
+        opt(dm.gain_db[1], "dB"),
+        dm.phase_deg,
+        at(dm.w_rad_s)
+    );
+    println!("gain crossovers ({}):", all.phase_margins.len());
+    for p in &all.phase_margins {
+        println!(
+            "  {:>12.6} Hz   PM {:>9.3} deg   delay margin {:.6} s",
+            hz(p.w_rad_s),
+            p.pm_deg,
+            p.delay_margin_s
+        );
+    }
+    println!("phase crossovers ({}):", all.gain_margins.len());
+    for g in &all.gain_margins {
+        println!("  {:>12.6} Hz   GM {:>9.3} dB", hz(g.w_rad_s), g.gm_db);
+    }
+    println!(
+        "(searched {:.4e} .. {:.4e} Hz)",
+        hz(all.w_range_rad_s.0),
+        hz(all.w_range_rad_s.1)
+    );
+    Ok(())
+}

@@ -1,0 +1,535 @@
+//! Algebraic Riccati equations with cross term and indefinite weighting.
+//!
+//! CARE  `AᵀX + XA − (XB + S)·R⁻¹·(BᵀX + Sᵀ) + Q = 0`, solved by Laub's method: the ordered real
+//! Schur form of the (scaled and balanced) Hamiltonian gives an orthonormal basis `[U11; U21]` of its
+//! stable invariant subspace and `X = U21·U11⁻¹`.
+//!
+//! DARE  `AᵀXA − X − (AᵀXB + S)·(R + BᵀXB)⁻¹·(BᵀXA + Sᵀ) + Q = 0`, solved by the structure-preserving
+//! doubling algorithm (Chu, Fan, Lin & Wang 2004), which needs no inverse of `A`.
+//!
+//! `R` may be indefinite (H∞ synthesis needs it) but must be nonsingular. Every solution is checked:
+//! `X` must be stabilizing (closed-loop eigenvalues strictly inside the left half-plane / unit disc);
+//! otherwise `LinalgError::NoSolution` explains why.
+
+use faer::linalg::solvers::{FullPivLu, Solve};
+use faer::{c64, Mat, MatRef};
+
+use crate::balance::{try_balance_with, BalanceJob};
+use crate::dense::Dm;
+use crate::schur::{eigenvalues, reorder_dm, schur_dm};
+use crate::{LinalgError, Result};
+
+/// Stabilizing solution of a CARE or DARE.
+#[derive(Debug, Clone)]
+pub struct RiccatiSolution {
+    /// Symmetric stabilizing solution `X`.
+    pub x: Mat<f64>,
+    /// Optimal gain: CARE `K = R⁻¹(BᵀX + Sᵀ)`, DARE `K = (R + BᵀXB)⁻¹(BᵀXA + Sᵀ)`; control `u = −K·x`.
+    pub k: Mat<f64>,
+    /// Eigenvalues of the closed loop `A − B·K` (all with negative real part / inside the unit disc).
+    pub closed_loop_eigs: Vec<c64>,
+    /// Relative residual: ‖residual‖_F divided by the sum of the Frobenius norms of its terms.
+    pub residual: f64,
+}
+
+/// Tuning of the Riccati solvers; `Default` is what [`care`] and [`dare`] use.
+#[derive(Debug, Clone, Copy)]
+pub struct RiccatiOptions {
+    /// Balance the Hamiltonian (structure-preserving diagonal scaling) before the Schur form (CARE).
+    pub balance: bool,
+    /// Scale `Q` and `G = B·R⁻¹·Bᵀ` to equal norms before forming the Hamiltonian (CARE).
+    pub scale: bool,
+    /// Hamiltonian eigenvalues with |Re λ| ≤ `axis_tol`·‖H‖ count as on the imaginary axis (CARE);
+    /// for the DARE, closed-loop eigenvalues with |λ| ≥ 1 − `axis_tol` count as on the unit circle.
+    pub axis_tol: f64,
+    /// Maximum number of doubling steps (DARE).
+    pub max_iter: usize,
+}
+
+impl Default for RiccatiOptions {
+    fn default() -> Self {
+        RiccatiOptions {
+            balance: true,
+            scale: true,
+            axis_tol: 1e2 * f64::EPSILON,
+            max_iter: 100,
+        }
+    }
+}
+
+/// Solve the CARE `AᵀX + XA − (XB + S)R⁻¹(BᵀX + Sᵀ) + Q = 0` for its stabilizing solution
+/// (`S = None` means `S = 0`). `R` may be indefinite but not singular.
+pub fn care(
+    a: MatRef<f64>,
+    b: MatRef<f64>,
+    q: MatRef<f64>,
+    r: MatRef<f64>,
+    s: Option<MatRef<f64>>,
+) -> Result<RiccatiSolution> {
+    care_with(a, b, q, r, s, &RiccatiOptions::default())
+}
+
+/// Solve the DARE `AᵀXA − X − (AᵀXB + S)(R + BᵀXB)⁻¹(BᵀXA + Sᵀ) + Q = 0` for its stabilizing
+/// solution (`S = None` means `S = 0`). `R` may be indefinite but not singular.
+pub fn dare(
+    a: MatRef<f64>,
+    b: MatRef<f64>,
+    q: MatRef<f64>,
+    r: MatRef<f64>,
+    s: Option<MatRef<f64>>,
+) -> Result<RiccatiSolution> {
+    dare_with(a, b, q, r, s, &RiccatiOptions::default())
+}
+
+/// Checked data of a Riccati problem with `R⁻¹` folded in: `Ā = A − B·R⁻¹·Sᵀ`, `G = B·R⁻¹·Bᵀ`,
+/// `Q̄ = Q − S·R⁻¹·Sᵀ`.
+struct Reduced {
+    abar: Mat<f64>,
+    g: Mat<f64>,
+    qbar: Mat<f64>,
+    s: Mat<f64>,
+    r_lu: Option<FullPivLu<f64>>,
+}
+
+fn check_finite(m: MatRef<f64>, name: &str, who: &str) -> Result<()> {
+    for j in 0..m.ncols() {
+        for i in 0..m.nrows() {
+            if !m[(i, j)].is_finite() {
+                return Err(LinalgError::InvalidArgument(format!(
+                    "{who}: {name} has NaN or infinite entries"
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn check_symmetric(m: MatRef<f64>, name: &str, who: &str) -> Result<Mat<f64>> {
+    let asym = (m - m.transpose()).norm_l2();
+    let nrm = m.norm_l2();
+    if asym > 1e-10 * nrm.max(f64::MIN_POSITIVE) && asym > 0.0 {
+        return Err(LinalgError::InvalidArgument(format!(
+            "{who}: {name} must be symmetric (‖{name} − {name}ᵀ‖/‖{name}‖ = {:.1e})",
+            asym / nrm
+        )));
+    }
+    Ok(symmetrize(m))
+}
+
+fn symmetrize(m: MatRef<f64>) -> Mat<f64> {
+    let n = m.nrows();
+    Mat::from_fn(n, n, |i, j| 0.5 * (m[(i, j)] + m[(j, i)]))
+}
+
+fn reduce(
+    a: MatRef<f64>,
+    b: MatRef<f64>,
+    q: MatRef<f64>,
+    r: MatRef<f64>,
+    s: Option<MatRef<f64>>,
+    who: &str,
+) -> Result<Reduced> {
+    let n = a.nrows();
+    let m = b.ncols();
+    let dim = |what: String| Err(LinalgError::Dimension(format!("{who}: {what}")));
+    if a.ncols() != n {
+        return dim(format!("A is {}x{}, not square", n, a.ncols()));
+    }
+    if b.nrows() != n {
+        return dim(format!("B has {} rows, A has {}", b.nrows(), n));
+    }
+    if q.nrows() != n || q.ncols() != n {
+        return dim(format!("Q is {}x{}, expected {n}x{n}", q.nrows(), q.ncols()));
+    }
+    if r.nrows() != m || r.ncols() != m {
+        return dim(format!("R is {}x{}, expected {m}x{m}", r.nrows(), r.ncols()));
+    }
+    if let Some(s) = s {
+        if s.nrows() != n || s.ncols() != m {
+            return dim(format!("S is {}x{}, expected {n}x{m}", s.nrows(), s.ncols()));
+        }
+    }
+    for (mat, name) in [(a, "A"), (b, "B"), (q, "Q"), (r, "R")] {
+        check_finite(mat, name, who)?;
+    }
+    if let Some(s) = s {
+        check_finite(s, "S", who)?;
+    }
+    let q = check_symmetric(q, "Q", who)?;
+    let r = check_symmetric(r, "R", who)?;
+    let s = s.map(|s| s.to_owned()).unwrap_or_else(|| Mat::zeros(n, m));
+    if m == 0 {
+        return Ok(Reduced {
+            abar: a.to_owned(),
+            g: Mat::zeros(n, n),
+            qbar: q,
+            s,
+            r_lu: None,
+        });
+    }
+    let lu = r.full_piv_lu();
+    // Reciprocal condition of R from its 1-norm and the 1-norm of its inverse (m is small).
+    let rinv = lu.solve(Mat::<f64>::identity(m, m));
+    let rcond = 1.0 / (norm1(r.as_ref()) * norm1(rinv.as_ref()));
+    if !(rcond > 1e3 * f64::EPSILON) {
+        return Err(LinalgError::Singular(format!(
+            "{who}: R is singular to working precision (reciprocal condition {rcond:.1e})"
+        )));
+    }
+    // [R⁻¹Bᵀ, R⁻¹Sᵀ] in one solve.
+    let mut rhs = Mat::zeros(m, 2 * n);
+    rhs.as_mut().submatrix_mut(0, 0, m, n).copy_from(b.transpose());
+    rhs.as_mut().submatrix_mut(0, n, m, n).copy_from(s.transpose());
+    let sol = lu.solve(&rhs);
+    let rinv_bt = sol.as_ref().submatrix(0, 0, m, n);
+    let rinv_st = sol.as_ref().submatrix(0, n, m, n);
+    let abar = a - b * rinv_st;
+    let g = symmetrize((b * rinv_bt).as_ref());
+    let qbar = symmetrize((&q - &s * rinv_st).as_ref());
+    Ok(Reduced {
+        abar,
+        g,
+        qbar,
+        s,
+        r_lu: Some(lu),
+    })
+}
+
+fn norm1(m: MatRef<f64>) -> f64 {
+    (0..m.ncols())
+        .map(|j| (0..m.nrows()).map(|i| m[(i, j)].abs()).sum::<f64>())
+        .fold(0.0, f64::max)
+}
+
+/// [`care`] with explicit options.
+pub fn care_with(
+    a: MatRef<f64>,
+    b: MatRef<f64>,
+    q: MatRef<f64>,
+    r: MatRef<f64>,
+    s: Option<MatRef<f64>>,
+    opts: &RiccatiOptions,
+) -> Result<RiccatiSolution> {
+    const WHO: &str = "care";
+    let n = a.nrows();
+    let red = reduce(a, b, q, r, s, WHO)?;
+    if n == 0 {
+        return Ok(RiccatiSolution {
+            x: Mat::zeros(0, 0),
+            k: Mat::zeros(b.ncols(), 0),
+            closed_loop_eigs: vec![],
+            residual: 0.0,
+        });
+    }
+
+    // Scale X = σ·Y so that ‖σG‖ = ‖Q̄/σ‖ (SLICOT SB02MD's scaling): the Hamiltonian's blocks
+    // then have comparable norms.
+    let (gn, qn) = (red.g.norm_l2(), red.qbar.norm_l2());
+    let sigma = if opts.scale && gn > 0.0 && qn > 0.0 {
+        (qn / gn).sqrt()
+    } else {
+        1.0
+    };
+    let g = &red.g * sigma;
+    let qs = &red.qbar * (1.0 / sigma);
+
+    let mut h = Dm::zeros(2 * n);
+    for j in 0..n {
+        for i in 0..n {
+            h[(i, j)] = red.abar[(i, j)];
+            h[(i, j + n)] = -g[(i, j)];
+            h[(i + n, j)] = -qs[(i, j)];
+            h[(i + n, j + n)] = -red.abar[(j, i)];
+        }
+    }
+
+    // Structure-preserving balancing: D = diag(D1, D1⁻¹) keeps H Hamiltonian; the ARE of the
+    // balanced data has solution Y' = D1·Y·D1.
+    let mut d1 = vec![1.0; n];
+    if opts.balance {
+        let hm = h.to_mat();
+        let bal = try_balance_with(
+            hm.as_ref(),
+            BalanceJob {
+                permute: false,
+                scale: true,
+            },
+        )?;
+        for (i, di) in d1.iter_mut().enumerate() {
+            let e = ((bal.scale[i].log2() - bal.scale[i + n].log2()) / 2.0).round();
+            *di = 2f64.powi(e as i32);
+        }
+        for j in 0..2 * n {
+            for i in 0..2 * n {
+                let di = if i < n { d1[i] } else { 1.0 / d1[i - n] };
+                let dj = if j < n { d1[j] } else { 1.0 / d1[j - n] };
+                h[(i, j)] *= dj / di;
+            }
+        }
+    }
+    let hnorm = h.d.iter().fold(0.0f64, |acc, v| acc.hypot(*v));
+
+    let (mut t, mut z) = schur_dm(h)?;
+    let tol = opts.axis_tol * hnorm.max(f64::MIN_POSITIVE);
+    let mut near_axis = None;
+    let mut k = 0;
+    while k < 2 * n {
+        let re = t[(k, k)];
+        if re.abs() <= tol {
+            near_axis = Some(re);
+        }
+        k += if k + 1 < 2 * n && t[(k + 1, k)] != 0.0 { 2 } else { 1 };
+    }
+    if let Some(re) = near_axis {
+        return Err(LinalgError::NoSolution(format!(
+            "care: the Hamiltonian has an eigenvalue on or near the imaginary axis (Re λ = {re:.2e}, \
+             ‖H‖ = {hnorm:.2e}); no stabilizing solution"
+        )));
+    }
+    let nstable = reorder_dm(&mut t, &mut z, &|z: c64| z.re < 0.0)?;
+    if nstable != n {
+        return Err(LinalgError::NoSolution(format!(
+            "care: the Hamiltonian has {nstable} stable eigenvalues, {n} needed; no stabilizing solution"
+        )));
+    }
+
+    // X' = U21·U11⁻¹, i.e. U11ᵀ·X' = U21ᵀ (X' is symmetric), by full-pivoting LU.
+    let u11t = Mat::from_fn(n, n, |i, j| z[(j, i)]);
+    let u21t = Mat::from_fn(n, n, |i, j| z[(j + n, i)]);
+    let lu = u11t.full_piv_lu();
+    let umax = (0..n).map(|i| lu.U()[(i, i)].abs()).fold(0.0, f64::max);
+    let umin = (0..n).map(|i| lu.U()[(i, i)].abs()).fold(f64::INFINITY, f64::min);
+    if !(umin > 1e2 * f64::EPSILON * umax.max(1.0)) {
+        return Err(LinalgError::NoSolution(format!(
+            "care: U11 of the stable invariant subspace is singular (pivot ratio {:.1e}); \
+             no stabilizing solution (is (A, B) stabilizable?)",
+            umin / umax
+        )));
+    }
+    let xp = lu.solve(&u21t);
+    let x = Mat::from_fn(n, n, |i, j| sigma * 0.5 * (xp[(i, j)] + xp[(j, i)]) / (d1[i] * d1[j]));
+
+    care_finish(a, b, q, &red, x)
+}
+
+/// Gain `K = R⁻¹(BᵀX + Sᵀ)` and relative residual of a CARE solution candidate.
+fn care_gain_residual(
+    a: MatRef<f64>,
+    b: MatRef<f64>,
+    q: MatRef<f64>,
+    red: &Reduced,
+    x: MatRef<f64>,
+) -> (Mat<f64>, f64) {
+    let n = a.nrows();
+    let m = b.ncols();
+    let xbs = x * b + &red.s; // XB + S
+    let k = match &red.r_lu {
+        Some(lu) => lu.solve(xbs.transpose()),
+        None => Mat::zeros(m, n),
+    };
+    let aterm = a.transpose() * x;
+    let res = &aterm + aterm.transpose() - &xbs * &k + q;
+    let denom = q.norm_l2() + 2.0 * aterm.norm_l2() + xbs.norm_l2() * k.norm_l2();
+    let residual = if denom > 0.0 {
+        res.norm_l2() / denom
+    } else {
+        res.norm_l2()
+    };
+    (k, residual)
+}
+
+/// Relative residual of a candidate CARE solution `x`:
+/// ‖AᵀX + XA − (XB + S)R⁻¹(BᵀX + Sᵀ) + Q‖_F / (‖Q‖_F + 2‖AᵀX‖_F + ‖XB + S‖_F·‖R⁻¹(BᵀX + Sᵀ)‖_F).
+pub fn care_residual(
+    a: MatRef<f64>,
+    b: MatRef<f64>,
+    q: MatRef<f64>,
+    r: MatRef<f64>,
+    s: Option<MatRef<f64>>,
+    x: MatRef<f64>,
+) -> Result<f64> {
+    let red = reduce(a, b, q, r, s, "care_residual")?;
+    if x.nrows() != a.nrows() || x.ncols() != a.nrows() {
+        return Err(LinalgError::Dimension(format!(
+            "care_residual: X is {}x{}",
+            x.nrows(),
+            x.ncols()
+        )));
+    }
+    Ok(care_gain_residual(a, b, q, &red, x).1)
+}
+
+/// Closed-loop eigenvalues, stabilizing check and residual of a CARE solution candidate.
+fn care_finish(a: MatRef<f64>, b: MatRef<f64>, q: MatRef<f64>, red: &Reduced, x: Mat<f64>) -> Result<RiccatiSolution> {
+    let (k, residual) = care_gain_residual(a, b, q, red, x.as_ref());
+    let acl = a - b * &k;
+    let eigs = eigenvalues(acl.as_ref())?;
+    if let Some(z) = eigs.iter().find(|z| !(z.re < 0.0)) {
+        return Err(LinalgError::NoSolution(format!(
+            "care: the solution is not stabilizing (closed-loop eigenvalue {z}); no stabilizing solution"
+        )));
+    }
+    Ok(RiccatiSolution {
+        x,
+        k,
+        closed_loop_eigs: eigs,
+        residual,
+    })
+}
+
+/// [`dare`] with explicit options.
+pub fn dare_with(
+    a: MatRef<f64>,
+    b: MatRef<f64>,
+    q: MatRef<f64>,
+    r: MatRef<f64>,
+    s: Option<MatRef<f64>>,
+    opts: &RiccatiOptions,
+) -> Result<RiccatiSolution> {
+    const WHO: &str = "dare";
+    let n = a.nrows();
+    let m = b.ncols();
+    let red = reduce(a, b, q, r, s, WHO)?;
+    if n == 0 {
+        return Ok(RiccatiSolution {
+            x: Mat::zeros(0, 0),
+            k: Mat::zeros(m, 0),
+            closed_loop_eigs: vec![],
+            residual: 0.0,
+        });
+    }
+    // Structure-preserving doubling for X = ĀᵀX(I + GX)⁻¹Ā + Q̄:
+    //   A ← A(I + GH)⁻¹A,  G ← G + A(I + GH)⁻¹GAᵀ,  H ← H + AᵀH(I + GH)⁻¹A;  H → X quadratically.
+    let mut ak = red.abar.clone();
+    let mut gk = red.g.clone();
+    let mut hk = red.qbar.clone();
+    let eye = Mat::<f64>::identity(n, n);
+    let mut converged = false;
+    let mut settling = false;
+    for _ in 0..opts.max_iter {
+        let w = &eye + &gk * &hk;
+        let lu = w.full_piv_lu();
+        let umax = (0..n).map(|i| lu.U()[(i, i)].abs()).fold(0.0, f64::max);
+        let umin = (0..n).map(|i| lu.U()[(i, i)].abs()).fold(f64::INFINITY, f64::min);
+        if !(umin > 1e2 * f64::EPSILON * umax) {
+            return Err(LinalgError::NoSolution(
+                "dare: I + G·H became singular in the doubling iteration; no stabilizing solution \
+                 (or R + BᵀXB singular)"
+                    .into(),
+            ));
+        }
+        let v1 = lu.solve(&ak);
+        let v2 = lu.solve(&gk);
+        let g_next = symmetrize((&gk + &ak * &v2 * ak.transpose()).as_ref());
+        let h_next = symmetrize((&hk + ak.transpose() * &hk * &v1).as_ref());
+        let a_next = &ak * &v1;
+        let change = (&h_next - &hk).norm_l2();
+        let hn = h_next.norm_l2();
+        ak = a_next;
+        gk = g_next;
+        hk = h_next;
+        if !hn.is_finite() {
+            break;
+        }
+        // Quadratic convergence: once the update is at rounding level, one more step settles it.
+        if change <= 4.0 * f64::EPSILON * hn || (settling && change <= 1e-12 * hn) {
+            converged = true;
+            break;
+        }
+        settling = change <= 1e-12 * hn;
+    }
+    if !converged {
+        return Err(LinalgError::NoSolution(format!(
+            "dare: doubling iteration did not converge in {} steps: the symplectic pencil has \
+             eigenvalues on or near the unit circle; no stabilizing solution",
+            opts.max_iter
+        )));
+    }
+    let x = hk;
+    dare_finish(a, b, q, r, &red, x, opts)
+}
+
+/// Gain `K = (R + BᵀXB)⁻¹(BᵀXA + Sᵀ)` and relative residual of a DARE solution candidate.
+fn dare_gain_residual(
+    a: MatRef<f64>,
+    b: MatRef<f64>,
+    q: MatRef<f64>,
+    r: MatRef<f64>,
+    red: &Reduced,
+    x: MatRef<f64>,
+) -> Result<(Mat<f64>, f64)> {
+    let n = a.nrows();
+    let m = b.ncols();
+    let xa = x * a;
+    let xb = x * b;
+    let bxas = b.transpose() * &xa + red.s.transpose(); // BᵀXA + Sᵀ
+    let k = if m == 0 {
+        Mat::zeros(0, n)
+    } else {
+        let rbxb = symmetrize((r + b.transpose() * &xb).as_ref());
+        let lu = rbxb.full_piv_lu();
+        let umax = (0..m).map(|i| lu.U()[(i, i)].abs()).fold(0.0, f64::max);
+        let umin = (0..m).map(|i| lu.U()[(i, i)].abs()).fold(f64::INFINITY, f64::min);
+        if !(umin > 1e2 * f64::EPSILON * umax) {
+            return Err(LinalgError::NoSolution("dare: R + BᵀXB is singular".into()));
+        }
+        lu.solve(&bxas)
+    };
+    let axa = a.transpose() * &xa;
+    let res = &axa - x - bxas.transpose() * &k + q;
+    let denom = axa.norm_l2() + x.norm_l2() + bxas.norm_l2() * k.norm_l2() + q.norm_l2();
+    let residual = if denom > 0.0 {
+        res.norm_l2() / denom
+    } else {
+        res.norm_l2()
+    };
+    Ok((k, residual))
+}
+
+/// Relative residual of a candidate DARE solution `x`: ‖AᵀXA − X − (AᵀXB + S)(R + BᵀXB)⁻¹(BᵀXA + Sᵀ)
+/// + Q‖_F divided by the sum of the Frobenius norms of the four terms.
+pub fn dare_residual(
+    a: MatRef<f64>,
+    b: MatRef<f64>,
+    q: MatRef<f64>,
+    r: MatRef<f64>,
+    s: Option<MatRef<f64>>,
+    x: MatRef<f64>,
+) -> Result<f64> {
+    let red = reduce(a, b, q, r, s, "dare_residual")?;
+    if x.nrows() != a.nrows() || x.ncols() != a.nrows() {
+        return Err(LinalgError::Dimension(format!(
+            "dare_residual: X is {}x{}",
+            x.nrows(),
+            x.ncols()
+        )));
+    }
+    Ok(dare_gain_residual(a, b, q, r, &red, x)?.1)
+}
+
+fn dare_finish(
+    a: MatRef<f64>,
+    b: MatRef<f64>,
+    q: MatRef<f64>,
+    r: MatRef<f64>,
+    red: &Reduced,
+    x: Mat<f64>,
+    opts: &RiccatiOptions,
+) -> Result<RiccatiSolution> {
+    let (k, residual) = dare_gain_residual(a, b, q, r, red, x.as_ref())?;
+    let acl = a - b * &k;
+    let eigs = eigenvalues(acl.as_ref())?;
+    if let Some(z) = eigs.iter().find(|z| !(z.norm() < 1.0 - opts.axis_tol)) {
+        return Err(LinalgError::NoSolution(format!(
+            "dare: the solution is not stabilizing (closed-loop eigenvalue {z}, |λ| = {:.6}); \
+             no stabilizing solution",
+            z.norm()
+        )));
+    }
+    Ok(RiccatiSolution {
+        x,
+        k,
+        closed_loop_eigs: eigs,
+        residual,
+    })
+}

@@ -1,0 +1,347 @@
+//! Time responses: step, impulse and lsim, exact for held (piecewise-constant) inputs.
+//!
+//! A continuous model is discretized once with an exact zero-order hold at the grid spacing
+//! (`c2d` zoh, fractional input delays included); delays then are whole-sample shifts, so a step
+//! response is exact at every grid point, delays included.
+
+use crate::analysis::poles;
+use crate::discretize::{c2d, Method};
+use crate::error::{LtiError, Result};
+use crate::ss::StateSpace;
+use skyloop_linalg::expm::expm;
+
+/// Responses to a step or impulse on each input: `y[output][input][k]` at times `t_s[k]` seconds.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TimeResponse {
+    /// Sample times in seconds, uniform, starting at 0.
+    pub t_s: Vec<f64>,
+    /// Output values indexed [output][input][sample].
+    pub y: Vec<Vec<Vec<f64>>>,
+}
+
+/// Response of a simulation: `y[k][output]` and `x[k][state]` at `t_s[k]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimResponse {
+    /// Sample times in seconds.
+    pub t_s: Vec<f64>,
+    /// Outputs indexed [sample][output].
+    pub y: Vec<Vec<f64>>,
+}
+
+/// A uniform grid 0, h, 2h, … from a final time (and sample time), or chosen from the poles:
+/// about 7 time constants of the slowest stable pole, 20 points per period of the fastest pole.
+pub fn auto_grid(sys: &StateSpace, t_final_s: Option<f64>) -> Result<Vec<f64>> {
+    let p = poles(sys)?;
+    let max_delay =
+        sys.input_delay.iter().fold(0.0f64, |a, &b| a.max(b)) + sys.output_delay.iter().fold(0.0f64, |a, &b| a.max(b));
+    // Continuous-equivalent poles for a discrete model.
+    let pc: Vec<_> = if sys.is_continuous() {
+        p
+    } else {
+        p.iter().filter(|z| z.norm() > 0.0).map(|z| z.ln() / sys.dt).collect()
+    };
+    let scale = pc.iter().map(|z| z.norm()).fold(0.0f64, f64::max);
+    let tf = match t_final_s {
+        Some(t) if t.is_finite() && t > 0.0 => t,
+        Some(t) => return Err(LtiError::InvalidArgument(format!("final time must be > 0, got {t}"))),
+        None => {
+            let slow = pc
+                .iter()
+                .filter(|z| z.re < -1e-9 * scale.max(1e-300))
+                .map(|z| -z.re)
+                .fold(f64::INFINITY, f64::min);
+            let any_marginal = pc.iter().any(|z| z.re >= -1e-9 * scale.max(1e-300));
+            let nonzero = pc
+                .iter()
+                .map(|z| z.norm())
+                .filter(|&r| r > 1e-9 * scale)
+                .fold(f64::INFINITY, f64::min);
+            let base = if slow.is_finite() && !any_marginal {
+                7.0 / slow
+            } else if nonzero.is_finite() {
+                10.0 / nonzero
+            } else {
+                10.0
+            };
+            base + 1.2 * max_delay
+        }
+    };
+    if !sys.is_continuous() {
+        let n = (tf / sys.dt).ceil().min(1e6) as usize;
+        return Ok((0..=n).map(|k| k as f64 * sys.dt).collect());
+    }
+    let mut h = tf / 1000.0;
+    if scale > 0.0 {
+        h = h.min(2.0 * std::f64::consts::PI / (20.0 * scale));
+    }
+    let n = (tf / h).ceil().min(1e6) as usize;
+    let h = tf / n as f64;
+    Ok((0..=n).map(|k| k as f64 * h).collect())
+}
+
+/// Checks a time grid is uniform from 0 and returns its spacing.
+fn grid_step(t: &[f64], sys: &StateSpace) -> Result<f64> {
+    if t.len() < 2 {
+        return Err(LtiError::InvalidArgument(
+            "the time grid needs at least two points".into(),
+        ));
+    }
+    let h = t[1] - t[0];
+    if t[0] != 0.0 || !(h > 0.0 && h.is_finite()) {
+        return Err(LtiError::InvalidArgument(
+            "the time grid must start at 0 and increase".into(),
+        ));
+    }
+    for (k, &tk) in t.iter().enumerate() {
+        if (tk - k as f64 * h).abs() > 1e-9 * h * (k as f64).max(1.0) {
+            return Err(LtiError::InvalidArgument(format!(
+                "the time grid is not uniform at index {k}"
+            )));
+        }
+    }
+    if !sys.is_continuous() && (h - sys.dt).abs() > 1e-9 * sys.dt {
+        return Err(LtiError::InvalidArgument(format!(
+            "a discrete model needs the grid spacing equal to dt = {} s",
+            sys.dt
+        )));
+    }
+    Ok(h)
+}
+
+/// A discrete model in row-major arrays with whole-sample input and output delays.
+struct Discrete {
+    n: usize,
+    m: usize,
+    p: usize,
+    a: Vec<f64>,
+    b: Vec<f64>,
+    c: Vec<f64>,
+    d: Vec<f64>,
+    in_shift: Vec<usize>,
+    out_shift: Vec<usize>,
+}
+
+impl Discrete {
+    fn new(sys: &StateSpace, h: f64) -> Result<Discrete> {
+        let sd = if sys.is_continuous() {
+            c2d(sys, h, Method::Zoh)?
+        } else {
+            sys.clone()
+        };
+        let rows = |m: &faer::Mat<f64>| -> Vec<f64> {
+            (0..m.nrows())
+                .flat_map(|i| (0..m.ncols()).map(move |j| m[(i, j)]))
+                .collect()
+        };
+        let shift = |t: &f64| -> Result<usize> {
+            let r = t / sd.dt;
+            if (r - r.round()).abs() > 1e-9 * r.max(1.0) {
+                return Err(LtiError::Unsupported(format!(
+                    "delay {t} s is not a whole number of samples of {} s",
+                    sd.dt
+                )));
+            }
+            Ok(r.round() as usize)
+        };
+        Ok(Discrete {
+            n: sd.nx(),
+            m: sd.nu(),
+            p: sd.ny(),
+            a: rows(&sd.a),
+            b: rows(&sd.b),
+            c: rows(&sd.c),
+            d: rows(&sd.d),
+            in_shift: sd.input_delay.iter().map(shift).collect::<Result<_>>()?,
+            out_shift: sd.output_delay.iter().map(shift).collect::<Result<_>>()?,
+        })
+    }
+
+    /// Simulates `nt` samples from `x0` with input `u(k, j)`; returns y[k][i].
+    fn run(&self, nt: usize, x0: &[f64], u: impl Fn(usize, usize) -> f64) -> Vec<Vec<f64>> {
+        let (n, m, p) = (self.n, self.m, self.p);
+        let mut x = x0.to_vec();
+        let mut xn = vec![0.0; n];
+        let mut uk = vec![0.0; m];
+        let mut ylag = vec![vec![0.0; p]; nt];
+        for k in 0..nt {
+            for (j, v) in uk.iter_mut().enumerate() {
+                let s = self.in_shift[j];
+                *v = if k >= s { u(k - s, j) } else { 0.0 };
+            }
+            for i in 0..p {
+                let cr = &self.c[i * n..(i + 1) * n];
+                let dr = &self.d[i * m..(i + 1) * m];
+                let mut acc = 0.0;
+                for q in 0..n {
+                    acc += cr[q] * x[q];
+                }
+                for j in 0..m {
+                    acc += dr[j] * uk[j];
+                }
+                ylag[k][i] = acc;
+            }
+            for i in 0..n {
+                let ar = &self.a[i * n..(i + 1) * n];
+                let br = &self.b[i * m..(i + 1) * m];
+                let mut acc = 0.0;
+                for q in 0..n {
+                    acc += ar[q] * x[q];
+                }
+                for j in 0..m {
+                    acc += br[j] * uk[j];
+                }
+                xn[i] = acc;
+            }
+            std::mem::swap(&mut x, &mut xn);
+        }
+        (0..nt)
+            .map(|k| {
+                (0..p)
+                    .map(|i| {
+                        let s = self.out_shift[i];
+                        if k >= s {
+                            ylag[k - s][i]
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+}
+
+/// Unit step on each input in turn, zero initial state; `t_s` uniform from 0 (auto when None).
+pub fn step(sys: &StateSpace, t_s: Option<&[f64]>) -> Result<TimeResponse> {
+    let t = match t_s {
+        Some(t) => t.to_vec(),
+        None => auto_grid(sys, None)?,
+    };
+    let h = grid_step(&t, sys)?;
+    let dm = Discrete::new(sys, h)?;
+    let x0 = vec![0.0; dm.n];
+    let mut y = vec![vec![Vec::new(); sys.nu()]; sys.ny()];
+    for j in 0..sys.nu() {
+        let r = dm.run(t.len(), &x0, |_, q| f64::from(u8::from(q == j)));
+        for (i, yi) in y.iter_mut().enumerate() {
+            yi[j] = r.iter().map(|row| row[i]).collect();
+        }
+    }
+    Ok(TimeResponse { t_s: t, y })
+}
+
+/// Impulse response on each input in turn. Continuous time: `C e^{A(t−τ)} B` after the delay τ (the
+/// Dirac part of D is left out, as python-control does); discrete time: the unit pulse u[0] = 1.
+pub fn impulse(sys: &StateSpace, t_s: Option<&[f64]>) -> Result<TimeResponse> {
+    let t = match t_s {
+        Some(t) => t.to_vec(),
+        None => auto_grid(sys, None)?,
+    };
+    let h = grid_step(&t, sys)?;
+    let nt = t.len();
+    let mut y = vec![vec![vec![0.0; nt]; sys.nu()]; sys.ny()];
+    if !sys.is_continuous() {
+        let dm = Discrete::new(sys, h)?;
+        let x0 = vec![0.0; dm.n];
+        for j in 0..sys.nu() {
+            let r = dm.run(nt, &x0, |k, q| f64::from(u8::from(q == j && k == 0)));
+            for (i, yi) in y.iter_mut().enumerate() {
+                yi[j] = r.iter().map(|row| row[i]).collect();
+            }
+        }
+        return Ok(TimeResponse { t_s: t, y });
+    }
+    let n = sys.nx();
+    let phi = expm((&sys.a * faer::Scale(h)).as_ref())?;
+    for j in 0..sys.nu() {
+        for i in 0..sys.ny() {
+            let tau = sys.input_delay[j] + sys.output_delay[i];
+            let k0 = (tau / h - 1e-9).ceil().max(0.0) as usize;
+            if k0 >= nt {
+                continue;
+            }
+            let e0 = expm((&sys.a * faer::Scale(k0 as f64 * h - tau)).as_ref())?;
+            let mut x: Vec<f64> = (0..n)
+                .map(|r| (0..n).map(|q| e0[(r, q)] * sys.b[(q, j)]).sum())
+                .collect();
+            for k in k0..nt {
+                y[i][j][k] = (0..n).map(|q| sys.c[(i, q)] * x[q]).sum();
+                x = (0..n).map(|r| (0..n).map(|q| phi[(r, q)] * x[q]).sum()).collect();
+            }
+        }
+    }
+    Ok(TimeResponse { t_s: t, y })
+}
+
+/// Response to sampled inputs `u[k][input]` held constant between the uniform times `t_s[k]`
+/// (zero-order hold), from initial state `x0` (zeros when None).
+pub fn lsim(sys: &StateSpace, u: &[Vec<f64>], t_s: &[f64], x0: Option<&[f64]>) -> Result<SimResponse> {
+    let h = grid_step(t_s, sys)?;
+    if u.len() != t_s.len() || u.iter().any(|r| r.len() != sys.nu()) {
+        return Err(LtiError::Dimension(format!(
+            "lsim: u must have {} rows of {} inputs",
+            t_s.len(),
+            sys.nu()
+        )));
+    }
+    let dm = Discrete::new(sys, h)?;
+    let mut x = vec![0.0; dm.n];
+    if let Some(x0) = x0 {
+        if x0.len() != sys.nx() {
+            return Err(LtiError::Dimension(format!("lsim: x0 must have {} entries", sys.nx())));
+        }
+        x[..sys.nx()].copy_from_slice(x0);
+    }
+    let y = dm.run(t_s.len(), &x, |k, j| u[k][j]);
+    Ok(SimResponse { t_s: t_s.to_vec(), y })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::expr::parse_model;
+
+    #[test]
+    fn first_order_with_delay_closed_form() {
+        // 2·e^{-0.25 s}/(s+1): step 2(1 − e^{−(t−0.25)}), impulse 2e^{−(t−0.25)} for t > 0.25.
+        let g = parse_model("2*exp(-0.25*s)/(s+1)").unwrap();
+        let t: Vec<f64> = (0..=100).map(|k| k as f64 * 0.1).collect();
+        let s = step(&g, Some(&t)).unwrap();
+        let im = impulse(&g, Some(&t)).unwrap();
+        for (k, &tk) in t.iter().enumerate() {
+            let (ws, wi) = if tk > 0.25 {
+                (2.0 * (1.0 - (-(tk - 0.25)).exp()), 2.0 * (-(tk - 0.25)).exp())
+            } else {
+                (0.0, 0.0)
+            };
+            assert!((s.y[0][0][k] - ws).abs() < 1e-13, "step t={tk}");
+            assert!((im.y[0][0][k] - wi).abs() < 1e-13, "impulse t={tk}");
+        }
+    }
+
+    #[test]
+    fn auto_grid_covers_settling() {
+        let g = parse_model("1/(s+0.5)").unwrap();
+        let r = step(&g, None).unwrap();
+        let tf = *r.t_s.last().unwrap();
+        assert!(tf >= 14.0 - 1e-9, "7 time constants of 2 s: {tf}");
+        // Final value within e^{-7} of the DC gain 2 (closed form).
+        assert!((r.y[0][0].last().unwrap() - 2.0).abs() < 2.0 * 1e-3);
+    }
+
+    #[test]
+    fn lsim_matches_step_and_rejects_bad_input() {
+        let g = parse_model("(s+3)/(s^2+2*s+5)").unwrap();
+        let t: Vec<f64> = (0..50).map(|k| k as f64 * 0.05).collect();
+        let u = vec![vec![1.0]; t.len()];
+        let l = lsim(&g, &u, &t, None).unwrap();
+        let s = step(&g, Some(&t)).unwrap();
+        for k in 0..t.len() {
+            assert!((l.y[k][0] - s.y[0][0][k]).abs() < 1e-15);
+        }
+        assert!(lsim(&g, &u[..10], &t, None).is_err());
+        let bad_t = vec![0.0, 0.1, 0.3];
+        assert!(lsim(&g, &u[..3], &bad_t, None).is_err());
+        assert!(step(&g, Some(&[1.0, 2.0])).is_err());
+    }
+}
