@@ -1,6 +1,8 @@
 //! One module per subcommand; `run` dispatches.
 
 mod bode;
+mod identify;
+mod log;
 mod freqresp;
 mod margins;
 mod minreal;
@@ -8,6 +10,7 @@ mod nyquist;
 mod plot_args;
 mod reduce;
 mod show;
+mod signal;
 
 use clap::Subcommand;
 
@@ -20,6 +23,12 @@ pub enum Command {
     Bode(bode::Args),
     /// Nyquist plot of one or more SISO loop transfers to an SVG or PNG file.
     Nyquist(nyquist::Args),
+    /// Excitation signals (chirp, PRBS, multisine) written as CSV.
+    Signal(signal::Args),
+    /// Frequency response (and parametric fit) from a flight log.
+    Identify(identify::Args),
+    /// Inspect flight logs (ULog, blackbox, CSV).
+    Log(log::Args),
     /// Complex frequency response at given frequencies (Hz), exact with delays.
     Freqresp(freqresp::Args),
     /// Gain, phase, delay and disk margins of a SISO loop transfer L = P·C, and closed-loop stability.
@@ -36,6 +45,9 @@ pub fn run(cmd: Command) -> Result<(), String> {
         Command::Show(a) => show::run(a),
         Command::Bode(a) => bode::run(a),
         Command::Nyquist(a) => nyquist::run(a),
+        Command::Signal(a) => signal::run(a),
+        Command::Identify(a) => identify::run(a),
+        Command::Log(a) => log::run(a),
         Command::Freqresp(a) => freqresp::run(a),
         Command::Margins(a) => margins::run(a),
         Command::Reduce(a) => reduce::run(a),
