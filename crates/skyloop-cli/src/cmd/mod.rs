@@ -3,7 +3,9 @@
 mod bode;
 mod nyquist;
 mod plot_args;
+mod reproduce;
 mod show;
+mod simulate;
 
 use clap::Subcommand;
 
@@ -16,6 +18,10 @@ pub enum Command {
     Bode(bode::Args),
     /// Nyquist plot of one or more SISO loop transfers to an SVG or PNG file.
     Nyquist(nyquist::Args),
+    /// Nonlinear 6-DOF closed-loop simulation of a scenario (TOML) → trajectory CSV, metrics JSON, plot.
+    Simulate(simulate::Args),
+    /// Reproduce a paper's claims (quadrotor-ssi) and check them.
+    Reproduce(reproduce::Args),
 }
 
 /// Runs one subcommand; the error text is what the user sees.
@@ -24,5 +30,7 @@ pub fn run(cmd: Command) -> Result<(), String> {
         Command::Show(a) => show::run(a),
         Command::Bode(a) => bode::run(a),
         Command::Nyquist(a) => nyquist::run(a),
+        Command::Simulate(a) => simulate::run(a),
+        Command::Reproduce(a) => reproduce::run(a),
     }
 }
