@@ -11,6 +11,9 @@ mod plot_args;
 mod reduce;
 mod show;
 mod signal;
+mod reproduce;
+mod show;
+mod simulate;
 
 use clap::Subcommand;
 
@@ -37,6 +40,10 @@ pub enum Command {
     Reduce(reduce::Args),
     /// Minimal realization: removes uncontrollable and unobservable states.
     Minreal(minreal::Args),
+    /// Nonlinear 6-DOF closed-loop simulation of a scenario (TOML) → trajectory CSV, metrics JSON, plot.
+    Simulate(simulate::Args),
+    /// Reproduce a paper's claims (quadrotor-ssi) and check them.
+    Reproduce(reproduce::Args),
 }
 
 /// Runs one subcommand; the error text is what the user sees.
@@ -52,5 +59,7 @@ pub fn run(cmd: Command) -> Result<(), String> {
         Command::Margins(a) => margins::run(a),
         Command::Reduce(a) => reduce::run(a),
         Command::Minreal(a) => minreal::run(a),
+        Command::Simulate(a) => simulate::run(a),
+        Command::Reproduce(a) => reproduce::run(a),
     }
 }
