@@ -15,5 +15,4 @@ pub mod schur;
 pub mod sylvester;
 pub mod expm;
 pub mod riccati;
-pub mod schur;
 pub mod logm;
