@@ -110,3 +110,27 @@ fn bode_marks_the_bicopter_margins() {
     assert!(svg.contains("PM 65.") && svg.contains("at 1.47"), "margins not marked");
     assert!(svg.contains("GM 7.2"), "gain margin not marked");
 }
+
+#[test]
+fn closed_loop_step_of_a_lag_settles_at_one_half() {
+    // L = 1/(s+1) closes to T = 1/(s+2): final value 1/2 (closed form).
+    let out = tmp("step.svg");
+    let r = skyloop(&[
+        "step",
+        "1/(s+1)",
+        "--closed-loop",
+        "--tfinal",
+        "10",
+        "--out",
+        out.to_str().unwrap_or_default(),
+        "--json",
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&r.stdout).expect("json");
+    let y = v["models"][0]["y"][0][0].as_array().expect("y");
+    let last = y[y.len() - 1].as_f64().expect("number");
+    assert!((last - 0.5).abs() < 1e-6, "final value {last}");
+    assert!(std::fs::read_to_string(&out).expect("svg").contains("time [s]"));
+    let r = skyloop(&["step", "1/(s+1)"]);
+    assert_eq!(r.status.code(), Some(2));
+}

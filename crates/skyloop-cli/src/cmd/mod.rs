@@ -14,6 +14,7 @@ mod signal;
 mod reproduce;
 mod show;
 mod simulate;
+mod step;
 
 use clap::Subcommand;
 
@@ -22,6 +23,8 @@ use clap::Subcommand;
 pub enum Command {
     /// Print a model's dimensions and matrices (or its LTI JSON with --json).
     Show(show::Args),
+    /// Unit-step responses (optionally of the closed loop T = L/(1+L)), plotted and/or as JSON.
+    Step(step::Args),
     /// Bode plot (magnitude dB, phase deg vs Hz) of one or more models to an SVG or PNG file.
     Bode(bode::Args),
     /// Nyquist plot of one or more SISO loop transfers to an SVG or PNG file.
@@ -50,6 +53,7 @@ pub enum Command {
 pub fn run(cmd: Command) -> Result<(), String> {
     match cmd {
         Command::Show(a) => show::run(a),
+        Command::Step(a) => step::run(a),
         Command::Bode(a) => bode::run(a),
         Command::Nyquist(a) => nyquist::run(a),
         Command::Signal(a) => signal::run(a),

@@ -72,7 +72,7 @@ impl PlotArgs {
 
 /// A legend label for a model argument: the expression itself, its middle elided when long (products
 /// of models often share a long prefix, so both ends are kept).
-fn label(arg: &str) -> String {
+pub fn label(arg: &str) -> String {
     let chars: Vec<char> = arg.chars().collect();
     if chars.len() > 48 {
         let head: String = chars[..22].iter().collect();

@@ -1,0 +1,116 @@
+//! `skyloop step MODEL.. --out FILE [--closed-loop] [--tfinal S] [--json]`: unit-step responses,
+//! plotted overlaid; with `--closed-loop` each SISO model is a loop transfer L and the response is
+//! that of T = L/(1 + L).
+
+use serde::Serialize;
+use skyloop_lti::StateSpace;
+use skyloop_plot::traces::{plot_step, Trace};
+
+use super::plot_args::label;
+use crate::{input, output};
+
+/// Arguments of `skyloop step`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Transfer-function expressions or paths to LTI JSON files; each becomes one curve per channel.
+    #[arg(required = true)]
+    models: Vec<String>,
+    /// Output plot file, `.svg` or `.png` (optional with --json).
+    #[arg(long)]
+    out: Option<std::path::PathBuf>,
+    /// Close a unit negative-feedback loop around each model first (the model is L = P·C).
+    #[arg(long)]
+    closed_loop: bool,
+    /// Final time, s (default: from the slowest pole of all models).
+    #[arg(long)]
+    tfinal: Option<f64>,
+    /// Print `{"models":[{"label","t_s","y":[output][input][k]}]}` instead of a summary.
+    #[arg(long)]
+    json: bool,
+    /// Plot title.
+    #[arg(long, default_value = "Step response")]
+    title: String,
+}
+
+#[derive(Serialize)]
+struct StepJson {
+    label: String,
+    t_s: Vec<f64>,
+    y: Vec<Vec<Vec<f64>>>,
+}
+
+/// Simulates every model on a shared final time and writes the plot and/or JSON.
+pub fn run(a: Args) -> Result<(), String> {
+    if a.out.is_none() && !a.json {
+        return Err("nothing to do: give --out FILE.svg|.png and/or --json".into());
+    }
+    let mut models: Vec<(String, StateSpace)> = Vec::new();
+    for m in &a.models {
+        let mut sys = input::load_model(m)?;
+        if a.closed_loop {
+            if sys.ny() != 1 || sys.nu() != 1 {
+                return Err(format!(
+                    "--closed-loop needs a SISO loop transfer, {m} is {}×{}",
+                    sys.ny(),
+                    sys.nu()
+                ));
+            }
+            let unity = StateSpace::gain(skyloop_lti::Mat::identity(1, 1), sys.dt).map_err(|e| e.to_string())?;
+            sys = skyloop_lti::interconnect::feedback(&sys, &unity, -1.0).map_err(|e| format!("{m}: {e}"))?;
+        }
+        models.push((m.clone(), sys));
+    }
+    // One final time for all, so the curves share the axis: the longest of the automatic ones.
+    let tfinal = match a.tfinal {
+        Some(t) => t,
+        None => {
+            let mut t: f64 = 0.0;
+            for (m, sys) in &models {
+                let g = skyloop_lti::timeresp::auto_grid(sys, None).map_err(|e| format!("{m}: {e}"))?;
+                t = t.max(g[g.len() - 1]);
+            }
+            t
+        }
+    };
+    let mut results = Vec::new();
+    let mut traces = Vec::new();
+    for (m, sys) in &models {
+        let grid = skyloop_lti::timeresp::auto_grid(sys, Some(tfinal)).map_err(|e| format!("{m}: {e}"))?;
+        let r = skyloop_lti::timeresp::step(sys, Some(&grid)).map_err(|e| format!("{m}: {e}"))?;
+        for (i, row) in r.y.iter().enumerate() {
+            for (j, y) in row.iter().enumerate() {
+                let channel = if sys.ny() * sys.nu() > 1 {
+                    format!(" [out {} ← in {}]", i + 1, j + 1)
+                } else {
+                    String::new()
+                };
+                traces.push(Trace {
+                    label: format!("{}{channel}", label(m)),
+                    t: r.t_s.clone(),
+                    y: y.clone(),
+                });
+            }
+        }
+        results.push(StepJson {
+            label: m.clone(),
+            t_s: r.t_s,
+            y: r.y,
+        });
+    }
+    if let Some(out) = &a.out {
+        plot_step(out, &a.title, &traces).map_err(|e| e.to_string())?;
+        eprintln!("wrote {}", out.display());
+    }
+    if a.json {
+        return output::print_json(&serde_json::json!({ "models": results }));
+    }
+    for tr in &traces {
+        let last = tr.y.last().copied().unwrap_or(f64::NAN);
+        let peak = tr.y.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        println!(
+            "{:<50} final {last:>10.4}  peak {peak:>10.4}  (t = 0 .. {tfinal:.3} s)",
+            tr.label
+        );
+    }
+    Ok(())
+}
