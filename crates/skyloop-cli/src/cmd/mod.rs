@@ -12,7 +12,6 @@ mod reduce;
 mod show;
 mod signal;
 mod reproduce;
-mod show;
 mod simulate;
 mod step;
 
