@@ -144,3 +144,37 @@ fn bad_shapes_and_values_are_errors() {
         Err(LinalgError::NoSolution(_))
     ));
 }
+
+#[test]
+fn repeated_poles_keep_the_factor_accurate() {
+    // Repeated eigenvalues (−0.7 twice, −0.3 twice, a Jordan block at −1) hidden by a similarity:
+    // the Schur form then has 2×2 blocks with imaginary parts at rounding level, which
+    // Hammarling's method must treat as real double eigenvalues. Reference: X from lyap
+    // (Bartels–Stewart), which needs no factorization.
+    let n = 6;
+    let mut d = Mat::<f64>::zeros(n, n);
+    for (i, v) in [-0.7, -0.7, -0.3, -0.3, -1.0, -1.0].iter().enumerate() {
+        d[(i, i)] = *v;
+    }
+    d[(4, 5)] = 1.0;
+    let t = Mat::from_fn(n, n, |i, j| if i == j { 2.0 } else { ((3 * i + 5 * j) % 7) as f64 * 0.15 - 0.45 });
+    let ti = {
+        use faer::linalg::solvers::DenseSolveCore;
+        t.as_ref().partial_piv_lu().inverse()
+    };
+    let a = &t * &d * &ti;
+    let b = Mat::from_fn(n, 1, |i, _| 1.0 - 0.2 * i as f64);
+    let u = lyap_chol(a.as_ref(), b.as_ref()).unwrap();
+    let p = &u * u.transpose();
+    let bb = &b * b.transpose();
+    let x = lyap(a.as_ref(), bb.as_ref()).unwrap();
+    let res = &a * &p + &p * a.transpose() + &bb;
+    assert!(nrm(res.as_ref()) <= 1e-12 * (2.0 * nrm(a.as_ref()) * nrm(p.as_ref()) + nrm(bb.as_ref())));
+    assert!(rel(&p, &x) <= 1e-10, "factor vs Bartels–Stewart: {}", rel(&p, &x));
+    // Discrete time: the same structure scaled into the unit disc.
+    let ad = Mat::from_fn(n, n, |i, j| -a[(i, j)] * 0.5);
+    let u = dlyap_chol(ad.as_ref(), b.as_ref()).unwrap();
+    let p = &u * u.transpose();
+    let x = dlyap(ad.as_ref(), bb.as_ref()).unwrap();
+    assert!(rel(&p, &x) <= 1e-10, "discrete factor vs Bartels–Stewart: {}", rel(&p, &x));
+}

@@ -250,3 +250,12 @@ fn bad_requests_are_errors() {
     assert!(balreal(&sys).is_err());
     assert!("hankel".parse::<Method>().is_err());
 }
+
+#[test]
+fn static_gain_reduces_to_itself() {
+    let g = StateSpace::gain(Mat::from_fn(2, 1, |i, _| 1.0 + i as f64), 0.0).unwrap();
+    let r = balred(&g, 0, Method::Spa).unwrap();
+    assert_eq!((r.sys.nx(), r.hsv.len(), r.error_bound), (0, 0, 0.0));
+    assert_eq!(r.sys.d, g.d);
+    assert_eq!(minreal(&g, None).unwrap().nx(), 0);
+}
