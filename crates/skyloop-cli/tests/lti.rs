@@ -32,3 +32,79 @@ fn malformed_expression_exits_2_with_column() {
     assert!(out.is_empty());
     assert!(err.contains("column 6") && err.contains("expected"), "{err}");
 }
+
+#[test]
+fn c2d_json_matches_closed_form() {
+    // 1/(s+1) with zoh at 0.1 s: a = e^{-0.1} (closed form).
+    let (code, out, err) = skyloop(&["c2d", "1/(s+1)", "--dt", "0.1", "--method", "zoh", "--json"]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).expect("one JSON object");
+    let a = v["a"][0][0].as_f64().expect("a");
+    assert!((a - (-0.1f64).exp()).abs() < 1e-15);
+    assert_eq!(v["dt"].as_f64(), Some(0.1));
+    let (code, out, err) = skyloop(&[
+        "c2d",
+        "1/(s+1)",
+        "--dt",
+        "0.1",
+        "--method",
+        "tustin",
+        "--prewarp-hz",
+        "1",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(serde_json::from_str::<serde_json::Value>(&out).is_ok());
+}
+
+#[test]
+fn c2d_bad_input_exits_2() {
+    let (code, _, err) = skyloop(&["c2d", "1/(s+1)", "--dt", "0.1", "--method", "bogus"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("unknown discretization method"), "{err}");
+    let (code, _, err) = skyloop(&["c2d", "1/(s+1)", "--dt", "-1"]);
+    assert_eq!(code, 2, "{err}");
+    let (code, _, err) = skyloop(&["c2d", "1/(s+1)", "--dt", "0.1", "--method", "zoh", "--prewarp-hz", "3"]);
+    assert_eq!(code, 2, "{err}");
+}
+
+#[test]
+fn poles_and_zeros_json() {
+    // Bicopter eq. (8): zeros ±42 rad/s (from (42^2 - s^2)), a pole at 0 among four.
+    let (code, out, err) = skyloop(&["zeros", BICOPTER, "--json"]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).expect("one JSON object");
+    let mut re: Vec<f64> = v["re"]
+        .as_array()
+        .expect("re")
+        .iter()
+        .filter_map(|x| x.as_f64())
+        .collect();
+    re.sort_by(f64::total_cmp);
+    assert_eq!(re.len(), 2);
+    assert!((re[0] + 42.0).abs() < 1e-8 && (re[1] - 42.0).abs() < 1e-8, "{re:?}");
+    let (code, out, err) = skyloop(&["poles", BICOPTER, "--json"]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).expect("one JSON object");
+    assert_eq!(v["im"].as_array().map(|a| a.len()), Some(4));
+    let (code, out, _) = skyloop(&["poles", "1/(s+2)"]);
+    assert_eq!(code, 0);
+    assert!(out.contains("damping"));
+}
+
+#[test]
+fn bad_model_json_exits_2() {
+    let dir = std::env::temp_dir().join(format!("skyloop-lti-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join("nonsquare.json");
+    std::fs::write(&path, r#"{"a":[[1.0,2.0]],"b":[[1.0]],"c":[[1.0]],"d":[[0.0]]}"#).expect("write");
+    let p = path.to_str().expect("utf-8 path");
+    for cmd in ["poles", "zeros", "c2d"] {
+        let (code, out, err) = skyloop(&[cmd, p, "--dt", "0.1"][..if cmd == "c2d" { 4 } else { 2 }]);
+        assert_eq!(code, 2, "{cmd}: {err}");
+        assert!(out.is_empty() && err.contains("square"), "{cmd}: {err}");
+    }
+    let (code, _, err) = skyloop(&["zeros", "exp(-s)+1"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("different delays"), "{err}");
+}

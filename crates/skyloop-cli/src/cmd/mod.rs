@@ -14,6 +14,11 @@ mod signal;
 mod reproduce;
 mod simulate;
 mod step;
+mod c2d;
+mod poles;
+mod roots_out;
+mod show;
+mod zeros;
 
 use clap::Subcommand;
 
@@ -46,6 +51,12 @@ pub enum Command {
     Simulate(simulate::Args),
     /// Reproduce a paper's claims (quadrotor-ssi) and check them.
     Reproduce(reproduce::Args),
+    /// Discretize a continuous model (zoh, foh, tustin with optional prewarp, matched).
+    C2d(c2d::Args),
+    /// Poles of a model (eigenvalues of A).
+    Poles(poles::Args),
+    /// Transmission zeros of a model.
+    Zeros(zeros::Args),
 }
 
 /// Runs one subcommand; the error text is what the user sees.
@@ -64,5 +75,8 @@ pub fn run(cmd: Command) -> Result<(), String> {
         Command::Minreal(a) => minreal::run(a),
         Command::Simulate(a) => simulate::run(a),
         Command::Reproduce(a) => reproduce::run(a),
+        Command::C2d(a) => c2d::run(a),
+        Command::Poles(a) => poles::run(a),
+        Command::Zeros(a) => zeros::run(a),
     }
 }
