@@ -1,17 +1,18 @@
 //! One module per subcommand; `run` dispatches.
 
 mod bode;
+mod export;
+mod freqresp;
 mod identify;
 mod log;
-mod freqresp;
 mod margins;
 mod minreal;
 mod nyquist;
 mod plot_args;
 mod reduce;
+mod reproduce;
 mod show;
 mod signal;
-mod reproduce;
 mod simulate;
 mod step;
 
@@ -46,6 +47,8 @@ pub enum Command {
     Simulate(simulate::Args),
     /// Reproduce a paper's claims (quadrotor-ssi) and check them.
     Reproduce(reproduce::Args),
+    /// Discretize a controller (Tustin) and write a self-contained C header for flight firmware.
+    Export(export::Args),
 }
 
 /// Runs one subcommand; the error text is what the user sees.
@@ -64,5 +67,6 @@ pub fn run(cmd: Command) -> Result<(), String> {
         Command::Minreal(a) => minreal::run(a),
         Command::Simulate(a) => simulate::run(a),
         Command::Reproduce(a) => reproduce::run(a),
+        Command::Export(a) => export::run(a),
     }
 }
