@@ -115,3 +115,102 @@ fn reproduce_quadrotor_ssi_passes_and_unknown_name_fails() {
     let o = skyloop().args(["reproduce", "no-such-paper"]).output().expect("runs");
     assert_eq!(o.status.code(), Some(2));
 }
+
+const HINF_EQ12: &str = "24.02*(s+54.01)*(s+0.2474)*(s^2+139.3*s+26240)/(s*(s^2+24.14*s+8544)*(s^2+232.4*s+70410))";
+
+/// The exported header, compiled with the system C compiler, reproduces scipy's Tustin discretization
+/// of the bicopter's H∞ controller eq. (12) at 250 Hz (fixture from tools/gen_control.py).
+#[test]
+fn export_c_header_matches_scipy_dlsim() {
+    let dir = tmp("export");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let h = dir.join("hinf.h");
+    let o = skyloop()
+        .args([
+            "export", HINF_EQ12, "--dt", "0.004", "--double", "--name", "hinf", "--c",
+        ])
+        .arg(&h)
+        .output()
+        .expect("runs");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(&h).expect("header");
+    assert!(text.contains("#define HINF_NX 5") && text.contains("hinf_step"));
+    let fx: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(format!(
+            "{}/../skyloop-control/tests/fixtures/control/control.json",
+            env!("CARGO_MANIFEST_DIR")
+        ))
+        .expect("fixture"),
+    )
+    .expect("json");
+    let input: Vec<f64> = fx["hinf_bicopter"]["input"]
+        .as_array()
+        .expect("in")
+        .iter()
+        .map(|v| v.as_f64().expect("f"))
+        .collect();
+    let want: Vec<f64> = fx["hinf_bicopter"]["output"]
+        .as_array()
+        .expect("out")
+        .iter()
+        .map(|v| v.as_f64().expect("f"))
+        .collect();
+    let cc = ["cc", "gcc"]
+        .into_iter()
+        .find(|c| Command::new(c).arg("--version").output().is_ok());
+    let Some(cc) = cc else {
+        eprintln!("no C compiler: header not compiled (text checks only)");
+        return;
+    };
+    let main = dir.join("main.c");
+    let data: Vec<String> = input.iter().map(|v| format!("{v:.17e}")).collect();
+    std::fs::write(
+        &main,
+        format!(
+            "#include <stdio.h>\n#include \"hinf.h\"\nstatic const double in[] = {{{}}};\nint main(void) {{\n  hinf_state_t s; hinf_reset(&s);\n  for (unsigned i = 0; i < sizeof in / sizeof in[0]; ++i) {{ double u[1]; hinf_step(&s, &in[i], u); printf(\"%.17e\\n\", u[0]); }}\n  return 0;\n}}\n",
+            data.join(",")
+        ),
+    )
+    .expect("main.c");
+    let exe = dir.join("hinf_test");
+    let o = Command::new(cc)
+        .arg("-std=c99")
+        .arg("-Wall")
+        .arg("-Werror")
+        .arg("-o")
+        .arg(&exe)
+        .arg(&main)
+        .output()
+        .expect("cc");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = Command::new(&exe).output().expect("run");
+    let got: Vec<f64> = String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(|l| l.parse().expect("num"))
+        .collect();
+    assert_eq!(got.len(), want.len());
+    let scale = want.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let err = got.iter().zip(&want).fold(0.0f64, |m, (g, w)| m.max((g - w).abs())) / scale;
+    assert!(err < 1e-8, "C header vs scipy dlsim: {err:e}");
+}
+
+#[test]
+fn export_bad_input_exits_2() {
+    let dir = tmp("export-bad");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let h = dir.join("x.h");
+    for args in [
+        vec!["export", "1/(s+1)", "--dt", "0", "--c"],
+        vec!["export", "1/(s+1)", "--dt", "0.01", "--name", "9bad", "--c"],
+        vec!["export", "exp(-0.1*s)/(s+1)", "--dt", "0.01", "--c"],
+        vec!["export", "1/(s+", "--dt", "0.01", "--c"],
+    ] {
+        let o = skyloop().args(&args).arg(&h).output().expect("runs");
+        assert_eq!(
+            o.status.code(),
+            Some(2),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+}

@@ -70,6 +70,18 @@ pub enum RateLaw {
         #[serde(default)]
         hanus: bool,
     },
+    /// A controller given as a transfer-function expression or an LTI JSON path (relative to the
+    /// working directory); continuous models are discretized by Tustin at the rate-loop sample time.
+    LtiModel {
+        /// Expression such as "24.02*(s+54.01)/(s*(s+8))" or a path to an LTI JSON file.
+        model: String,
+        /// Output → N·m factor.
+        #[serde(default = "one")]
+        output_scale: f64,
+        /// Anti-windup by Hanus conditioning (needs D ≠ 0).
+        #[serde(default)]
+        hanus: bool,
+    },
 }
 
 fn big() -> f64 {
@@ -219,6 +231,26 @@ fn build_rate(law: &RateLaw, j_axis: f64, dt: f64, lim: f64) -> Result<RateCtl> 
                 k = k.with_limits(&[-l], &[l])?.with_hanus_aw()?;
             }
             RateCtl::Lti(Box::new(k), *output_scale)
+        }
+        RateLaw::LtiModel {
+            model,
+            output_scale,
+            hanus,
+        } => {
+            let path = std::path::Path::new(model);
+            let sys = if path.is_file() {
+                let text = std::fs::read_to_string(path).map_err(|e| SimError::Param(format!("{model}: {e}")))?;
+                skyloop_lti::json::from_json_str(&text)?
+            } else {
+                skyloop_lti::expr::parse_model(model)?
+            };
+            let d = crate::discrete::discretize(&sys, dt)?;
+            let law = RateLaw::Lti {
+                controller: crate::discrete::to_discrete_siso(&d)?,
+                output_scale: *output_scale,
+                hanus: *hanus,
+            };
+            return build_rate(&law, j_axis, dt, lim);
         }
     })
 }

@@ -1,5 +1,6 @@
 //! skyloop-sim.
 pub mod analysis;
+pub mod discrete;
 pub mod disturbance;
 pub mod error;
 pub mod flight;

@@ -69,7 +69,8 @@ pub fn bicopter_li() -> BicopterParams {
 
 /// Ducted fan of Pross. The paper prints the model (eq. (3)–(4)) but not its parameter values
 /// (credited to T. Rothlin), so all numbers here are ASSUMED for a 0.8 kg ducted fan: hover propeller
-/// speed ≈ 1500 rad/s, duct velocity ≈ 8 m/s, thin-airfoil-like lift slope cℓ = 3 /rad.
+/// speed ≈ 1500 rad/s, duct constant a = 0.08 m (so the yaw lever a/3 is 2.7 cm; eq. (3) then gives a
+/// duct velocity ≈ 2 m/s), flap area 0.01 m², thin-airfoil-like lift slope cℓ = 3 /rad.
 pub fn ducted_fan_pross() -> DuctedFanParams {
     DuctedFanParams {
         body: Body {
@@ -78,8 +79,8 @@ pub fn ducted_fan_pross() -> DuctedFanParams {
             drag_n_s_m: 0.0,
         },
         kt: 3.5e-6,
-        a_m: 0.005,
-        s_m2: 0.002,
+        a_m: 0.08,
+        s_m2: 0.01,
         rho_kg_m3: 1.225,
         cl: 3.0,
         cd: 0.5,

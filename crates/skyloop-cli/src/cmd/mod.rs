@@ -1,17 +1,18 @@
 //! One module per subcommand; `run` dispatches.
 
 mod bode;
+mod export;
+mod freqresp;
 mod identify;
 mod log;
-mod freqresp;
 mod margins;
 mod minreal;
 mod nyquist;
 mod plot_args;
 mod reduce;
+mod reproduce;
 mod show;
 mod signal;
-mod reproduce;
 mod simulate;
 mod step;
 mod c2d;
@@ -57,6 +58,8 @@ pub enum Command {
     Poles(poles::Args),
     /// Transmission zeros of a model.
     Zeros(zeros::Args),
+    /// Discretize a controller (Tustin) and write a self-contained C header for flight firmware.
+    Export(export::Args),
 }
 
 /// Runs one subcommand; the error text is what the user sees.
@@ -78,5 +81,6 @@ pub fn run(cmd: Command) -> Result<(), String> {
         Command::C2d(a) => c2d::run(a),
         Command::Poles(a) => poles::run(a),
         Command::Zeros(a) => zeros::run(a),
+        Command::Export(a) => export::run(a),
     }
 }
