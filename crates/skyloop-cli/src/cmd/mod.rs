@@ -18,7 +18,6 @@ mod step;
 mod c2d;
 mod poles;
 mod roots_out;
-mod show;
 mod zeros;
 
 use clap::Subcommand;
