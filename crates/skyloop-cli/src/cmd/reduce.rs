@@ -18,6 +18,9 @@ pub struct Args {
     /// Print {"hankel_singular_values", "error_bound", "model"} as JSON instead of a table.
     #[arg(long)]
     json: bool,
+    /// Also plot the Hankel singular values (kept and discarded) to this `.svg` or `.png` file.
+    #[arg(long)]
+    plot: Option<std::path::PathBuf>,
 }
 
 #[derive(serde::Serialize)]
@@ -33,6 +36,12 @@ pub fn run(a: Args) -> Result<(), String> {
     let method: Method = a.method.parse().map_err(|e| format!("--method: {e}"))?;
     let sys = input::load_model(&a.model)?;
     let red = balred(&sys, a.order, method).map_err(|e| e.to_string())?;
+    if let Some(path) = &a.plot {
+        let kept = a.order.saturating_sub(red.n_unstable);
+        let title = format!("Hankel singular values (stable part, {} unstable kept)", red.n_unstable);
+        skyloop_plot::hsv::plot_hsv(path, &title, &red.hsv, Some(kept)).map_err(|e| e.to_string())?;
+        eprintln!("wrote {}", path.display());
+    }
     if a.json {
         return output::print_json(&ReduceJson {
             hankel_singular_values: red.hsv.clone(),
