@@ -4,6 +4,9 @@
 //! (S. J. Hammarling, "Numerical solution of the stable, non-negative definite Lyapunov equation",
 //! IMA J. Numer. Anal. 2, 1982; the same convention as SLICOT SB03OD with TRANS = 'T').
 
+// Index loops mirror the published block algorithms (dtrsyl, Hammarling) and read better here.
+#![allow(clippy::needless_range_loop)]
+
 use crate::error::{LinalgError, Result};
 use crate::schur::{real_schur, Schur};
 use crate::sylvester::{blocks, check_finite, check_square, solve_quasi_triangular, Kind};
@@ -364,7 +367,7 @@ fn small_factor(sm: &[[f64; 2]; 2], gam: &[[f64; 2]; 2], s: usize, kind: Kind) -
         }
     }
     let x = small_lyap2(sm, &ggt, kind)?;
-    if !(x[1][1] > 0.0) {
+    if x[1][1].is_nan() || x[1][1] <= 0.0 {
         return None;
     }
     let v22 = x[1][1].sqrt();

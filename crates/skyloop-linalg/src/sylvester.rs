@@ -5,6 +5,9 @@
 //! The quasi-triangular kernels are public because Lyapunov solvers, Hammarling's method and the
 //! stable/unstable splitting of models all work directly on Schur forms.
 
+// Index loops mirror the published block algorithms (dtrsyl, Hammarling) and read better here.
+#![allow(clippy::needless_range_loop)]
+
 use crate::error::{LinalgError, Result};
 use crate::schur::real_schur;
 use faer::{Mat, MatRef};

@@ -157,7 +157,13 @@ fn repeated_poles_keep_the_factor_accurate() {
         d[(i, i)] = *v;
     }
     d[(4, 5)] = 1.0;
-    let t = Mat::from_fn(n, n, |i, j| if i == j { 2.0 } else { ((3 * i + 5 * j) % 7) as f64 * 0.15 - 0.45 });
+    let t = Mat::from_fn(n, n, |i, j| {
+        if i == j {
+            2.0
+        } else {
+            ((3 * i + 5 * j) % 7) as f64 * 0.15 - 0.45
+        }
+    });
     let ti = {
         use faer::linalg::solvers::DenseSolveCore;
         t.as_ref().partial_piv_lu().inverse()
@@ -176,5 +182,9 @@ fn repeated_poles_keep_the_factor_accurate() {
     let u = dlyap_chol(ad.as_ref(), b.as_ref()).unwrap();
     let p = &u * u.transpose();
     let x = dlyap(ad.as_ref(), bb.as_ref()).unwrap();
-    assert!(rel(&p, &x) <= 1e-10, "discrete factor vs Bartels–Stewart: {}", rel(&p, &x));
+    assert!(
+        rel(&p, &x) <= 1e-10,
+        "discrete factor vs Bartels–Stewart: {}",
+        rel(&p, &x)
+    );
 }
