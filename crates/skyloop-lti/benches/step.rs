@@ -8,7 +8,9 @@ fn bench(c: &mut Criterion) {
     let text = std::fs::read_to_string(path).expect("run bench/compare_step.py first to write bench/step20.json");
     let sys = skyloop_lti::json::from_json_str(&text).expect("valid LTI JSON");
     let t: Vec<f64> = (0..1000).map(|k| 10.0 * k as f64 / 999.0).collect();
-    c.bench_function("step_20_states_1000_points", |b| b.iter(|| step(&sys, Some(&t)).expect("step")));
+    c.bench_function("step_20_states_1000_points", |b| {
+        b.iter(|| step(&sys, Some(&t)).expect("step"))
+    });
 }
 
 criterion_group!(benches, bench);

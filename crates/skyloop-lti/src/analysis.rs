@@ -171,15 +171,12 @@ fn rank(sv: &[f64], tol: f64) -> usize {
     sv.iter().filter(|&&x| x > tol).count()
 }
 
+/// (A, B, C, D) of an intermediate system.
+type Quad = (Mat<f64>, Mat<f64>, Mat<f64>, Mat<f64>);
+
 /// One Emami-Naeini–Van Dooren reduction: returns a system with the same finite zeros whose D has
 /// full row rank, by repeatedly compressing the rows of D and the columns of the remaining C rows.
-fn reduce(
-    mut a: Mat<f64>,
-    mut b: Mat<f64>,
-    mut c: Mat<f64>,
-    mut d: Mat<f64>,
-    tol: f64,
-) -> Result<(Mat<f64>, Mat<f64>, Mat<f64>, Mat<f64>)> {
+fn reduce(mut a: Mat<f64>, mut b: Mat<f64>, mut c: Mat<f64>, mut d: Mat<f64>, tol: f64) -> Result<Quad> {
     loop {
         let (n, m, p) = (a.nrows(), b.ncols(), c.nrows());
         // Row compression of D: Uᵣᵀ·D has its ρ non-zero rows last.

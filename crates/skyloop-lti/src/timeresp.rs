@@ -156,6 +156,7 @@ impl Discrete {
         })
     }
 
+    #[allow(clippy::needless_range_loop)] // index form mirrors the matrix equations
     /// Simulates `nt` samples from `x0` with input `u(k, j)`; returns y[k][i].
     fn run(&self, nt: usize, x0: &[f64], u: impl Fn(usize, usize) -> f64) -> Vec<Vec<f64>> {
         let (n, m, p) = (self.n, self.m, self.p);
@@ -232,6 +233,7 @@ pub fn step(sys: &StateSpace, t_s: Option<&[f64]>) -> Result<TimeResponse> {
 
 /// Impulse response on each input in turn. Continuous time: `C e^{A(t−τ)} B` after the delay τ (the
 /// Dirac part of D is left out, as python-control does); discrete time: the unit pulse u[0] = 1.
+#[allow(clippy::needless_range_loop)]
 pub fn impulse(sys: &StateSpace, t_s: Option<&[f64]>) -> Result<TimeResponse> {
     let t = match t_s {
         Some(t) => t.to_vec(),

@@ -1,4 +1,5 @@
 //! skyloop-lti against python-control 0.10.2 + slycot/scipy fixtures (tools/gen_lti.py).
+#![allow(clippy::unwrap_used)]
 
 use faer::{c64, Mat};
 use serde_json::Value;
