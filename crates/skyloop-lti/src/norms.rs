@@ -1,4 +1,5 @@
-//! System norms: H∞ (peak gain) by the Boyd–Balakrishnan / Bruinsma–Steinbuch two-step algorithm.
+//! System norms: H∞ (peak gain) by the Boyd–Balakrishnan / Bruinsma–Steinbuch two-step algorithm,
+//! and H2 through the controllability Gramian (skyloop_linalg::lyapunov).
 //!
 //! γ is a singular value of G(jω) exactly when jω is an eigenvalue of the Hamiltonian
 //! H(γ) = [A − B R⁻¹DᵀC, −γ B R⁻¹Bᵀ; γ CᵀS⁻¹C, −Aᵀ + CᵀD R⁻¹Bᵀ], R = DᵀD − γ²I, S = DDᵀ − γ²I
@@ -309,4 +310,40 @@ mod tests {
         let integ = ss(&[vec![0.0]], &[vec![1.0]], &[vec![1.0]], &[vec![0.0]], 0.0);
         assert!(linf_norm(&integ).unwrap().0.is_infinite());
     }
+}
+
+/// H2 norm of `sys`: √trace(C·P·Cᵀ) with A·P + P·Aᵀ + B·Bᵀ = 0 (continuous; +∞ when D ≠ 0), or
+/// √trace(C·P·Cᵀ + D·Dᵀ) with A·P·Aᵀ − P + B·Bᵀ = 0 (discrete). +∞ for unstable models or poles
+/// on the stability boundary (as python-control's `norm(sys, 2)`). Delays do not change it.
+pub fn h2_norm(sys: &StateSpace) -> Result<f64> {
+    sys.validate()?;
+    let poles = pole_summary(sys)?;
+    if poles.unstable > 0 || poles.origin > 0 || !poles.axis_w.is_empty() {
+        return Ok(f64::INFINITY);
+    }
+    let continuous = sys.dt == 0.0;
+    let d_energy: f64 = (0..sys.ny())
+        .flat_map(|i| (0..sys.nu()).map(move |j| (i, j)))
+        .map(|(i, j)| sys.d[(i, j)] * sys.d[(i, j)])
+        .sum();
+    if continuous && d_energy > 0.0 {
+        return Ok(f64::INFINITY);
+    }
+    if sys.nx() == 0 {
+        return Ok(if continuous { 0.0 } else { d_energy.sqrt() });
+    }
+    let bbt = &sys.b * sys.b.transpose();
+    let p = if continuous {
+        skyloop_linalg::lyapunov::lyap(sys.a.as_ref(), bbt.as_ref())?
+    } else {
+        skyloop_linalg::lyapunov::dlyap(sys.a.as_ref(), bbt.as_ref())?
+    };
+    let cpct = &sys.c * &p * sys.c.transpose();
+    let tr: f64 = (0..sys.ny()).map(|i| cpct[(i, i)]).sum::<f64>() + if continuous { 0.0 } else { d_energy };
+    if tr < 0.0 {
+        return Err(LtiError::Numerical(format!(
+            "H2 norm: trace(C·P·Cᵀ) = {tr} < 0 (gramian lost definiteness; poles too close to the boundary?)"
+        )));
+    }
+    Ok(tr.sqrt())
 }
