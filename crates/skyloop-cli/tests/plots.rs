@@ -134,3 +134,18 @@ fn closed_loop_step_of_a_lag_settles_at_one_half() {
     let r = skyloop(&["step", "1/(s+1)"]);
     assert_eq!(r.status.code(), Some(2));
 }
+
+#[test]
+fn norm_of_a_first_order_lag() {
+    // 1/(s+1): H∞ = 1 at 0 Hz, H2 = sqrt(1/2) (closed forms).
+    let r = skyloop(&["norm", "1/(s+1)", "--json"]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&r.stdout).expect("json");
+    assert!((v["hinf"].as_f64().expect("hinf") - 1.0).abs() < 1e-8);
+    assert!((v["h2"].as_f64().expect("h2") - 0.5f64.sqrt()).abs() < 1e-10);
+    // D ≠ 0 in continuous time: H2 is infinite, printed as null.
+    let r = skyloop(&["norm", "(s+2)/(s+1)", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&r.stdout).expect("json");
+    assert!(v["h2"].is_null());
+    assert_eq!(skyloop(&["norm", "1/(s+"]).status.code(), Some(2));
+}

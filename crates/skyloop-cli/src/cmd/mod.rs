@@ -7,6 +7,7 @@ mod identify;
 mod log;
 mod margins;
 mod minreal;
+mod norm;
 mod nyquist;
 mod plot_args;
 mod reduce;
@@ -33,6 +34,8 @@ pub enum Command {
     Bode(bode::Args),
     /// Nyquist plot of one or more SISO loop transfers to an SVG or PNG file.
     Nyquist(nyquist::Args),
+    /// H∞ norm with its peak frequency, and the H2 norm (null where infinite).
+    Norm(norm::Args),
     /// Excitation signals (chirp, PRBS, multisine) written as CSV.
     Signal(signal::Args),
     /// Frequency response (and parametric fit) from a flight log.
@@ -68,6 +71,7 @@ pub fn run(cmd: Command) -> Result<(), String> {
         Command::Step(a) => step::run(a),
         Command::Bode(a) => bode::run(a),
         Command::Nyquist(a) => nyquist::run(a),
+        Command::Norm(a) => norm::run(a),
         Command::Signal(a) => signal::run(a),
         Command::Identify(a) => identify::run(a),
         Command::Log(a) => log::run(a),
