@@ -1,3 +1,4 @@
 //! skyloop-robust.
 pub mod mu;
+pub mod musyn;
 pub mod uncertainty;
