@@ -4,4 +4,5 @@ mod linutil;
 pub mod mixsyn;
 pub mod mu;
 pub mod ncfsyn;
+pub mod musyn;
 pub mod uncertainty;

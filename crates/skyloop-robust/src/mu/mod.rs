@@ -6,7 +6,9 @@ pub mod sweep;
 pub mod upper;
 
 pub use lower::{lower_bound, LowerBound};
-pub use sweep::{mu_frequency, mu_sweep, robust_performance, robust_stability, MuPeak, MuSweep, StabilityMargin};
+pub use sweep::{
+    mu_frequency, mu_sweep, mu_system, robust_performance, robust_stability, MuPeak, MuSweep, StabilityMargin,
+};
 pub use upper::{osborne, upper_bound, DScales, UpperBound, UpperOptions};
 
 use crate::uncertainty::blocks::BlockStructure;

@@ -201,3 +201,15 @@ where
     let aug = s.with_full_block(n_perf_in, n_perf_out)?;
     mu_frequency(eval, w_rad_s, &aug, opts)
 }
+
+/// μ bounds of a model's frequency response on `w_rad_s` (exact with delays), with peak refinement.
+pub fn mu_system(
+    sys: &skyloop_lti::StateSpace,
+    w_rad_s: &[f64],
+    s: &BlockStructure,
+    opts: &MuOptions,
+) -> Result<MuSweep> {
+    s.check_matrix(sys.ny(), sys.nu())?;
+    let ev = skyloop_lti::freqresp::FreqEvaluator::new(sys)?;
+    mu_frequency(|w| ev.eval(c64::new(0.0, w)), w_rad_s, s, opts)
+}

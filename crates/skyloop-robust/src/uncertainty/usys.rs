@@ -4,8 +4,11 @@
 //! [z; y] = M [v; u], v = Δ z.
 
 use super::blocks::{BlockKind, BlockStructure};
+use super::sample::sample_ltidyn;
 use faer::Mat;
+use rand::Rng;
 use skyloop_lti::error::Result;
+use skyloop_lti::interconnect::{append, lft_upper};
 use skyloop_lti::{LtiError, StateSpace};
 
 /// A nominal interconnection M and the structure of Δ closing its upper channels.
@@ -50,6 +53,72 @@ impl UncertainSystem {
     pub fn nu(&self) -> usize {
         self.m.nu() - self.blocks.m_cols()
     }
+    /// A random real perturbed system F_u(M, Δ): real scalars uniform in [−1, 1] (±1 with
+    /// `on_boundary`), complex and full blocks replaced by random real stable all-pass-type
+    /// systems with ‖Δ‖∞ ≤ 1 (see [`sample_ltidyn`]) with corners in [w_min_rad_s, w_max_rad_s].
+    pub fn sample<R: Rng>(
+        &self,
+        rng: &mut R,
+        w_min_rad_s: f64,
+        w_max_rad_s: f64,
+        on_boundary: bool,
+    ) -> Result<StateSpace> {
+        let delta = self.sample_delta_system(rng, w_min_rad_s, w_max_rad_s, on_boundary)?;
+        lft_upper(&self.m, &delta)
+    }
+
+    /// The random real Δ system that [`UncertainSystem::sample`] closes the upper channels with.
+    pub fn sample_delta_system<R: Rng>(
+        &self,
+        rng: &mut R,
+        w_min_rad_s: f64,
+        w_max_rad_s: f64,
+        on_boundary: bool,
+    ) -> Result<StateSpace> {
+        let mut delta: Option<StateSpace> = None;
+        for blk in self.blocks.blocks() {
+            let part = match *blk {
+                BlockKind::RealScalar { repeat } => {
+                    let v = if on_boundary {
+                        if rng.gen::<bool>() {
+                            1.0
+                        } else {
+                            -1.0
+                        }
+                    } else {
+                        rng.gen_range(-1.0..=1.0)
+                    };
+                    StateSpace::gain(
+                        Mat::from_fn(repeat, repeat, |i, j| if i == j { v } else { 0.0 }),
+                        self.m.dt,
+                    )?
+                }
+                BlockKind::ComplexScalar { repeat } => {
+                    let one = sample_ltidyn(1, 1, w_min_rad_s, w_max_rad_s, rng, on_boundary)?;
+                    let mut acc = one.clone();
+                    for _ in 1..repeat {
+                        acc = append(&acc, &one)?;
+                    }
+                    acc
+                }
+                BlockKind::Full { rows, cols } => {
+                    sample_ltidyn(rows, cols, w_min_rad_s, w_max_rad_s, rng, on_boundary)?
+                }
+            };
+            delta = Some(match delta {
+                None => part,
+                Some(d) => append(&d, &part)?,
+            });
+        }
+        let delta = delta.ok_or_else(|| LtiError::InvalidArgument("empty block structure".into()))?;
+        if self.m.dt != 0.0 && delta.nx() > 0 {
+            return Err(LtiError::Unsupported(
+                "dynamic uncertainty samples are continuous time only".into(),
+            ));
+        }
+        Ok(delta)
+    }
+
     /// The nominal system (Δ = 0): the lower-right channel of M.
     pub fn nominal(&self) -> Result<StateSpace> {
         let (nz, nv) = (self.blocks.m_rows(), self.blocks.m_cols());
@@ -283,6 +352,25 @@ mod tests {
             // Δ = 0 gives the nominal plant.
             assert!((&eval(&ui.nominal().expect("nominal"), om) - &gj).norm_max() < 1e-12);
         }
+        // Samples: on the boundary, a real all-pass Δ(s) = D₀(a − s)/(a + s) closes the loop; the
+        // sampled system must match the LFT formula with that Δ evaluated at jω.
+        use rand::SeedableRng;
+        let ui = input_multiplicative(&g, &w).expect("input form");
+        let mut rng = rand::rngs::StdRng::seed_from_u64(5);
+        let dsys = ui.sample_delta_system(&mut rng, 0.1, 10.0, true).expect("sample");
+        let gp = lft_upper(&ui.m, &dsys).expect("lft");
+        assert_eq!((gp.ny(), gp.nu()), (2, 2));
+        for om in [0.0, 0.8, 7.0] {
+            let dj = eval(&dsys, om);
+            assert!(
+                (dj.singular_values().expect("svd")[0] - 1.0).abs() < 1e-12,
+                "boundary sample has norm 1"
+            );
+            let want = lft_u(&eval(&ui.m, om), 2, 2, &dj);
+            assert!((&eval(&gp, om) - &want).norm_max() < 1e-10 * want.norm_max());
+        }
+        let gs = ui.sample(&mut rng, 0.1, 10.0, false).expect("sample");
+        assert_eq!(gs.nx(), ui.m.nx() + 2);
         let w3 = StateSpace::gain(Mat::zeros(3, 3), 0.0).expect("gain");
         assert!(input_multiplicative(&g, &w3).is_err());
     }

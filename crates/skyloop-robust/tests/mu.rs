@@ -1,0 +1,210 @@
+//! μ bounds against the reference values of tools/gen_mu.py and against closed forms.
+
+use faer::{c64, Mat, MatRef};
+use skyloop_robust::mu::{mu, mu_frequency, robust_performance, robust_stability, MuOptions};
+use skyloop_robust::uncertainty::{BlockKind, BlockStructure};
+
+fn sigma_min(x: MatRef<c64>) -> f64 {
+    let s = x.singular_values().expect("svd");
+    s.iter().copied().fold(f64::INFINITY, f64::min)
+}
+
+fn sigma_max(x: MatRef<c64>) -> f64 {
+    x.singular_values().expect("svd").first().copied().unwrap_or(0.0)
+}
+
+/// Checks that Δ is block diagonal for `s`, each δI block a multiple of I (real when required),
+/// σ̄(Δ) = 1/lower and I − MΔ singular.
+fn check_delta(m: MatRef<c64>, s: &BlockStructure, delta: MatRef<c64>, lower: f64) {
+    assert_eq!((delta.nrows(), delta.ncols()), (m.ncols(), m.nrows()));
+    for j in 0..s.len() {
+        for k in 0..s.len() {
+            if j == k {
+                continue;
+            }
+            for p in s.col_range(j) {
+                for q in s.row_range(k) {
+                    assert!(delta[(p, q)].norm() == 0.0, "Δ has an entry outside its blocks");
+                }
+            }
+        }
+        if let BlockKind::ComplexScalar { .. } | BlockKind::RealScalar { .. } = s.blocks()[j] {
+            let (cr, rr) = (s.col_range(j), s.row_range(j));
+            let d0 = delta[(cr.start, rr.start)];
+            for (p, q) in cr.clone().zip(rr.clone()) {
+                assert!((delta[(p, q)] - d0).norm() <= 1e-12 * d0.norm().max(1e-300));
+            }
+            if s.blocks()[j].is_real() {
+                assert!(
+                    d0.im.abs() <= 1e-12 * d0.norm().max(1e-300),
+                    "real block got a complex value"
+                );
+            }
+        }
+    }
+    let md = m * delta;
+    let n = md.nrows();
+    let i_md = Mat::from_fn(
+        n,
+        n,
+        |i, j| if i == j { c64::new(1.0, 0.0) } else { c64::new(0.0, 0.0) } - md[(i, j)],
+    );
+    assert!(sigma_min(i_md.as_ref()) < 1e-8, "I - MΔ is not singular");
+    assert!((sigma_max(delta) * lower - 1.0).abs() < 1e-8, "σ̄(Δ) is not 1/lower");
+}
+
+/// Deterministic pseudo-random complex matrix (xorshift), for property tests.
+fn pseudo_random(nr: usize, nc: usize, seed: u64) -> Mat<c64> {
+    let mut x = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+    let mut next = || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    Mat::from_fn(nr, nc, |_, _| c64::new(next(), next()))
+}
+
+#[test]
+fn upper_at_least_lower_on_random_structures() {
+    for (k, spec) in [
+        "c1x1,c1x1,c1x1,c1x1,c1x1",
+        "c2r,f2x3,c1x1",
+        "f3x2,c3r,c1x1,f1x1",
+        "c4r,c2r",
+    ]
+    .iter()
+    .enumerate()
+    {
+        let s = BlockStructure::parse(spec).expect("spec");
+        for seed in 0..4 {
+            let m = pseudo_random(s.m_rows(), s.m_cols(), 100 * k as u64 + seed);
+            let r = mu(m.as_ref(), &s).expect("mu");
+            assert!(r.upper >= r.lower && r.lower > 0.0, "{spec}: {} {}", r.upper, r.lower);
+            // μ is bracketed by the spectral radius-type bound and σ̄ (no scaling).
+            assert!(r.upper <= sigma_max(m.as_ref()) * (1.0 + 1e-12));
+            check_delta(m.as_ref(), &s, r.delta.as_ref(), r.lower);
+        }
+    }
+}
+
+#[test]
+fn repeated_scalar_block_is_spectral_radius() {
+    // Δ = δ I_n: μ = ρ(M) (Packard & Doyle 1993, sec. 3); the upper bound inf σ̄(DMD⁻¹) = ρ(M).
+    let m = pseudo_random(4, 4, 7);
+    let s = BlockStructure::parse("c4r").expect("spec");
+    let r = mu(m.as_ref(), &s).expect("mu");
+    let rho = m
+        .eigenvalues()
+        .expect("eig")
+        .iter()
+        .map(|l| l.norm())
+        .fold(0.0, f64::max);
+    assert!((r.lower - rho).abs() <= 1e-10 * rho);
+    assert!((r.upper - rho).abs() <= 1e-4 * rho, "upper {} rho {rho}", r.upper);
+}
+
+#[test]
+fn real_blocks_give_real_perturbations() {
+    // det(I − MΔ) = 1 − δ₁δ₂ for M = [[0,1],[1,0]]: real μ = 1 with δ₁ = δ₂ = ±1 (closed form).
+    let m = Mat::from_fn(2, 2, |i, j| c64::new(if i != j { 1.0 } else { 0.0 }, 0.0));
+    let s = BlockStructure::parse("r1,r1").expect("spec");
+    let r = mu(m.as_ref(), &s).expect("mu");
+    assert!(
+        (r.lower - 1.0).abs() < 1e-9 && (r.upper - 1.0).abs() < 1e-4,
+        "{} {}",
+        r.upper,
+        r.lower
+    );
+    check_delta(m.as_ref(), &s, r.delta.as_ref(), r.lower);
+    // Mixed: M = [[0, 1],[i, 0]] with a real and a complex scalar: 1 − i δ_r δ_c = 0 needs
+    // δ_c = −i/δ_r, so μ = 1 (closed form) — the phase search must find it.
+    let m = Mat::from_fn(2, 2, |i, j| match (i, j) {
+        (0, 1) => c64::new(1.0, 0.0),
+        (1, 0) => c64::new(0.0, 1.0),
+        _ => c64::new(0.0, 0.0),
+    });
+    let s = BlockStructure::parse("r1,c1x1").expect("spec");
+    let r = mu(m.as_ref(), &s).expect("mu");
+    assert!(
+        (r.lower - 1.0).abs() < 1e-8 && r.upper >= r.lower,
+        "{} {}",
+        r.upper,
+        r.lower
+    );
+    check_delta(m.as_ref(), &s, r.delta.as_ref(), r.lower);
+}
+
+#[test]
+fn zero_matrix_and_bad_input() {
+    let s = BlockStructure::parse("c1x1,f2x2").expect("spec");
+    let z = Mat::<c64>::zeros(3, 3);
+    let r = mu(z.as_ref(), &s).expect("mu of zero");
+    assert_eq!((r.upper, r.lower), (0.0, 0.0));
+    assert!(mu(Mat::<c64>::zeros(2, 3).as_ref(), &s).is_err());
+    let mut nan = pseudo_random(3, 3, 1);
+    nan[(1, 1)] = c64::new(f64::NAN, 0.0);
+    assert!(mu(nan.as_ref(), &s).is_err());
+}
+
+/// Test-only frequency response of a fixed 2×2 transfer matrix
+/// M(s) = [[2/(s+1), 1/(s+2)], [3/(s²+0.4s+1), 1/(s+0.5)]].
+fn test_system(w: f64) -> skyloop_lti::error::Result<Mat<c64>> {
+    let s = c64::new(0.0, w);
+    let one = c64::new(1.0, 0.0);
+    Ok(Mat::from_fn(2, 2, |i, j| match (i, j) {
+        (0, 0) => 2.0 * one / (s + 1.0),
+        (0, 1) => one / (s + 2.0),
+        (1, 0) => 3.0 * one / (s * s + 0.4 * s + 1.0),
+        _ => one / (s + 0.5),
+    }))
+}
+
+#[test]
+fn frequency_sweep_refines_the_peak() {
+    let s = BlockStructure::parse("c1x1,c1x1").expect("spec");
+    let grid: Vec<f64> = (0..15).map(|k| 10f64.powf(-1.0 + 2.0 * k as f64 / 14.0)).collect();
+    let opts = MuOptions::default();
+    let sw = mu_frequency(test_system, &grid, &s, &opts).expect("sweep");
+    let grid_max = sw.upper.iter().copied().fold(0.0, f64::max);
+    assert!(sw.peak.upper >= grid_max);
+    // A dense grid (2000 points) must not find a larger μ than the refined peak (2S+F = 2: exact).
+    let dense: Vec<f64> = (0..2000).map(|k| 10f64.powf(-1.0 + 2.0 * k as f64 / 1999.0)).collect();
+    let mut dense_max = 0.0_f64;
+    let mut d = None;
+    for &w in &dense {
+        let m = test_system(w).expect("eval");
+        let r = skyloop_robust::mu::mu_with(m.as_ref(), &s, &opts, d.as_ref()).expect("mu");
+        dense_max = dense_max.max(r.upper);
+        d = Some(r.d);
+    }
+    assert!(
+        (sw.peak.upper - dense_max).abs() <= 1e-4 * dense_max,
+        "refined {} dense {dense_max}",
+        sw.peak.upper
+    );
+    let margin = robust_stability(&sw);
+    assert!((margin.lower * sw.peak.upper - 1.0).abs() < 1e-12);
+    assert!(margin.upper >= margin.lower);
+    let m = test_system(margin.w_rad_s).expect("eval");
+    check_delta(m.as_ref(), &s, margin.delta.as_ref(), 1.0 / margin.upper);
+    assert!(mu_frequency(test_system, &[1.0, 0.5], &s, &opts).is_err());
+    assert!(mu_frequency(test_system, &[], &s, &opts).is_err());
+}
+
+#[test]
+fn robust_performance_augments_a_full_block() {
+    // With a 1×1 uncertainty channel and a 1×1 performance channel, the augmented structure
+    // c1x1 + f1x1 has 2S+F = 2: μ is exact, and for the channels of test_system it must match μ
+    // of the same matrix with the structure written out by hand.
+    let s = BlockStructure::parse("c1x1").expect("spec");
+    let grid = [0.3, 1.0, 3.0];
+    let opts = MuOptions::default();
+    let rp = robust_performance(test_system, &grid, &s, 1, 1, &opts).expect("rp");
+    let both = BlockStructure::parse("c1x1,f1x1").expect("spec");
+    for (k, &w) in grid.iter().enumerate() {
+        let r = mu(test_system(w).expect("eval").as_ref(), &both).expect("mu");
+        assert!((rp.upper[k] - r.upper).abs() <= 1e-6 * r.upper);
+    }
+    assert!(robust_performance(test_system, &grid, &s, 2, 1, &opts).is_err());
+}
