@@ -8,6 +8,7 @@ mod log;
 mod margins;
 mod minreal;
 mod norm;
+mod mu;
 mod nyquist;
 mod plot_args;
 mod reduce;
@@ -34,6 +35,8 @@ pub enum Command {
     Bode(bode::Args),
     /// Nyquist plot of one or more SISO loop transfers to an SVG or PNG file.
     Nyquist(nyquist::Args),
+    /// Structured singular value (mu) bounds of a model against a block structure, over frequency.
+    Mu(mu::Args),
     /// H∞ norm with its peak frequency, and the H2 norm (null where infinite).
     Norm(norm::Args),
     /// Excitation signals (chirp, PRBS, multisine) written as CSV.
@@ -71,6 +74,7 @@ pub fn run(cmd: Command) -> Result<(), String> {
         Command::Step(a) => step::run(a),
         Command::Bode(a) => bode::run(a),
         Command::Nyquist(a) => nyquist::run(a),
+        Command::Mu(a) => mu::run(a),
         Command::Norm(a) => norm::run(a),
         Command::Signal(a) => signal::run(a),
         Command::Identify(a) => identify::run(a),
