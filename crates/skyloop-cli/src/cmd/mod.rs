@@ -1,17 +1,19 @@
 //! One module per subcommand; `run` dispatches.
 
 mod bode;
+mod freqresp;
+mod hinfsyn;
 mod identify;
 mod log;
-mod freqresp;
 mod margins;
 mod minreal;
+mod ncfsyn;
 mod nyquist;
 mod plot_args;
 mod reduce;
+mod reproduce;
 mod show;
 mod signal;
-mod reproduce;
 mod simulate;
 mod step;
 
@@ -46,6 +48,10 @@ pub enum Command {
     Simulate(simulate::Args),
     /// Reproduce a paper's claims (quadrotor-ssi) and check them.
     Reproduce(reproduce::Args),
+    /// H∞ output-feedback synthesis (u = K·y, closed loop lft(P,K)): γ and controller.
+    Hinfsyn(hinfsyn::Args),
+    /// Glover–McFarlane H∞ loop shaping: γ_min, γ and the controller for u = C·(r − y).
+    Ncfsyn(ncfsyn::Args),
 }
 
 /// Runs one subcommand; the error text is what the user sees.
@@ -64,5 +70,7 @@ pub fn run(cmd: Command) -> Result<(), String> {
         Command::Minreal(a) => minreal::run(a),
         Command::Simulate(a) => simulate::run(a),
         Command::Reproduce(a) => reproduce::run(a),
+        Command::Hinfsyn(a) => hinfsyn::run(a),
+        Command::Ncfsyn(a) => ncfsyn::run(a),
     }
 }
