@@ -3,12 +3,15 @@
 mod bode;
 mod export;
 mod freqresp;
+mod freqresp;
+mod hinfsyn;
 mod identify;
 mod log;
 mod margins;
 mod minreal;
 mod norm;
 mod mu;
+mod ncfsyn;
 mod nyquist;
 mod plot_args;
 mod reduce;
@@ -65,6 +68,10 @@ pub enum Command {
     Zeros(zeros::Args),
     /// Discretize a controller (Tustin) and write a self-contained C header for flight firmware.
     Export(export::Args),
+    /// H∞ output-feedback synthesis (u = K·y, closed loop lft(P,K)): γ and controller.
+    Hinfsyn(hinfsyn::Args),
+    /// Glover–McFarlane H∞ loop shaping: γ_min, γ and the controller for u = C·(r − y).
+    Ncfsyn(ncfsyn::Args),
 }
 
 /// Runs one subcommand; the error text is what the user sees.
@@ -89,5 +96,7 @@ pub fn run(cmd: Command) -> Result<(), String> {
         Command::Poles(a) => poles::run(a),
         Command::Zeros(a) => zeros::run(a),
         Command::Export(a) => export::run(a),
+        Command::Hinfsyn(a) => hinfsyn::run(a),
+        Command::Ncfsyn(a) => ncfsyn::run(a),
     }
 }

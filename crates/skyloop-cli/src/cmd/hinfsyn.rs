@@ -1,0 +1,63 @@
+//! `skyloop hinfsyn PLANT --nmeas NY --ncon NU`: H∞ output-feedback synthesis (MATLAB conventions).
+
+use crate::input::load_model;
+use crate::output::{matrix_table, print_json};
+use clap::Args as ClapArgs;
+use skyloop_lti::json::LtiJson;
+use skyloop_robust::hinfsyn::{hinfsyn_with, HinfOptions};
+
+/// Arguments of `skyloop hinfsyn`.
+#[derive(ClapArgs)]
+pub struct Args {
+    /// Generalized plant P (LTI JSON file or expression); last NY outputs are measurements, last NU inputs controls.
+    pub plant: String,
+    /// Number of measured outputs y (the last ones of P).
+    #[arg(long)]
+    pub nmeas: usize,
+    /// Number of control inputs u (the last ones of P).
+    #[arg(long)]
+    pub ncon: usize,
+    /// Lower end of the γ search range.
+    #[arg(long, default_value_t = 0.0)]
+    pub gamma_min: f64,
+    /// Upper end of the γ search range (default: found by doubling).
+    #[arg(long)]
+    pub gamma_max: Option<f64>,
+    /// Relative tolerance of the γ bisection.
+    #[arg(long, default_value_t = 1e-4)]
+    pub tol: f64,
+    /// Print {"gamma":..,"closed_loop_norm":..,"controller":LTI JSON} on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs the synthesis and prints γ and the controller u = K·y.
+pub fn run(a: Args) -> Result<(), String> {
+    let p = load_model(&a.plant)?;
+    let opts = HinfOptions {
+        gamma_range: (a.gamma_min, a.gamma_max.unwrap_or(f64::INFINITY)),
+        rel_tol: a.tol,
+    };
+    let sol = hinfsyn_with(&p, a.nmeas, a.ncon, &opts).map_err(|e| format!("hinfsyn: {e}"))?;
+    if a.json {
+        return print_json(&serde_json::json!({
+            "gamma": sol.gamma,
+            "gamma_lower": sol.gamma_lower,
+            "closed_loop_norm": sol.closed_loop_norm,
+            "controller": LtiJson::from_ss(&sol.controller),
+        }));
+    }
+    println!("gamma            {:.6}", sol.gamma);
+    println!("closed-loop norm {:.6}", sol.closed_loop_norm);
+    let k = &sol.controller;
+    println!(
+        "controller u = K*y: {} states, {} outputs, {} inputs",
+        k.nx(),
+        k.ny(),
+        k.nu()
+    );
+    for (name, m) in [("A", &k.a), ("B", &k.b), ("C", &k.c), ("D", &k.d)] {
+        println!("{name} =\n{}", matrix_table(m));
+    }
+    Ok(())
+}
