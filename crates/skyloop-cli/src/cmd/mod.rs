@@ -3,7 +3,6 @@
 mod bode;
 mod export;
 mod freqresp;
-mod freqresp;
 mod hinfsyn;
 mod identify;
 mod log;
