@@ -4,9 +4,15 @@ use skyloop_lti::Mat;
 
 /// Prints one JSON value on stdout.
 pub fn print_json<T: serde::Serialize>(v: &T) -> Result<(), String> {
+    use std::io::Write;
     let s = serde_json::to_string(v).map_err(|e| format!("cannot encode JSON: {e}"))?;
-    println!("{s}");
-    Ok(())
+    let mut out = std::io::stdout().lock();
+    match writeln!(out, "{s}").and_then(|_| out.flush()) {
+        // A reader that stopped early (`| head`) is not an error of ours.
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        Err(e) => Err(format!("cannot write to stdout: {e}")),
+        Ok(()) => Ok(()),
+    }
 }
 
 /// Formats a matrix as aligned rows.

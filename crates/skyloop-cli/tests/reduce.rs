@@ -77,10 +77,20 @@ fn reduce_keeps_unstable_poles_and_prints_a_table() {
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("12 -> 6 states (3 unstable kept)"), "{out}");
     let plot = std::env::temp_dir().join(format!("skyloop-hsv-{}.svg", std::process::id()));
-    let (code, _, err) = skyloop(&["reduce", &file, "--order", "6", "--plot", plot.to_str().unwrap_or_default()]);
+    let (code, _, err) = skyloop(&[
+        "reduce",
+        &file,
+        "--order",
+        "6",
+        "--plot",
+        plot.to_str().unwrap_or_default(),
+    ]);
     assert_eq!(code, 0, "{err}");
     let svg = std::fs::read_to_string(&plot).expect("hsv plot written");
-    assert!(svg.contains("discarded") && svg.contains("order 3"), "HSV plot lacks the kept/discarded split");
+    assert!(
+        svg.contains("discarded") && svg.contains("order 3"),
+        "HSV plot lacks the kept/discarded split"
+    );
     let _ = std::fs::remove_file(plot);
     // Fewer states than unstable poles is a clear error, exit 2.
     let (code, _, err) = skyloop(&["reduce", &file, "--order", "2"]);

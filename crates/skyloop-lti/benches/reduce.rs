@@ -10,7 +10,13 @@ fn rows(v: &serde_json::Value) -> Vec<Vec<f64>> {
     v.as_array()
         .expect("rows")
         .iter()
-        .map(|r| r.as_array().expect("row").iter().map(|x| x.as_f64().expect("number")).collect())
+        .map(|r| {
+            r.as_array()
+                .expect("row")
+                .iter()
+                .map(|x| x.as_f64().expect("number"))
+                .collect()
+        })
         .collect()
 }
 
@@ -18,7 +24,12 @@ fn model() -> StateSpace {
     let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/reduce/cases.json"))
         .expect("fixture");
     let v: serde_json::Value = serde_json::from_str(&text).expect("JSON");
-    let c = v["cases"].as_array().expect("cases").iter().find(|c| c["name"] == "rss_n100").expect("rss_n100");
+    let c = v["cases"]
+        .as_array()
+        .expect("cases")
+        .iter()
+        .find(|c| c["name"] == "rss_n100")
+        .expect("rss_n100");
     StateSpace::from_rows(&rows(&c["a"]), &rows(&c["b"]), &rows(&c["c"]), &rows(&c["d"]), 0.0).expect("model")
 }
 

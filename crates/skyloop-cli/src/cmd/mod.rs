@@ -1,6 +1,7 @@
 //! One module per subcommand; `run` dispatches.
 
 mod bode;
+mod c2d;
 mod export;
 mod freqresp;
 mod hinfsyn;
@@ -8,20 +9,19 @@ mod identify;
 mod log;
 mod margins;
 mod minreal;
-mod norm;
 mod mu;
 mod ncfsyn;
+mod norm;
 mod nyquist;
 mod plot_args;
+mod poles;
 mod reduce;
 mod reproduce;
+mod roots_out;
 mod show;
 mod signal;
 mod simulate;
 mod step;
-mod c2d;
-mod poles;
-mod roots_out;
 mod zeros;
 
 use clap::Subcommand;

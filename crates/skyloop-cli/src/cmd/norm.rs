@@ -57,10 +57,28 @@ pub fn run(a: Args) -> Result<(), String> {
             "linf_freq_hz": fin(hz(wl)),
         }));
     }
-    let show = |x: f64| if x.is_finite() { format!("{x:.10e}") } else { "inf".into() };
-    println!("H-inf norm   {}{}", show(hinf), if w.is_finite() { format!(" at {:.6e} Hz", hz(w)) } else { String::new() });
+    let show = |x: f64| {
+        if x.is_finite() {
+            format!("{x:.10e}")
+        } else {
+            "inf".into()
+        }
+    };
+    println!(
+        "H-inf norm   {}{}",
+        show(hinf),
+        if w.is_finite() {
+            format!(" at {:.6e} Hz", hz(w))
+        } else {
+            String::new()
+        }
+    );
     if !hinf.is_finite() && linf.is_finite() {
-        println!("L-inf norm   {} at {:.6e} Hz (peak gain; the model is unstable)", show(linf), hz(wl));
+        println!(
+            "L-inf norm   {} at {:.6e} Hz (peak gain; the model is unstable)",
+            show(linf),
+            hz(wl)
+        );
     }
     println!("H2 norm      {}", show(h2));
     Ok(())
