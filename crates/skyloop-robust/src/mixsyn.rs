@@ -23,9 +23,15 @@ pub fn augw(
         ));
     }
     let (ny, nu) = (g.ny(), g.nu());
-    let empty = StateSpace::gain(Mat::zeros(0, 0), g.dt)?;
+    // An absent weight is a gain with no outputs but the right number of inputs, so every block
+    // product below keeps consistent shapes.
+    let absent = [
+        StateSpace::gain(Mat::zeros(0, ny), g.dt)?,
+        StateSpace::gain(Mat::zeros(0, nu), g.dt)?,
+        StateSpace::gain(Mat::zeros(0, ny), g.dt)?,
+    ];
     let mut ws = Vec::new();
-    for (w, name, nin) in [(w1, "W1", ny), (w2, "W2", nu), (w3, "W3", ny)] {
+    for (k, (w, name, nin)) in [(w1, "W1", ny), (w2, "W2", nu), (w3, "W3", ny)].into_iter().enumerate() {
         let w = match w {
             Some(w) => {
                 w.validate()?;
@@ -48,7 +54,7 @@ pub fn augw(
                 }
                 w
             }
-            None => &empty,
+            None => &absent[k],
         };
         ws.push(w);
     }
