@@ -32,18 +32,8 @@ pub struct BodeMarks {
 
 /// Builds the two-panel Bode figure.
 pub fn bode_figure(title: &str, data: &[BodeData], marks: &BodeMarks) -> Figure {
-    let mut mag = Panel {
-        x_label: "frequency [Hz]".into(),
-        y_label: "magnitude [dB]".into(),
-        x_log: true,
-        ..Panel::default()
-    };
-    let mut phase = Panel {
-        x_label: "frequency [Hz]".into(),
-        y_label: "phase [deg]".into(),
-        x_log: true,
-        ..Panel::default()
-    };
+    let mut mag = Panel::frequency("magnitude [dB]");
+    let mut phase = Panel::frequency("phase [deg]");
     for (k, d) in data.iter().enumerate() {
         mag.series
             .push(Series::line(d.label.clone(), d.freq_hz.clone(), d.mag_db.clone()).colored(k));

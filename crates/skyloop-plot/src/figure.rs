@@ -124,6 +124,18 @@ pub struct Panel {
     pub x_range: Option<(f64, f64)>,
 }
 
+impl Panel {
+    /// An empty panel over a logarithmic frequency axis in Hz with the given y-axis description.
+    pub fn frequency(y_label: &str) -> Self {
+        Panel {
+            x_label: "frequency [Hz]".into(),
+            y_label: y_label.into(),
+            x_log: true,
+            ..Panel::default()
+        }
+    }
+}
+
 /// A titled stack of panels sharing the figure width.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Figure {

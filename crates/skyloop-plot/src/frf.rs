@@ -27,18 +27,8 @@ pub struct FrfEstimate {
 /// Builds the figure: magnitude and phase with bands and fitted models, and coherence when present.
 pub fn frf_figure(title: &str, est: &FrfEstimate, fits: &[BodeData]) -> Figure {
     let f = &est.freq_hz;
-    let mut mag = Panel {
-        x_label: "frequency [Hz]".into(),
-        y_label: "magnitude [dB]".into(),
-        x_log: true,
-        ..Panel::default()
-    };
-    let mut phase = Panel {
-        x_label: "frequency [Hz]".into(),
-        y_label: "phase [deg]".into(),
-        x_log: true,
-        ..Panel::default()
-    };
+    let mut mag = Panel::frequency("magnitude [dB]");
+    let mut phase = Panel::frequency("phase [deg]");
     if !est.mag_band_db.0.is_empty() {
         mag.bands.push(Band {
             label: "confidence".into(),
@@ -77,12 +67,9 @@ pub fn frf_figure(title: &str, est: &FrfEstimate, fits: &[BodeData]) -> Figure {
     let mut panels = vec![mag, phase];
     if !est.coherence.is_empty() {
         panels.push(Panel {
-            x_label: "frequency [Hz]".into(),
-            y_label: "coherence".into(),
-            x_log: true,
             y_range: Some((0.0, 1.05)),
             series: vec![Series::line("", f.clone(), est.coherence.clone()).colored(2)],
-            ..Panel::default()
+            ..Panel::frequency("coherence")
         });
     }
     Figure::new(title, panels)

@@ -21,12 +21,7 @@ pub struct MuCurve {
 
 /// Builds the μ figure: upper bounds solid, lower bounds dashed, the line μ = 1 marked.
 pub fn mu_figure(title: &str, curves: &[MuCurve]) -> Figure {
-    let mut p = Panel {
-        x_label: "frequency [Hz]".into(),
-        y_label: "μ".into(),
-        x_log: true,
-        ..Panel::default()
-    };
+    let mut p = Panel::frequency("μ");
     for (k, c) in curves.iter().enumerate() {
         p.series
             .push(Series::line(format!("{} upper", c.label), c.freq_hz.clone(), c.upper.clone()).colored(k));

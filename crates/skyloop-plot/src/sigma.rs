@@ -18,12 +18,7 @@ pub struct SigmaData {
 
 /// Builds a singular-value figure: the largest of each system solid, the others dashed.
 pub fn sigma_figure(title: &str, data: &[SigmaData]) -> Figure {
-    let mut p = Panel {
-        x_label: "frequency [Hz]".into(),
-        y_label: "singular values [dB]".into(),
-        x_log: true,
-        ..Panel::default()
-    };
+    let mut p = Panel::frequency("singular values [dB]");
     for (k, d) in data.iter().enumerate() {
         let count = d.sv_db.iter().map(Vec::len).max().unwrap_or(0);
         for i in 0..count {

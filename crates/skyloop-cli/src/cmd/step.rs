@@ -6,7 +6,7 @@ use serde::Serialize;
 use skyloop_lti::StateSpace;
 use skyloop_plot::traces::{plot_step, Trace};
 
-use super::plot_args::label;
+use super::plot_args::{channel, label};
 use crate::{input, output};
 
 /// Arguments of `skyloop step`.
@@ -79,13 +79,8 @@ pub fn run(a: Args) -> Result<(), String> {
         let r = skyloop_lti::timeresp::step(sys, Some(&grid)).map_err(|e| format!("{m}: {e}"))?;
         for (i, row) in r.y.iter().enumerate() {
             for (j, y) in row.iter().enumerate() {
-                let channel = if sys.ny() * sys.nu() > 1 {
-                    format!(" [out {} ← in {}]", i + 1, j + 1)
-                } else {
-                    String::new()
-                };
                 traces.push(Trace {
-                    label: format!("{}{channel}", label(m)),
+                    label: format!("{}{}", label(m), channel(sys, i, j)),
                     t: r.t_s.clone(),
                     y: y.clone(),
                 });
