@@ -133,15 +133,27 @@ pub struct StepStats {
     pub crashed: bool,
     /// Final x error (m).
     pub final_err_m: f64,
+    /// Time to reach 90 % of the step (s), None if never.
+    pub t90_s: Option<f64>,
+    /// Largest |F_r·r − x| (m): how closely the filtered reference of eq. (9b) is tracked.
+    pub track_err_m: f64,
 }
 
-/// Statistics of an x-step run (step at t = 0).
-pub fn step_stats(run: &LoopRun) -> StepStats {
+/// Statistics of an x-step run (step at t = 0) with reference-filter time constant `t_ref_s`.
+pub fn step_stats(run: &LoopRun, t_ref_s: f64) -> StepStats {
     let band = 0.02 * STEP_M;
     let mut last_out = None;
     let (mut peak, mut cross, mut tilt) = (f64::NEG_INFINITY, 0.0f64, 0.0f64);
+    let (mut t90, mut track) = (None, 0.0f64);
     for s in &run.trace {
         let x = s.y[0];
+        // Step response of the critically damped F_r of eq. (9b).
+        let tau = s.t / t_ref_s;
+        let r_f = STEP_M * (1.0 - (1.0 + tau) * (-tau).exp());
+        track = track.max((r_f - x).abs());
+        if t90.is_none() && x >= 0.9 * STEP_M {
+            t90 = Some(s.t);
+        }
         if (x - STEP_M).abs() > band {
             last_out = Some(s.t);
         }
@@ -162,6 +174,8 @@ pub fn step_stats(run: &LoopRun) -> StepStats {
         tilt_rad: tilt,
         crashed: run.crashed,
         final_err_m: run.trace.last().map_or(f64::INFINITY, |s| (s.y[0] - STEP_M).abs()),
+        t90_s: t90,
+        track_err_m: if run.crashed { f64::INFINITY } else { track },
     }
 }
 
@@ -325,23 +339,35 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
     ] {
         let run = x_step(&p, &k_rt, veh, &d, duration)?;
         write_csv(&out.join(format!("{stem}.csv")), &run)?;
-        let st = step_stats(&run);
+        let st = step_stats(&run, d.t_ref_s);
         rows.push((label.to_string(), st));
         runs.push((label.to_string(), run));
     }
-    println!(
-        "  {:<26} {:>12} {:>12} {:>12} {:>10} {:>9}",
-        "run", "settling s", "overshoot %", "final err m", "tilt rad", "crashed"
-    );
-    println!(
-        "  {:<26} {:>12} {:>12} {:>12} {:>10} {:>9}",
-        "paper (Fig. 5–6)", "≈ 20", "-", "-", "-", "no"
-    );
+    let hdr = |c: [&str; 9]| {
+        println!(
+            "  {:<26} {:>7} {:>10} {:>10} {:>11} {:>9} {:>9} {:>9} {:>8}",
+            c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8]
+        )
+    };
+    hdr([
+        "run",
+        "t90 s",
+        "settle 2%",
+        "overshoot",
+        "|r_f−x| m",
+        "final m",
+        "y,z m",
+        "tilt rad",
+        "crashed",
+    ]);
+    hdr(["paper (Fig. 5–6)", "-", "≈ 20", "-", "-", "-", "-", "-", "no"]);
     for (label, st) in &rows {
         println!(
-            "  {label:<26} {:>12} {:>12.2} {:>12.4} {:>10.4} {:>10.4} {:>9}",
+            "  {label:<26} {:>7} {:>10} {:>9.2}% {:>11.4} {:>9.4} {:>9.4} {:>9.4} {:>8}",
+            st.t90_s.map_or("never".into(), |t| format!("{t:.1}")),
             st.settling_s.map_or("never".into(), |t| format!("{t:.1}")),
             st.overshoot_pct,
+            st.track_err_m,
             st.final_err_m,
             st.cross_m,
             st.tilt_rad,
