@@ -6,7 +6,8 @@
 //!
 //! Channel order (MATLAB/hinfsyn convention, controls and measurements last):
 //! inputs  [v_α (4), v_ω (1), v_x (9) | d (5), r (3), n (12) | u (5)],
-//! outputs [z_α (4), z_ω (1), z_x (9) | e_u (5), e_P (3), e_v (3), e_Θ (3) | y_m (12)].
+//! outputs [z_α (4), z_ω (1), z_x (9) | e_u (5), e_P (3), e_v (3), e_Θ (3), e_Ω (3) | y_m (12)]
+//! (e_x = [r − y; Ṗ; Θ; Ω] as in the caption of Fig. 2).
 //! u is normalized to (−1, 1) (Section II-C): flap angle / α_max, propeller speed deviation / ω_scale.
 //! The nominal plant G_nom of eq. (11) drops the uncertainty channels.
 //!
@@ -54,6 +55,13 @@ pub struct Design {
     pub w_vel: [f64; 2],
     /// Euler-angle weights ϕϑ, ψ (static; ASSUMED).
     pub w_att: [f64; 2],
+    /// Body-rate weights pq, r (static; ASSUMED). Without them the gyroscopic nutation mode
+    /// (Jr·ω0/J ≈ 7.5 rad/s) stays almost undamped: it hardly shows in the angles.
+    pub w_rate: [f64; 2],
+    /// Common factor on all performance outputs e (ASSUMED): chosen so that γ of the H∞ design is
+    /// ≈ 0.6 as printed in Section III-C; scaling e uniformly leaves the H∞ controller unchanged and
+    /// sets how much robust performance asks beside robust stability.
+    pub perf_scale: f64,
     /// Actuator weights flaps, propeller on the normalized commands (static; ASSUMED).
     pub w_u: [f64; 2],
     /// Input-disturbance levels on the normalized flap and propeller commands (ASSUMED).
@@ -77,9 +85,11 @@ impl Default for Design {
             w_pos: [(50.0, 0.3, 0.2), (50.0, 0.3, 0.2)],
             w_vel: [0.5, 0.5],
             w_att: [0.5, 0.2],
+            w_rate: [2.0, 0.5],
+            perf_scale: 5.5,
             w_u: [0.5, 0.5],
             w_dist: [0.1, 0.1],
-            noise: [0.01, 0.02, 0.005, 0.01],
+            noise: [0.001, 0.02, 0.005, 0.01],
         }
     }
 }
@@ -303,6 +313,7 @@ pub fn build(params: DuctedFanParams, d: &Design) -> Result<Plants, String> {
     let wp = |k: usize| makeweight_mag(d.w_pos[k].0, d.w_pos[k].1, 1.0, d.w_pos[k].2).map_err(|e| e.to_string());
     let w_p = append_all(&[wp(0)?, wp(0)?, wp(1)?])?;
 
+    let ks = d.perf_scale;
     let plant = |with_unc: bool| -> Result<StateSpace, String> {
         let n_unc = if with_unc { 14 } else { 0 };
         let (d0, r0, n0, u_0) = (n_unc, n_unc + 5, n_unc + 8, n_unc + 20);
@@ -348,16 +359,19 @@ pub fn build(params: DuctedFanParams, d: &Design) -> Result<Plants, String> {
             }
         }
         for i in 0..5 {
-            wr.output(vec![(d.w_u[usize::from(i == 4)], Sig::Ext(u_0 + i))]);
+            wr.output(vec![(ks * d.w_u[usize::from(i == 4)], Sig::Ext(u_0 + i))]);
         }
         for i in 0..3 {
-            wr.output(vec![(1.0, Sig::Out(cwp, i))]);
+            wr.output(vec![(ks, Sig::Out(cwp, i))]);
         }
         for i in 0..3 {
-            wr.output(vec![(d.w_vel[usize::from(i == 2)], Sig::Out(clin, 9 + 3 + i))]);
+            wr.output(vec![(ks * d.w_vel[usize::from(i == 2)], Sig::Out(clin, 9 + 3 + i))]);
         }
         for i in 0..3 {
-            wr.output(vec![(d.w_att[usize::from(i == 2)], Sig::Out(clin, 9 + 6 + i))]);
+            wr.output(vec![(ks * d.w_att[usize::from(i == 2)], Sig::Out(clin, 9 + 6 + i))]);
+        }
+        for i in 0..3 {
+            wr.output(vec![(ks * d.w_rate[usize::from(i == 2)], Sig::Out(clin, 9 + 9 + i))]);
         }
         for i in 0..12 {
             let level = d.noise[i / 3];
@@ -377,7 +391,7 @@ pub fn build(params: DuctedFanParams, d: &Design) -> Result<Plants, String> {
         g_nom: plant(false)?,
         n_unc: 14,
         n_w: 20,
-        n_e: 14,
+        n_e: 17,
         u_scale,
         f_r,
         f_u,
@@ -442,8 +456,8 @@ mod tests {
     #[test]
     fn dimensions_follow_eq8() {
         let p = plants();
-        assert_eq!((p.g.nu(), p.g.ny()), (14 + 20 + 5, 14 + 14 + 12));
-        assert_eq!((p.g_nom.nu(), p.g_nom.ny()), (20 + 5, 14 + 12));
+        assert_eq!((p.g.nu(), p.g.ny()), (14 + 20 + 5, 14 + 17 + 12));
+        assert_eq!((p.g_nom.nu(), p.g_nom.ny()), (20 + 5, 17 + 12));
         // 5 F_u + 9 actuator + 12 body + 6 F_r + 36 Padé + 3 position weights (+ 9 Δ_x weights).
         assert_eq!(p.g_nom.nx(), 5 + 9 + 12 + 6 + 36 + 3);
         assert_eq!(p.g.nx(), p.g_nom.nx() + 9);
@@ -468,21 +482,29 @@ mod tests {
         };
         // e_u = W_u·u: a static weight, equal at all frequencies (rows 14..19).
         for w in [&lo, &hi] {
-            close(w[(14, u0)], c64::new(d.w_u[0], 0.0), "flap effort weight");
-            close(w[(18, u0 + 4)], c64::new(d.w_u[1], 0.0), "propeller effort weight");
+            close(
+                w[(14, u0)],
+                c64::new(d.perf_scale * d.w_u[0], 0.0),
+                "flap effort weight",
+            );
+            close(
+                w[(18, u0 + 4)],
+                c64::new(d.perf_scale * d.w_u[1], 0.0),
+                "propeller effort weight",
+            );
         }
-        // eq. (9b): F_r = 1/(T s + 1)² from r_x to the measured r − y (row 28) and to the position error
+        // eq. (9b): F_r = 1/(T s + 1)² from r_x to the measured r − y (row 31) and to the position error
         // weight (row 19, times W_p), rolling off at high frequency.
         let fr = c64::new(1.0, 0.0) / ((s_lo * d.t_ref_s + 1.0) * (s_lo * d.t_ref_s + 1.0));
-        close(lo[(28, r0)], fr, "F_r in y_m");
-        assert!(hi[(28, r0)].norm() < 1e-9);
+        close(lo[(31, r0)], fr, "F_r in y_m");
+        assert!(hi[(31, r0)].norm() < 1e-9);
         let wpos = makeweight_mag(d.w_pos[0].0, d.w_pos[0].1, 1.0, d.w_pos[0].2).expect("w");
         let wp = evalfr(&wpos, s_lo).expect("eval")[(0, 0)];
-        close(lo[(19, r0)], wp * fr, "W_p·F_r");
+        close(lo[(19, r0)], wp * fr * d.perf_scale, "W_p·F_r");
         let wp0 = evalfr(&wpos, c64::new(0.0, 0.0)).expect("eval")[(0, 0)];
         assert!((wp0.norm() - d.w_pos[0].0).abs() < 1e-9 * d.w_pos[0].0);
         // Measurement noise enters y_m directly with its level (D21).
-        close(hi[(28, n0)], c64::new(d.noise[0], 0.0), "noise level");
+        close(hi[(31, n0)], c64::new(d.noise[0], 0.0), "noise level");
         // eq. (9a) and (10): z_α = ε_α·α/α_max with α = α_max·G_a·F_u·u, so z_α/u = ε_α·F_u·G_a
         // (→ ε_α at DC, 0 at high frequency); likewise z_ω with ε_ω and the first-order propeller.
         let (ea, ew) = p.eps_in;
