@@ -441,14 +441,25 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
     let panels = vec![
         TracePanel {
             y_label: "x [m]".into(),
-            traces: runs
-                .iter()
-                .map(|(l, r)| Trace {
-                    label: l.clone(),
-                    t: r.trace.iter().map(|s| s.t).collect(),
-                    y: r.trace.iter().map(|s| s.y[0]).collect(),
-                })
-                .collect(),
+            traces: std::iter::once(Trace {
+                label: "F_r·r (filtered reference)".into(),
+                t: runs[0].1.trace.iter().map(|s| s.t).collect(),
+                y: runs[0]
+                    .1
+                    .trace
+                    .iter()
+                    .map(|s| {
+                        let tau = s.t / d.t_ref_s;
+                        STEP_M * (1.0 - (1.0 + tau) * (-tau).exp())
+                    })
+                    .collect(),
+            })
+            .chain(runs.iter().map(|(l, r)| Trace {
+                label: l.clone(),
+                t: r.trace.iter().map(|s| s.t).collect(),
+                y: r.trace.iter().map(|s| s.y[0]).collect(),
+            }))
+            .collect(),
             references: vec![(STEP_M, "step 0.5 m".into())],
         },
         TracePanel {
