@@ -41,8 +41,16 @@ fn reproduces_hinf_design_mu_analysis_and_nonlinear_steps() {
     let secs = t.elapsed().as_secs_f64();
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&o.stderr));
-    // Budget for CI (the test profile is optimized).
-    assert!(secs < 60.0, "took {secs:.1} s");
+    // Budget for CI (the test profile is optimized): CPU time where the run reports it (a shared
+    // machine stretches wall time), else wall time.
+    let cpu = stdout
+        .lines()
+        .find(|l| l.contains("cpu "))
+        .and_then(|l| l.split("cpu ").nth(1))
+        .and_then(|t| t.split(' ').next())
+        .and_then(|t| t.parse::<f64>().ok())
+        .unwrap_or(secs);
+    assert!(cpu < 60.0, "took {cpu:.1} s CPU ({secs:.1} s wall)");
     // hinfsyn's γ is finite and positive; the closed loop it verified is what the μ analysis measures
     // as nominal performance (checked inside the run, which fails otherwise).
     let gamma = number_after(&stdout, "γ =");
@@ -56,7 +64,22 @@ fn reproduces_hinf_design_mu_analysis_and_nonlinear_steps() {
     let rp = number_after(&stdout, "robust performance μ peak");
     // RP adds a block to RS's structure, so its μ can only be larger (Packard & Doyle 1993).
     assert!(rp >= rs * (1.0 - 1e-3), "RP {rp} < RS {rs}");
+    // μ-synthesis: its robust-performance μ below the H∞ design's (Fig. 4b), and its controller
+    // keeps the nominal and perturbed nonlinear steps stable.
+    assert!(
+        stdout.contains("[ok] robust-performance μ of K_μ below K∞'s"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("[ok] K_μ stabilizes the linear plant"), "{stdout}");
+    assert!(
+        stdout.contains("[ok] μ perturbed: the nonlinear x-step stays stable"),
+        "{stdout}"
+    );
+    let first = number_after(&stdout, "iteration 1: γ =");
+    assert!(first.is_finite() && first > 0.0);
     for f in [
+        "mu_nominal.csv",
+        "mu_perturbed.csv",
         "hinf_nominal.csv",
         "hinf_perturbed.csv",
         "fig4b_mu.svg",
