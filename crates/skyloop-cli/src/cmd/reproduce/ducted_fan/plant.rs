@@ -273,7 +273,7 @@ pub fn build(params: DuctedFanParams, d: &Design) -> Result<Plants, String> {
     } else {
         params.omega_max_rad_s - u0[4]
     };
-    if !(wscale > 0.0) {
+    if wscale.is_nan() || wscale <= 0.0 {
         return Err("hover propeller speed is at or above omega_max".into());
     }
     let u_scale = [amax, amax, amax, amax, wscale];
