@@ -1,8 +1,10 @@
 //! Pross, H∞ and μ-synthesis of a ducted-fan VTOL micro-UAV (../shared/seeds/002_ea256cf036d9f988.txt):
 //! the generalized plant of Fig. 2–3 (see `plant`), H∞ synthesis on G_nom (eq. (11); paper: γ ≈ 0.6),
 //! μ analysis of the H∞ loop against the structure (7) (robust stability and, by the main loop theorem
-//! with the augmented structure (13), robust performance, as Fig. 4b), and the 50 cm x-step of Fig. 5–6
-//! in the nonlinear 6-DOF model, nominal and with the flap and propeller aerodynamics off-nominal.
+//! with the augmented structure (13), robust performance, as Fig. 4b), μ-synthesis by DK-iteration
+//! (`skyloop_robust::musyn`, per-iteration γ and μ peaks), and the 50 cm x-step of Fig. 5–6 in the
+//! nonlinear 6-DOF model with each controller (Tustin at the flight-controller rate), nominal and with
+//! the flap and propeller aerodynamics at either corner of eq. (10)'s percentage errors.
 //!
 //! The paper prints neither the vehicle parameters nor the performance weights of Fig. 4a: the
 //! vehicle is `presets::ducted_fan_pross` (ASSUMED values, documented there) and the weights are in
