@@ -29,3 +29,33 @@ pub fn run(a: Args) -> Result<(), String> {
         )),
     }
 }
+
+/// Printed paper claims, each marked ok or FAIL as it is checked; the run fails if any claim failed.
+#[derive(Default)]
+pub(crate) struct Claims {
+    failed: Vec<String>,
+}
+
+impl Claims {
+    /// Prints the claim with its verdict and remembers it if it failed.
+    pub(crate) fn check(&mut self, ok: bool, what: String) {
+        println!("  [{}] {what}", if ok { "ok" } else { "FAIL" });
+        if !ok {
+            self.failed.push(what);
+        }
+    }
+
+    /// Ok when every claim held, else an error listing the failed ones.
+    pub(crate) fn finish(self) -> Result<(), String> {
+        if self.failed.is_empty() {
+            println!("all claims reproduced");
+            Ok(())
+        } else {
+            Err(format!(
+                "{} claim(s) not reproduced: {}",
+                self.failed.len(),
+                self.failed.join("; ")
+            ))
+        }
+    }
+}

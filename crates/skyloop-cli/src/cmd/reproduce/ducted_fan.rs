@@ -13,6 +13,7 @@
 
 pub mod plant;
 
+use super::Claims;
 use plant::{Design, Plants, NCON, NMEAS};
 use skyloop_lti::interconnect::lft_lower;
 use skyloop_lti::StateSpace;
@@ -33,19 +34,6 @@ const CONTROL_HZ: f64 = 100.0;
 const PHYSICS_HZ: f64 = 1000.0;
 /// Step size along x (m), paper Section IV.
 const STEP_M: f64 = 0.5;
-
-struct Claims {
-    failed: Vec<String>,
-}
-
-impl Claims {
-    fn check(&mut self, ok: bool, what: String) {
-        println!("  [{}] {what}", if ok { "ok" } else { "FAIL" });
-        if !ok {
-            self.failed.push(what);
-        }
-    }
-}
 
 /// μ analysis results of one closed loop.
 pub struct MuReport {
@@ -286,7 +274,7 @@ fn cpu_seconds() -> Option<f64> {
 pub fn run(out: &Path, quick: bool) -> Result<(), String> {
     std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
     let t_start = Instant::now();
-    let mut claims = Claims { failed: vec![] };
+    let mut claims = Claims::default();
     let d = Design::default();
     let params = skyloop_sim::presets::ducted_fan_pross();
     let p = plant::build(params, &d)?;
@@ -601,14 +589,5 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
         t_start.elapsed().as_secs_f64(),
         cpu_seconds().map_or("n/a".into(), |c| format!("{c:.1} s"))
     );
-    if claims.failed.is_empty() {
-        println!("all claims reproduced");
-        Ok(())
-    } else {
-        Err(format!(
-            "{} claim(s) not reproduced: {}",
-            claims.failed.len(),
-            claims.failed.join("; ")
-        ))
-    }
+    claims.finish()
 }
