@@ -23,6 +23,7 @@ pub mod minreal;
 pub mod pade;
 pub mod poly;
 pub mod reduce;
+pub mod sos;
 pub mod stabsep;
 pub mod tf;
 pub mod timeresp;

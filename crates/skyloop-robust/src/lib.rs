@@ -1,4 +1,5 @@
 //! skyloop-robust.
+pub mod design;
 pub mod hinfsyn;
 mod linutil;
 pub mod mixsyn;

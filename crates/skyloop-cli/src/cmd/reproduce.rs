@@ -1,6 +1,7 @@
 //! `skyloop reproduce NAME`: re-derives a paper's printed claims and checks them. One line per paper in
 //! `run`; each paper's code lives in `reproduce/<name>.rs`.
 
+mod ducted_fan;
 mod quadrotor_ssi;
 
 use std::path::PathBuf;
@@ -8,17 +9,23 @@ use std::path::PathBuf;
 /// Arguments of `skyloop reproduce`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Which paper: quadrotor-ssi.
+    /// Which paper: quadrotor-ssi, ducted-fan.
     name: String,
     /// Output directory for CSV traces and plots.
     #[arg(long, default_value = "skyloop-reproduce-out")]
     out: PathBuf,
+    /// Coarser frequency grids and fewer iterations (for CI).
+    #[arg(long)]
+    quick: bool,
 }
 
 /// Dispatches on the paper name.
 pub fn run(a: Args) -> Result<(), String> {
     match a.name.as_str() {
         "quadrotor-ssi" => quadrotor_ssi::run(&a.out),
-        other => Err(format!("unknown reproduction '{other}' (known: quadrotor-ssi)")),
+        "ducted-fan" => ducted_fan::run(&a.out, a.quick),
+        other => Err(format!(
+            "unknown reproduction '{other}' (known: quadrotor-ssi, ducted-fan)"
+        )),
     }
 }
