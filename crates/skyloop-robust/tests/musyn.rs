@@ -234,3 +234,56 @@ fn bad_input_is_an_error() {
     };
     assert!(musyn(&p, &blocks, 2, 2, &bad).is_err());
 }
+
+#[test]
+fn controller_reduction_and_stability_only_plants() {
+    // Reduction: the second iteration's 22-state controller is truncated to 8 states and still
+    // stabilizes (balred keeps unstable poles; the iteration falls back to the full K otherwise).
+    let p = distillation_plant();
+    let blocks = BlockStructure::parse("c1x1,c1x1").expect("spec");
+    let opts = MusynOptions {
+        w_rad_s: grid(),
+        d_order: 4,
+        max_iter: 2,
+        tol: 0.0,
+        reduce_order: Some(8),
+        ..Default::default()
+    };
+    let sol = musyn(&p, &blocks, 2, 2, &opts).expect("musyn");
+    assert!(sol.iterations.iter().all(|it| it.controller_order <= 22));
+    assert_eq!(sol.iterations[1].controller_order, 8, "reduced order");
+    assert!(closed_loop_stable(&p, &sol.controller));
+
+    // Robust stability only (no performance channels) with a repeated scalar block Δ = δ·I₂:
+    // the iteration must run, return a stabilizing controller and never get worse.
+    let a = Mat::from_fn(1, 1, |_, _| -1.0);
+    // Inputs [w1, w2, u], outputs [z1, z2, y]; g = 1 + 1/(s+1): x' = −x + (u + w1), g(.) = x + (u + w1).
+    let b = Mat::from_fn(1, 3, |_, j| if j == 1 { 0.0 } else { 1.0 });
+    let c = Mat::from_fn(3, 1, |i, _| if i == 2 { -1.0 } else { 0.0 });
+    let d = Mat::from_fn(3, 3, |i, j| match (i, j) {
+        (0, 2) | (1, 2) => 0.5,
+        (2, 0) | (2, 2) => -1.0,
+        (2, 1) => -0.3,
+        _ => 0.0,
+    });
+    let p = StateSpace::new(a, b, c, d, 0.0).expect("plant");
+    let rs = BlockStructure::parse("c2r").expect("spec");
+    let sol = musyn(
+        &p,
+        &rs,
+        1,
+        1,
+        &MusynOptions {
+            max_iter: 3,
+            d_order: 1,
+            ..Default::default()
+        },
+    )
+    .expect("musyn");
+    assert!(closed_loop_stable(&p, &sol.controller));
+    assert!(sol.mu_peak <= sol.iterations[0].mu_peak);
+    for it in &sol.iterations {
+        // Without performance channels the RS μ is the full μ.
+        assert_eq!(it.mu_rs_peak, it.mu_peak);
+    }
+}

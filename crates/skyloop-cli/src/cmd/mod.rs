@@ -10,6 +10,7 @@ mod log;
 mod margins;
 mod minreal;
 mod mu;
+mod musyn;
 mod ncfsyn;
 mod norm;
 mod nyquist;
@@ -71,6 +72,8 @@ pub enum Command {
     Hinfsyn(hinfsyn::Args),
     /// Glover–McFarlane H∞ loop shaping: γ_min, γ and the controller for u = C·(r − y).
     Ncfsyn(ncfsyn::Args),
+    /// μ-synthesis by DK-iteration from a TOML spec: per-iteration γ and μ peaks, the best controller.
+    Musyn(musyn::Args),
 }
 
 /// Runs one subcommand; the error text is what the user sees.
@@ -97,5 +100,6 @@ pub fn run(cmd: Command) -> Result<(), String> {
         Command::Export(a) => export::run(a),
         Command::Hinfsyn(a) => hinfsyn::run(a),
         Command::Ncfsyn(a) => ncfsyn::run(a),
+        Command::Musyn(a) => musyn::run(a),
     }
 }
