@@ -10,7 +10,7 @@
 //! they are ignored here.
 
 use crate::error::{LtiError, Result};
-use crate::freqresp::{pole_summary, FreqEvaluator};
+use crate::freqresp::{pole_summary, FreqEvaluator, PoleSummary};
 use crate::ss::StateSpace;
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
@@ -22,11 +22,12 @@ const REL_TOL: f64 = 1e-10;
 /// (1e-10 nominal). Infinite (with NaN frequency) when the model is unstable or has poles on the
 /// stability boundary; use [`linf_norm`] for the peak gain of an unstable model.
 pub fn hinf_norm(sys: &StateSpace) -> Result<(f64, f64)> {
+    sys.validate()?;
     let poles = pole_summary(sys)?;
     if poles.unstable > 0 || poles.origin > 0 || !poles.axis_w.is_empty() {
         return Ok((f64::INFINITY, f64::NAN));
     }
-    linf_norm(sys)
+    linf_with_poles(sys, &poles)
 }
 
 /// L∞ norm (peak gain over all frequencies) of `sys` and its frequency in rad/s; infinite when
@@ -35,12 +36,18 @@ pub fn hinf_norm(sys: &StateSpace) -> Result<(f64, f64)> {
 pub fn linf_norm(sys: &StateSpace) -> Result<(f64, f64)> {
     sys.validate()?;
     let poles = pole_summary(sys)?;
+    linf_with_poles(sys, &poles)
+}
+
+fn linf_with_poles(sys: &StateSpace, poles: &PoleSummary) -> Result<(f64, f64)> {
     if poles.origin > 0 || !poles.axis_w.is_empty() {
         return Ok((f64::INFINITY, poles.axis_w.first().copied().unwrap_or(0.0)));
     }
     if sys.dt > 0.0 {
         let c = bilinear_to_continuous(sys)?;
-        let (g, wc) = linf_continuous(&c)?;
+        // The bilinear map sends each pole z to (z − 1)/(z + 1).
+        let eig: Vec<c64> = poles.poles.iter().map(|&z| (z - 1.0) / (z + 1.0)).collect();
+        let (g, wc) = linf_continuous(&c, &eig)?;
         // s = j·tan(θ/2) on the unit circle z = e^{jθ}, θ = ω·dt.
         let w = if wc.is_infinite() {
             std::f64::consts::PI / sys.dt
@@ -50,7 +57,7 @@ pub fn linf_norm(sys: &StateSpace) -> Result<(f64, f64)> {
         return Ok((g, w));
     }
     let delay_free = StateSpace::new(sys.a.clone(), sys.b.clone(), sys.c.clone(), sys.d.clone(), 0.0)?;
-    linf_continuous(&delay_free)
+    linf_continuous(&delay_free, &poles.poles)
 }
 
 /// Largest singular value of G(jω).
@@ -83,15 +90,14 @@ fn sigma_max_real(d: &Mat<f64>) -> Result<f64> {
     sigma_max_of(&g)
 }
 
-/// The two-step algorithm for a continuous model without imaginary-axis poles.
-fn linf_continuous(sys: &StateSpace) -> Result<(f64, f64)> {
+/// The two-step algorithm for a continuous model without imaginary-axis poles (eigenvalues `eig`).
+fn linf_continuous(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
     let (n, ny, nu) = (sys.nx(), sys.ny(), sys.nu());
     let d_gain = sigma_max_real(&sys.d)?;
     if n == 0 || ny == 0 || nu == 0 {
         return Ok((d_gain, 0.0));
     }
     let ev = FreqEvaluator::new(sys)?;
-    let eig = crate::freqresp::balanced_eigenvalues(&sys.a)?;
     // Initial lower bound: ω = 0, ω = ∞, and the magnitudes of the poles (cheap at O(n²) each).
     let (mut gamma, mut w_peak) = (d_gain, f64::INFINITY);
     let try_w = |w: f64, gamma: &mut f64, w_peak: &mut f64| -> Result<()> {
@@ -103,7 +109,7 @@ fn linf_continuous(sys: &StateSpace) -> Result<(f64, f64)> {
         Ok(())
     };
     try_w(0.0, &mut gamma, &mut w_peak)?;
-    for p in &eig {
+    for p in eig {
         try_w(p.norm(), &mut gamma, &mut w_peak)?;
         if p.im != 0.0 {
             try_w(p.im.abs(), &mut gamma, &mut w_peak)?;
@@ -206,9 +212,7 @@ fn imaginary_axis_crossings(sys: &StateSpace, gamma: f64) -> Result<Vec<f64>> {
             "Hamiltonian at gamma = {gamma} is not finite"
         )));
     }
-    let eig = h
-        .eigenvalues()
-        .map_err(|e| LtiError::Numerical(format!("Hamiltonian eigenvalues: {e:?}")))?;
+    let eig = crate::hamiltonian::hamiltonian_eigenvalues(h.as_ref())?;
     let scale = h.norm_l2().max(1.0);
     let mut w: Vec<f64> = eig
         .iter()
@@ -332,13 +336,20 @@ pub fn h2_norm(sys: &StateSpace) -> Result<f64> {
     if sys.nx() == 0 {
         return Ok(if continuous { 0.0 } else { d_energy.sqrt() });
     }
-    let bbt = &sys.b * sys.b.transpose();
+    // The norm is invariant under state scaling; the Lyapunov solve is far more accurate on the
+    // balanced realization (D⁻¹AD, D⁻¹B, CD) of a badly scaled model.
+    let d = crate::freqresp::system_scaling(&sys.a, &sys.b, &sys.c);
+    let n = sys.nx();
+    let a = Mat::from_fn(n, n, |i, j| sys.a[(i, j)] * d[j] / d[i]);
+    let b = Mat::from_fn(n, sys.nu(), |i, j| sys.b[(i, j)] / d[i]);
+    let c = Mat::from_fn(sys.ny(), n, |i, j| sys.c[(i, j)] * d[j]);
+    let bbt = &b * b.transpose();
     let p = if continuous {
-        skyloop_linalg::lyapunov::lyap(sys.a.as_ref(), bbt.as_ref())?
+        skyloop_linalg::lyapunov::lyap(a.as_ref(), bbt.as_ref())?
     } else {
-        skyloop_linalg::lyapunov::dlyap(sys.a.as_ref(), bbt.as_ref())?
+        skyloop_linalg::lyapunov::dlyap(a.as_ref(), bbt.as_ref())?
     };
-    let cpct = &sys.c * &p * sys.c.transpose();
+    let cpct = &c * &p * c.transpose();
     let tr: f64 = (0..sys.ny()).map(|i| cpct[(i, i)]).sum::<f64>() + if continuous { 0.0 } else { d_energy };
     if tr < 0.0 {
         return Err(LtiError::Numerical(format!(
