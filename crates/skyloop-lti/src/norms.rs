@@ -97,7 +97,8 @@ fn linf_continuous(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
     if n == 0 || ny == 0 || nu == 0 {
         return Ok((d_gain, 0.0));
     }
-    let ev = FreqEvaluator::new(sys)?;
+    // A few hundred evaluations at most: the cheaper Hessenberg set-up pays off over the Schur one.
+    let ev = FreqEvaluator::new_hessenberg(sys)?;
     // Initial lower bound: ω = 0, ω = ∞, and the magnitudes of the poles (cheap at O(n²) each).
     let (mut gamma, mut w_peak) = (d_gain, f64::INFINITY);
     let try_w = |w: f64, gamma: &mut f64, w_peak: &mut f64| -> Result<()> {
@@ -109,11 +110,11 @@ fn linf_continuous(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
         Ok(())
     };
     try_w(0.0, &mut gamma, &mut w_peak)?;
-    for p in eig {
-        try_w(p.norm(), &mut gamma, &mut w_peak)?;
-        if p.im != 0.0 {
-            try_w(p.im.abs(), &mut gamma, &mut w_peak)?;
-        }
+    // One candidate per pole (per conjugate pair): the resonance frequency |Im p| of a complex
+    // pair, the corner frequency |p| of a real pole (Bruinsma–Steinbuch's initial guesses).
+    for p in eig.iter().filter(|p| p.im >= 0.0) {
+        let w = if p.im > 0.0 { p.im } else { p.norm() };
+        try_w(w, &mut gamma, &mut w_peak)?;
     }
     if gamma == 0.0 {
         return Ok((0.0, 0.0));
@@ -121,7 +122,7 @@ fn linf_continuous(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
     // Climb the best initial peak locally: when it is the global one, the first Hamiltonian
     // eigenvalue solve already certifies the bound.
     if w_peak.is_finite() && w_peak > 0.0 {
-        let (x, fx) = crate::roots::golden_max(|w| sigma_max(&ev, w).unwrap_or(0.0), 0.7 * w_peak, 1.4 * w_peak, 1e-9);
+        let (x, fx) = crate::roots::brent_max(|w| sigma_max(&ev, w).unwrap_or(0.0), 0.7 * w_peak, 1.4 * w_peak, 1e-9);
         if fx > gamma {
             gamma = fx;
             w_peak = x;
@@ -145,7 +146,7 @@ fn linf_continuous(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
                 w_peak = mid;
             }
             if s > level {
-                let (x, fx) = crate::roots::golden_max(|w| sigma_max(&ev, w).unwrap_or(0.0), p[0], p[1], 1e-9);
+                let (x, fx) = crate::roots::brent_max(|w| sigma_max(&ev, w).unwrap_or(0.0), p[0], p[1], 1e-9);
                 if fx > gamma {
                     gamma = fx;
                     w_peak = x;
@@ -162,7 +163,7 @@ fn linf_continuous(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
     // Polish the peak locally (the bound is already within 2·REL_TOL).
     if w_peak.is_finite() && w_peak > 0.0 {
         let (a, b) = (w_peak * (1.0 - 1e-3), w_peak * (1.0 + 1e-3));
-        let (x, fx) = crate::roots::golden_max(|w| sigma_max(&ev, w).unwrap_or(0.0), a, b, 1e-12);
+        let (x, fx) = crate::roots::brent_max(|w| sigma_max(&ev, w).unwrap_or(0.0), a, b, 1e-12);
         if fx > gamma {
             gamma = fx;
             w_peak = x;
