@@ -80,20 +80,6 @@ pub fn hamiltonian_eigenvalues(h: MatRef<f64>) -> Result<Vec<c64>> {
     Ok(out)
 }
 
-/// Dot product with four independent partial sums (lets the compiler vectorize it).
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let mut acc = [0.0f64; 4];
-    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
-    let (ra, rb) = (ca.remainder(), cb.remainder());
-    for (x, y) in ca.zip(cb) {
-        for k in 0..4 {
-            acc[k] += x[k] * y[k];
-        }
-    }
-    let tail: f64 = ra.iter().zip(rb).map(|(x, y)| x * y).sum();
-    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
-}
-
 /// Householder vector for x (overwritten with v, v[0] = 1) and τ such that (I − τvvᵀ)x = βe₁;
 /// `None` when x is already a multiple of e₁.
 fn householder(x: &mut [f64]) -> Option<f64> {
@@ -120,7 +106,7 @@ fn apply_pp(m: &mut [f64], nn: usize, n: usize, from: usize, v: &[f64], tau: f64
         // Left: rows off..off+len of the columns that can be non-zero there.
         for j in (from - 1..n).chain(n..nn) {
             let col = &mut m[j * nn + off..j * nn + off + v.len()];
-            let s = dot(col, v) * tau;
+            let s = crate::freqresp::dot(col, v) * tau;
             for (a, b) in col.iter_mut().zip(v) {
                 *a -= s * b;
             }
