@@ -5,7 +5,11 @@
 //! H(γ) = [A − B R⁻¹DᵀC, −γ B R⁻¹Bᵀ; γ CᵀS⁻¹C, −Aᵀ + CᵀD R⁻¹Bᵀ], R = DᵀD − γ²I, S = DDᵀ − γ²I
 //! (Bruinsma & Steinbuch, Systems & Control Letters 14, 1990). Each step raises the lower bound to
 //! the largest gain at the midpoints of the intervals where σ_max > γ; when H((1 + 2ε)γ) has no
-//! imaginary eigenvalue, the norm lies in [γ, (1 + 2ε)γ]. Discrete models go through the bilinear
+//! imaginary eigenvalue, the norm lies in [γ, (1 + 2ε)γ]. The Hamiltonian's eigenvalues come from
+//! Van Loan's square-reduced method ([`crate::hamiltonian`], an n × n QR iteration instead of
+//! 2n × 2n), and the first level is the best gain over ω = 0, the poles' resonance/corner
+//! frequencies and a local (Brent) maximization around the best of them, so that usually a single
+//! Hamiltonian solve certifies the result. Discrete models go through the bilinear
 //! map z = (1 + s)/(1 − s), which preserves the norm. Input/output delays do not change |G(jω)|, so
 //! they are ignored here.
 
