@@ -103,7 +103,7 @@ fn linf_continuous(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
     }
     // A few hundred evaluations at most: the cheaper Hessenberg set-up pays off over the Schur one.
     let ev = FreqEvaluator::new_hessenberg(sys)?;
-    // Initial lower bound: ω = 0, ω = ∞, and the magnitudes of the poles (cheap at O(n²) each).
+    // Initial lower bound: ω = ∞ (D), ω = 0 and one frequency per pole (cheap at O(n²) each).
     let (mut gamma, mut w_peak) = (d_gain, f64::INFINITY);
     let try_w = |w: f64, gamma: &mut f64, w_peak: &mut f64| -> Result<()> {
         let s = sigma_max(&ev, w)?;
