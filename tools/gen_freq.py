@@ -108,6 +108,25 @@ def gen_norms():
                 "h2": None if h2 is None else float(h2),
             }
         )
+    # Badly scaled stable model: a diagonal similarity T = diag(10^-4 .. 10^4) inflates ‖A‖ by about
+    # 1e8 while the poles (and both norms) stay those of the well-scaled rss model.
+    sys = seeded_rss(6, 2, 2, 320, strictly_proper=True)
+    a, b, c, d = (np.atleast_2d(m) for m in control.ssdata(sys))
+    t = np.logspace(-4, 4, 6)
+    scaled = control.ss(t[:, None] * a / t[None, :], t[:, None] * b, c / t[None, :], d)
+    gpeak, fpeak = control.linfnorm(scaled, tol=1e-10)
+    cases.append(
+        {
+            "name": "badly scaled rss n=6 2x2 continuous",
+            "sys": lti_json(scaled),
+            "hinf": float(gpeak),
+            "hinf_w_rad_s": float(fpeak),
+            # H2 of the unscaled model (similarity-invariant): ab13bd on the scaled one is off by 2e-4.
+            "h2": float(control.norm(sys, 2)),
+            "unscaled_hinf": float(control.linfnorm(sys, tol=1e-10)[0]),
+            "poles": sorted(np.linalg.eigvals(a).real.tolist()),
+        }
+    )
     return cases
 
 

@@ -1,6 +1,6 @@
 //! Frequency-analysis benchmarks (issue 2 targets; bench/compare.py prints the ratios against
 //! python-control + slycot): frequency response of a 20-state 2×2 model at 10,000 frequencies,
-//! H∞ norm of a 40-state 3×3 model, margins of the bicopter loop.
+//! H∞ norm of a 40-state 3×3 model (and its Hamiltonian eigenvalue solve), margins of the bicopter loop.
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use rand::{Rng, SeedableRng};
@@ -32,6 +32,22 @@ fn bench(c: &mut Criterion) {
     let big = random_stable(40, 3, 3, 2);
     c.bench_function("hinf_norm 40 states 3x3", |b| {
         b.iter(|| skyloop_lti::norms::hinf_norm(black_box(&big)).expect("hinf"))
+    });
+    // The H∞ iteration's inner problem: eigenvalues of the 80 × 80 Hamiltonian
+    // [[A, −BBᵀ], [−CᵀC, −Aᵀ]], square-reduced (ours) against a dense eigenvalue solve (faer).
+    let n = big.nx();
+    let (bbt, ctc) = (&big.b * big.b.transpose(), big.c.transpose() * &big.c);
+    let ham = Mat::from_fn(2 * n, 2 * n, |i, j| match (i < n, j < n) {
+        (true, true) => big.a[(i, j)],
+        (true, false) => -bbt[(i, j - n)],
+        (false, true) => -ctc[(i - n, j)],
+        (false, false) => -big.a[(j - n, i - n)],
+    });
+    c.bench_function("hamiltonian eigenvalues 80x80 (square-reduced)", |b| {
+        b.iter(|| skyloop_lti::hamiltonian::hamiltonian_eigenvalues(black_box(ham.as_ref())).expect("eig"))
+    });
+    c.bench_function("hamiltonian eigenvalues 80x80 (faer dense)", |b| {
+        b.iter(|| black_box(&ham).eigenvalues().expect("eig"))
     });
     let l = skyloop_lti::expr::parse_model(
         "0.0887*exp(-0.032*s)/(0.0256*s+1) * (42^2 - s^2)/s * 2.221e5/(s^2+666.4*s+2.221e5) \

@@ -18,6 +18,7 @@ pub mod convert;
 pub mod discretize;
 pub mod expr;
 pub mod gramian;
+pub mod hamiltonian;
 pub mod interconnect;
 pub mod minreal;
 pub mod pade;

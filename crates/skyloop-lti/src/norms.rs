@@ -5,12 +5,16 @@
 //! H(γ) = [A − B R⁻¹DᵀC, −γ B R⁻¹Bᵀ; γ CᵀS⁻¹C, −Aᵀ + CᵀD R⁻¹Bᵀ], R = DᵀD − γ²I, S = DDᵀ − γ²I
 //! (Bruinsma & Steinbuch, Systems & Control Letters 14, 1990). Each step raises the lower bound to
 //! the largest gain at the midpoints of the intervals where σ_max > γ; when H((1 + 2ε)γ) has no
-//! imaginary eigenvalue, the norm lies in [γ, (1 + 2ε)γ]. Discrete models go through the bilinear
+//! imaginary eigenvalue, the norm lies in [γ, (1 + 2ε)γ]. The Hamiltonian's eigenvalues come from
+//! Van Loan's square-reduced method ([`crate::hamiltonian`], an n × n QR iteration instead of
+//! 2n × 2n), and the first level is the best gain over ω = 0, the poles' resonance/corner
+//! frequencies and a local (Brent) maximization around the best of them, so that usually a single
+//! Hamiltonian solve certifies the result. Discrete models go through the bilinear
 //! map z = (1 + s)/(1 − s), which preserves the norm. Input/output delays do not change |G(jω)|, so
 //! they are ignored here.
 
 use crate::error::{LtiError, Result};
-use crate::freqresp::{pole_summary, FreqEvaluator};
+use crate::freqresp::{pole_summary, FreqEvaluator, PoleSummary};
 use crate::ss::StateSpace;
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
@@ -22,11 +26,12 @@ const REL_TOL: f64 = 1e-10;
 /// (1e-10 nominal). Infinite (with NaN frequency) when the model is unstable or has poles on the
 /// stability boundary; use [`linf_norm`] for the peak gain of an unstable model.
 pub fn hinf_norm(sys: &StateSpace) -> Result<(f64, f64)> {
+    sys.validate()?;
     let poles = pole_summary(sys)?;
     if poles.unstable > 0 || poles.origin > 0 || !poles.axis_w.is_empty() {
         return Ok((f64::INFINITY, f64::NAN));
     }
-    linf_norm(sys)
+    linf_with_poles(sys, &poles)
 }
 
 /// L∞ norm (peak gain over all frequencies) of `sys` and its frequency in rad/s; infinite when
@@ -35,12 +40,18 @@ pub fn hinf_norm(sys: &StateSpace) -> Result<(f64, f64)> {
 pub fn linf_norm(sys: &StateSpace) -> Result<(f64, f64)> {
     sys.validate()?;
     let poles = pole_summary(sys)?;
+    linf_with_poles(sys, &poles)
+}
+
+fn linf_with_poles(sys: &StateSpace, poles: &PoleSummary) -> Result<(f64, f64)> {
     if poles.origin > 0 || !poles.axis_w.is_empty() {
         return Ok((f64::INFINITY, poles.axis_w.first().copied().unwrap_or(0.0)));
     }
     if sys.dt > 0.0 {
         let c = bilinear_to_continuous(sys)?;
-        let (g, wc) = linf_continuous(&c)?;
+        // The bilinear map sends each pole z to (z − 1)/(z + 1).
+        let eig: Vec<c64> = poles.poles.iter().map(|&z| (z - 1.0) / (z + 1.0)).collect();
+        let (g, wc) = linf_continuous(&c, &eig)?;
         // s = j·tan(θ/2) on the unit circle z = e^{jθ}, θ = ω·dt.
         let w = if wc.is_infinite() {
             std::f64::consts::PI / sys.dt
@@ -50,7 +61,7 @@ pub fn linf_norm(sys: &StateSpace) -> Result<(f64, f64)> {
         return Ok((g, w));
     }
     let delay_free = StateSpace::new(sys.a.clone(), sys.b.clone(), sys.c.clone(), sys.d.clone(), 0.0)?;
-    linf_continuous(&delay_free)
+    linf_continuous(&delay_free, &poles.poles)
 }
 
 /// Largest singular value of G(jω).
@@ -83,16 +94,16 @@ fn sigma_max_real(d: &Mat<f64>) -> Result<f64> {
     sigma_max_of(&g)
 }
 
-/// The two-step algorithm for a continuous model without imaginary-axis poles.
-fn linf_continuous(sys: &StateSpace) -> Result<(f64, f64)> {
+/// The two-step algorithm for a continuous model without imaginary-axis poles (eigenvalues `eig`).
+fn linf_continuous(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
     let (n, ny, nu) = (sys.nx(), sys.ny(), sys.nu());
     let d_gain = sigma_max_real(&sys.d)?;
     if n == 0 || ny == 0 || nu == 0 {
         return Ok((d_gain, 0.0));
     }
-    let ev = FreqEvaluator::new(sys)?;
-    let eig = crate::freqresp::balanced_eigenvalues(&sys.a)?;
-    // Initial lower bound: ω = 0, ω = ∞, and the magnitudes of the poles (cheap at O(n²) each).
+    // A few hundred evaluations at most: the cheaper Hessenberg set-up pays off over the Schur one.
+    let ev = FreqEvaluator::new_hessenberg(sys)?;
+    // Initial lower bound: ω = ∞ (D), ω = 0 and one frequency per pole (cheap at O(n²) each).
     let (mut gamma, mut w_peak) = (d_gain, f64::INFINITY);
     let try_w = |w: f64, gamma: &mut f64, w_peak: &mut f64| -> Result<()> {
         let s = sigma_max(&ev, w)?;
@@ -103,11 +114,11 @@ fn linf_continuous(sys: &StateSpace) -> Result<(f64, f64)> {
         Ok(())
     };
     try_w(0.0, &mut gamma, &mut w_peak)?;
-    for p in &eig {
-        try_w(p.norm(), &mut gamma, &mut w_peak)?;
-        if p.im != 0.0 {
-            try_w(p.im.abs(), &mut gamma, &mut w_peak)?;
-        }
+    // One candidate per pole (per conjugate pair): the resonance frequency |Im p| of a complex
+    // pair, the corner frequency |p| of a real pole (Bruinsma–Steinbuch's initial guesses).
+    for p in eig.iter().filter(|p| p.im >= 0.0) {
+        let w = if p.im > 0.0 { p.im } else { p.norm() };
+        try_w(w, &mut gamma, &mut w_peak)?;
     }
     if gamma == 0.0 {
         return Ok((0.0, 0.0));
@@ -115,7 +126,7 @@ fn linf_continuous(sys: &StateSpace) -> Result<(f64, f64)> {
     // Climb the best initial peak locally: when it is the global one, the first Hamiltonian
     // eigenvalue solve already certifies the bound.
     if w_peak.is_finite() && w_peak > 0.0 {
-        let (x, fx) = crate::roots::golden_max(|w| sigma_max(&ev, w).unwrap_or(0.0), 0.7 * w_peak, 1.4 * w_peak, 1e-9);
+        let (x, fx) = crate::roots::brent_max(|w| sigma_max(&ev, w).unwrap_or(0.0), 0.7 * w_peak, 1.4 * w_peak, 1e-9);
         if fx > gamma {
             gamma = fx;
             w_peak = x;
@@ -139,7 +150,7 @@ fn linf_continuous(sys: &StateSpace) -> Result<(f64, f64)> {
                 w_peak = mid;
             }
             if s > level {
-                let (x, fx) = crate::roots::golden_max(|w| sigma_max(&ev, w).unwrap_or(0.0), p[0], p[1], 1e-9);
+                let (x, fx) = crate::roots::brent_max(|w| sigma_max(&ev, w).unwrap_or(0.0), p[0], p[1], 1e-9);
                 if fx > gamma {
                     gamma = fx;
                     w_peak = x;
@@ -156,7 +167,7 @@ fn linf_continuous(sys: &StateSpace) -> Result<(f64, f64)> {
     // Polish the peak locally (the bound is already within 2·REL_TOL).
     if w_peak.is_finite() && w_peak > 0.0 {
         let (a, b) = (w_peak * (1.0 - 1e-3), w_peak * (1.0 + 1e-3));
-        let (x, fx) = crate::roots::golden_max(|w| sigma_max(&ev, w).unwrap_or(0.0), a, b, 1e-12);
+        let (x, fx) = crate::roots::brent_max(|w| sigma_max(&ev, w).unwrap_or(0.0), a, b, 1e-12);
         if fx > gamma {
             gamma = fx;
             w_peak = x;
@@ -206,9 +217,7 @@ fn imaginary_axis_crossings(sys: &StateSpace, gamma: f64) -> Result<Vec<f64>> {
             "Hamiltonian at gamma = {gamma} is not finite"
         )));
     }
-    let eig = h
-        .eigenvalues()
-        .map_err(|e| LtiError::Numerical(format!("Hamiltonian eigenvalues: {e:?}")))?;
+    let eig = crate::hamiltonian::hamiltonian_eigenvalues(h.as_ref())?;
     let scale = h.norm_l2().max(1.0);
     let mut w: Vec<f64> = eig
         .iter()
@@ -332,13 +341,20 @@ pub fn h2_norm(sys: &StateSpace) -> Result<f64> {
     if sys.nx() == 0 {
         return Ok(if continuous { 0.0 } else { d_energy.sqrt() });
     }
-    let bbt = &sys.b * sys.b.transpose();
+    // The norm is invariant under state scaling; the Lyapunov solve is far more accurate on the
+    // balanced realization (D⁻¹AD, D⁻¹B, CD) of a badly scaled model.
+    let d = crate::freqresp::system_scaling(&sys.a, &sys.b, &sys.c);
+    let n = sys.nx();
+    let a = Mat::from_fn(n, n, |i, j| sys.a[(i, j)] * d[j] / d[i]);
+    let b = Mat::from_fn(n, sys.nu(), |i, j| sys.b[(i, j)] / d[i]);
+    let c = Mat::from_fn(sys.ny(), n, |i, j| sys.c[(i, j)] * d[j]);
+    let bbt = &b * b.transpose();
     let p = if continuous {
-        skyloop_linalg::lyapunov::lyap(sys.a.as_ref(), bbt.as_ref())?
+        skyloop_linalg::lyapunov::lyap(a.as_ref(), bbt.as_ref())?
     } else {
-        skyloop_linalg::lyapunov::dlyap(sys.a.as_ref(), bbt.as_ref())?
+        skyloop_linalg::lyapunov::dlyap(a.as_ref(), bbt.as_ref())?
     };
-    let cpct = &sys.c * &p * sys.c.transpose();
+    let cpct = &c * &p * c.transpose();
     let tr: f64 = (0..sys.ny()).map(|i| cpct[(i, i)]).sum::<f64>() + if continuous { 0.0 } else { d_energy };
     if tr < 0.0 {
         return Err(LtiError::Numerical(format!(
