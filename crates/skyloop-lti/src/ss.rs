@@ -26,6 +26,22 @@ pub struct StateSpace {
 }
 
 impl StateSpace {
+    /// The same model in balanced state coordinates (LAPACK dgebal on A: x = T·x̃ with T = P·D), so
+    /// that eigenvalues, rank tests, Riccati solutions and norms are not spoiled by badly scaled
+    /// realizations such as companion forms or states ranging from metres to millisecond delays.
+    pub fn balance_states(&self) -> Result<StateSpace> {
+        if self.nx() == 0 {
+            return Ok(self.clone());
+        }
+        let bal = skyloop_linalg::balance::balance(self.a.as_ref());
+        let mut out = self.clone();
+        out.b = bal.forward_transform(self.b.as_ref());
+        out.c = Mat::from_fn(self.ny(), self.nx(), |i, j| self.c[(i, bal.perm[j])] * bal.scale[j]);
+        out.a = bal.a;
+        out.validate()?;
+        Ok(out)
+    }
+
     /// Builds a delay-free model after checking every dimension and that `dt` is finite and ≥ 0.
     pub fn new(a: Mat<f64>, b: Mat<f64>, c: Mat<f64>, d: Mat<f64>, dt: f64) -> Result<Self> {
         let (nu, ny) = (d.ncols(), d.nrows());

@@ -129,20 +129,7 @@ pub(crate) fn uncontrollable_unstable_mode(a: MatRef<f64>, b: MatRef<f64>) -> Re
     Ok(None)
 }
 
-/// The same model in balanced state coordinates (dgebal on A: x = T·x̃ with T = P·D), so that
-/// eigenvalues, rank tests and Riccati solutions are not spoiled by badly scaled realizations
-/// such as companion forms of high-order transfer functions.
+/// The same model in balanced state coordinates (see `StateSpace::balance_states`).
 pub(crate) fn balance_states(sys: &skyloop_lti::StateSpace) -> Result<skyloop_lti::StateSpace> {
-    if sys.nx() == 0 {
-        return Ok(sys.clone());
-    }
-    let bal = skyloop_linalg::balance::balance(sys.a.as_ref());
-    let b = bal.forward_transform(sys.b.as_ref());
-    let c = Mat::from_fn(sys.ny(), sys.nx(), |i, j| sys.c[(i, bal.perm[j])] * bal.scale[j]);
-    let mut out = sys.clone();
-    out.a = bal.a;
-    out.b = b;
-    out.c = c;
-    out.validate()?;
-    Ok(out)
+    Ok(sys.balance_states()?)
 }

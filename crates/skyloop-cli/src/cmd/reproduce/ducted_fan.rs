@@ -72,20 +72,10 @@ pub fn analyse(p: &Plants, k: &StateSpace, w: &[f64]) -> Result<MuReport, String
     Ok(MuReport { rs, rp, np })
 }
 
-/// The model after diagonal state balancing (LAPACK dgebal via skyloop-linalg): the loop's states range
-/// from metres to Padé states of a 10 ms delay, and unbalanced, its slow poles look like integrators
-/// to the norm computation.
+/// The model after diagonal state balancing: the loop's states range from metres to Padé states of a
+/// 10 ms delay, and unbalanced, its slow poles look like integrators to the norm computation.
 fn balanced(sys: &StateSpace) -> Result<StateSpace, String> {
-    if sys.nx() == 0 {
-        return Ok(sys.clone());
-    }
-    let bal = skyloop_linalg::balance::balance(sys.a.as_ref());
-    let mut out = sys.clone();
-    out.b = bal.forward_transform(sys.b.as_ref());
-    out.c = faer::Mat::from_fn(sys.ny(), sys.nx(), |i, j| sys.c[(i, bal.perm[j])] * bal.scale[j]);
-    out.a = bal.a;
-    out.validate().map_err(|e| e.to_string())?;
-    Ok(out)
+    sys.balance_states().map_err(|e| e.to_string())
 }
 
 /// Damping ratio and natural frequency (rad/s) of the least-damped oscillatory pole of lft(G_nom, K).
