@@ -2,6 +2,7 @@
 
 mod bode;
 mod c2d;
+mod design;
 mod export;
 mod freqresp;
 mod hinfsyn;
@@ -71,6 +72,8 @@ pub enum Command {
     Hinfsyn(hinfsyn::Args),
     /// Glover–McFarlane H∞ loop shaping: γ_min, γ and the controller for u = C·(r − y).
     Ncfsyn(ncfsyn::Args),
+    /// Controller design from a TOML spec: synthesis, gain boost, reduction, Tustin; summary, plots, report.
+    Design(design::Args),
 }
 
 /// Runs one subcommand; the error text is what the user sees.
@@ -97,5 +100,6 @@ pub fn run(cmd: Command) -> Result<(), String> {
         Command::Export(a) => export::run(a),
         Command::Hinfsyn(a) => hinfsyn::run(a),
         Command::Ncfsyn(a) => ncfsyn::run(a),
+        Command::Design(a) => design::run(a),
     }
 }

@@ -1,6 +1,7 @@
 //! `skyloop reproduce NAME`: re-derives a paper's printed claims and checks them. One line per paper in
 //! `run`; each paper's code lives in `reproduce/<name>.rs`.
 
+mod bicopter;
 mod quadrotor_ssi;
 
 use std::path::PathBuf;
@@ -8,7 +9,7 @@ use std::path::PathBuf;
 /// Arguments of `skyloop reproduce`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Which paper: quadrotor-ssi.
+    /// Which paper: quadrotor-ssi, bicopter.
     name: String,
     /// Output directory for CSV traces and plots.
     #[arg(long, default_value = "skyloop-reproduce-out")]
@@ -19,6 +20,9 @@ pub struct Args {
 pub fn run(a: Args) -> Result<(), String> {
     match a.name.as_str() {
         "quadrotor-ssi" => quadrotor_ssi::run(&a.out),
-        other => Err(format!("unknown reproduction '{other}' (known: quadrotor-ssi)")),
+        "bicopter" => bicopter::run(&a.out),
+        other => Err(format!(
+            "unknown reproduction '{other}' (known: quadrotor-ssi, bicopter)"
+        )),
     }
 }

@@ -171,6 +171,8 @@ pub struct Closeness {
     pub to_hz: f64,
     /// max |c − r|/|r| over the band.
     pub max_rel_error: f64,
+    /// max |c − r| over the band.
+    pub max_abs_error: f64,
     /// max |20·log10|c/r|| over the band, dB.
     pub max_mag_error_db: f64,
     /// max |∠(c/r)| over the band, degrees.
@@ -201,6 +203,7 @@ pub fn closeness_warped(
         from_hz,
         to_hz,
         max_rel_error: 0.0,
+        max_abs_error: 0.0,
         max_mag_error_db: 0.0,
         max_phase_error_deg: 0.0,
     };
@@ -210,6 +213,7 @@ pub fn closeness_warped(
         let rv = rs.at(warp(w))?;
         let ratio = cv / rv;
         out.max_rel_error = out.max_rel_error.max((cv - rv).norm() / rv.norm());
+        out.max_abs_error = out.max_abs_error.max((cv - rv).norm());
         out.max_mag_error_db = out.max_mag_error_db.max((20.0 * ratio.norm().log10()).abs());
         out.max_phase_error_deg = out.max_phase_error_deg.max(ratio.arg().abs().to_degrees());
     }

@@ -70,6 +70,8 @@ pub struct DesignSummary {
     pub stages: Vec<StageSummary>,
     /// Hankel singular values of the stable part of the boosted controller (reduction only).
     pub hsv: Vec<f64>,
+    /// Balanced-reduction bound on ‖C_full − C_reduced‖∞ (2·Σ discarded σ; reduction only).
+    pub reduction_error_bound: Option<f64>,
     /// Reduced against full controller over the crossover band (reduction only).
     pub reduced_vs_full: Option<Closeness>,
     /// Discretization check (discretize only).
@@ -306,10 +308,12 @@ pub fn design(spec: &DesignSpec) -> Result<DesignResult> {
 
     let mut hsv = Vec::new();
     let mut reduced_vs_full = None;
+    let mut reduction_error_bound = None;
     let reduced = match reduced0 {
         Some(red) => {
             let sys = scaled(&red.sys, boost_gain);
             hsv = red.hsv.iter().map(|h| h * boost_gain).collect();
+            reduction_error_bound = Some(red.error_bound * boost_gain);
             let gamma = if is_ncf {
                 Some(shaped_gamma(&plant_rational, w1.as_ref(), w2.as_ref(), &sys)?)
             } else {
@@ -364,6 +368,7 @@ pub fn design(spec: &DesignSpec) -> Result<DesignResult> {
         fast_modes_removed,
         stages,
         hsv,
+        reduction_error_bound,
         reduced_vs_full,
         discrete: dsum,
         limits,
