@@ -62,12 +62,19 @@ def reference(path, repeat=20):
     return json.loads(out.stdout)
 
 
+def our_gamma(path):
+    root = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
+    binary = os.path.join(os.environ.get("CARGO_TARGET_DIR", os.path.join(root, "target")), "release", "skyloop")
+    out = subprocess.run([binary, "hinfsyn", path, "--nmeas", "1", "--ncon", "1", "--json"], capture_output=True, text=True)
+    return json.loads(out.stdout)["gamma"] if out.returncode == 0 else float("nan")
+
+
 def comparisons(skyloop):
     path = os.path.join(tempfile.mkdtemp(prefix="skyloop-hinf-bench-"), "plant12.json")
     plant(path)
     ref = reference(path)
     ours = skyloop(["hinfsyn", path, "--nmeas", "1", "--ncon", "1"], 20)
-    print(f"hinfsyn 12 states: gamma python-control/sb10ad {ref['gamma']:.6f}")
+    print(f"hinfsyn 12 states: gamma python-control/sb10ad {ref['gamma']:.6f}, skyloop {our_gamma(path):.6f}")
     return [("hinfsyn 12 states (python-control/sb10ad)", ours, ref["seconds"], 20.0)]
 
 
