@@ -22,7 +22,6 @@ import json
 import os
 
 import numpy as np
-from scipy.linalg import expm
 from scipy.optimize import minimize
 
 rng = np.random.default_rng(20261123)
@@ -71,6 +70,12 @@ def nparams_d(blocks):
     return sum(1 if k == "f" else r * r for k, r, _ in blocks)
 
 
+def expm_herm(E, scale=1.0):
+    """exp(scale * E) for Hermitian E by its eigendecomposition (scale may be 1j)."""
+    lam, V = np.linalg.eigh(E)
+    return (V * np.exp(scale * lam)) @ V.conj().T
+
+
 def scaled_sigma(M, blocks, p):
     rr, cr = ranges(blocks)
     DL = np.zeros((M.shape[0], M.shape[0]), complex)
@@ -83,27 +88,30 @@ def scaled_sigma(M, blocks, p):
             k += 1
         else:
             E = herm(p[k : k + m * m], m)
-            DL[rr[j], rr[j]] = expm(E)
-            DRi[cr[j], cr[j]] = expm(-E)
+            DL[rr[j], rr[j]] = expm_herm(E)
+            DRi[cr[j], cr[j]] = expm_herm(E, -1.0)
             k += m * m
     return np.linalg.norm(DL @ M @ DRi, 2)
 
 
-def upper_ref(M, blocks, restarts=4):
+NM = {"xatol": 1e-12, "fatol": 1e-15, "maxiter": 3000, "maxfev": 3000}
+
+
+def upper_ref(M, blocks, restarts=2):
     n = nparams_d(blocks)
     best = np.linalg.norm(M, 2)
     for t in range(restarts):
         x0 = np.zeros(n) if t == 0 else rng.normal(scale=1.0, size=n)
         f = lambda p: scaled_sigma(M, blocks, p)
-        r = minimize(f, x0, method="Nelder-Mead", options={"xatol": 1e-12, "fatol": 1e-14, "maxiter": 4000, "maxfev": 4000})
-        r = minimize(f, r.x, method="Nelder-Mead", options={"xatol": 1e-13, "fatol": 1e-15, "maxiter": 4000, "maxfev": 4000})
+        r = minimize(f, x0, method="Nelder-Mead", options=NM)
+        r = minimize(f, r.x, method="Nelder-Mead", options=NM)
         best = min(best, r.fun)
     return best
 
 
 def unitary(p, r):
     """Unitary r x r matrix exp(i H(p))."""
-    return expm(1j * herm(p, r))
+    return expm_herm(herm(p, r), 1j)
 
 
 def qmat(blocks, p, shape):
@@ -126,14 +134,14 @@ def nparams_q(blocks):
     return sum(1 if k == "c" else max(m, n) ** 2 for k, m, n in blocks)
 
 
-def lower_ref(M, blocks, restarts=6):
+def lower_ref(M, blocks, restarts=4):
     n = nparams_q(blocks)
     shape = (M.shape[1], M.shape[0])
     f = lambda p: -np.max(np.abs(np.linalg.eigvals(qmat(blocks, p, shape) @ M)))
     best = 0.0
     for _ in range(restarts):
-        r = minimize(f, rng.uniform(-np.pi, np.pi, size=n), method="Nelder-Mead", options={"xatol": 1e-12, "fatol": 1e-15, "maxiter": 4000, "maxfev": 4000})
-        r = minimize(f, r.x, method="Nelder-Mead", options={"xatol": 1e-13, "fatol": 1e-15, "maxiter": 4000, "maxfev": 4000})
+        r = minimize(f, rng.uniform(-np.pi, np.pi, size=n), method="Nelder-Mead", options=NM)
+        r = minimize(f, r.x, method="Nelder-Mead", options=NM)
         best = max(best, -r.fun)
     return best
 

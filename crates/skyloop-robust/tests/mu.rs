@@ -208,3 +208,82 @@ fn robust_performance_augments_a_full_block() {
     }
     assert!(robust_performance(test_system, &grid, &s, 2, 1, &opts).is_err());
 }
+
+/// The cases of tools/gen_mu.py (numpy/scipy references; see the script for how each was made).
+fn fixture_cases() -> Vec<serde_json::Value> {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/mu/mu_cases.json"))
+        .expect("fixture");
+    let v: serde_json::Value = serde_json::from_str(&text).expect("json");
+    v["cases"].as_array().expect("cases").clone()
+}
+
+fn fixture_matrix(c: &serde_json::Value) -> Mat<c64> {
+    let rows = c["m"].as_array().expect("m");
+    let nc = rows[0].as_array().expect("row").len();
+    Mat::from_fn(rows.len(), nc, |i, j| {
+        let z = &rows[i][j];
+        c64::new(z[0].as_f64().expect("re"), z[1].as_f64().expect("im"))
+    })
+}
+
+#[test]
+fn fixture_cases_match_the_references() {
+    let cases = fixture_cases();
+    let mut kinds = std::collections::BTreeMap::new();
+    for c in &cases {
+        let name = c["name"].as_str().expect("name");
+        let kind = c["kind"].as_str().expect("kind");
+        *kinds.entry(kind.to_string()).or_insert(0) += 1;
+        let s = BlockStructure::parse(c["blocks"].as_str().expect("blocks")).expect("spec");
+        let m = fixture_matrix(c);
+        let r = mu(m.as_ref(), &s).expect("mu");
+        assert!(r.upper >= r.lower, "{name}: upper {} < lower {}", r.upper, r.lower);
+        check_delta(m.as_ref(), &s, r.delta.as_ref(), r.lower);
+        match kind {
+            // Known μ: σ̄ (one full block), Σ|uᵢ||vᵢ| (rank one), or 2S+F ≤ 3 where the D-scaling
+            // bound is exact and the reference upper and lower bounds agree to 1e-7.
+            "full" | "rank_one" | "exact" => {
+                let want = c["mu"].as_f64().expect("mu");
+                assert!(
+                    (r.upper - want).abs() <= 1e-4 * want,
+                    "{name}: upper {} vs mu {want}",
+                    r.upper
+                );
+                assert!(
+                    (r.lower - want).abs() <= 1e-4 * want,
+                    "{name}: lower {} vs mu {want}",
+                    r.lower
+                );
+            }
+            // No exactness theorem: μ lies in [lower_ref, upper_ref]; ours must be as tight.
+            "general" => {
+                let (lo, up) = (
+                    c["lower_ref"].as_f64().expect("lower_ref"),
+                    c["upper_ref"].as_f64().expect("upper_ref"),
+                );
+                assert!(
+                    r.upper >= lo * (1.0 - 1e-9),
+                    "{name}: upper {} below a proven lower {lo}",
+                    r.upper
+                );
+                assert!(
+                    r.upper <= up * (1.0 + 1e-4),
+                    "{name}: upper {} looser than {up}",
+                    r.upper
+                );
+                assert!(
+                    r.lower <= up * (1.0 + 1e-9),
+                    "{name}: lower {} above a proven upper {up}",
+                    r.lower
+                );
+            }
+            other => panic!("unknown fixture kind {other}"),
+        }
+    }
+    for k in ["full", "rank_one", "exact", "general"] {
+        assert!(
+            kinds.get(k).copied().unwrap_or(0) >= 2,
+            "fixture has too few '{k}' cases: {kinds:?}"
+        );
+    }
+}

@@ -219,6 +219,96 @@ pub fn subsystem(lin: &Linearization, states: &[&str], inputs: &[&str], outputs:
     })
 }
 
+/// Splits a linearization into its actuators and the rigid body they drive, so that uncertainty or
+/// filters can be inserted between them: `actuators` has the vehicle inputs and the `drive` states
+/// (e.g. flap angles, propeller speed) as outputs; `body` has the `drive` signals as inputs and the
+/// remaining states. `series(actuators, body)` reproduces the original model's outputs that do not
+/// read actuator states. Fails if an actuator state depends on a body state, a body state is driven
+/// directly by an input, or an actuator state other than `drive` feeds the body.
+pub fn actuator_split(
+    lin: &Linearization,
+    actuator_states: &[&str],
+    drive: &[&str],
+) -> Result<(Linearization, Linearization)> {
+    let ss = &lin.ss;
+    let find = |n: &str| {
+        lin.states
+            .iter()
+            .position(|s| s == n)
+            .ok_or_else(|| SimError::Param(format!("no state '{n}'")))
+    };
+    let act: Vec<usize> = actuator_states.iter().map(|n| find(n)).collect::<Result<_>>()?;
+    let drv: Vec<usize> = drive.iter().map(|n| find(n)).collect::<Result<_>>()?;
+    if let Some(n) = drive.iter().zip(&drv).find(|(_, i)| !act.contains(i)) {
+        return Err(SimError::Param(format!(
+            "drive state '{}' is not an actuator state",
+            n.0
+        )));
+    }
+    let body: Vec<usize> = (0..ss.nx()).filter(|i| !act.contains(i)).collect();
+    let tol = 1e-9 * ss.a.norm_max().max(ss.b.norm_max()).max(1.0);
+    for &i in &act {
+        if let Some(&j) = body.iter().find(|&&j| ss.a[(i, j)].abs() > tol) {
+            return Err(SimError::Param(format!(
+                "actuator state '{}' depends on body state '{}'",
+                lin.states[i], lin.states[j]
+            )));
+        }
+    }
+    for &i in &body {
+        if (0..ss.nu()).any(|k| ss.b[(i, k)].abs() > tol) {
+            return Err(SimError::Param(format!(
+                "body state '{}' is driven directly by an input",
+                lin.states[i]
+            )));
+        }
+        if let Some(&j) = act.iter().find(|&&j| !drv.contains(&j) && ss.a[(i, j)].abs() > tol) {
+            return Err(SimError::Param(format!(
+                "actuator state '{}' feeds the body but is not a drive signal",
+                lin.states[j]
+            )));
+        }
+    }
+    // Body outputs are those that read no actuator state and have no feedthrough.
+    let ys: Vec<usize> = (0..ss.ny())
+        .filter(|&i| act.iter().all(|&j| ss.c[(i, j)].abs() <= tol) && (0..ss.nu()).all(|k| ss.d[(i, k)].abs() <= tol))
+        .collect();
+    let pick = |m: &Mat<f64>, r: &[usize], c: &[usize]| Mat::<f64>::from_fn(r.len(), c.len(), |i, j| m[(r[i], c[j])]);
+    let all_u: Vec<usize> = (0..ss.nu()).collect();
+    let a_act = pick(&ss.a, &act, &act);
+    let c_act = Mat::<f64>::from_fn(drv.len(), act.len(), |i, j| f64::from(u8::from(drv[i] == act[j])));
+    let actuators = StateSpace::new(
+        a_act,
+        pick(&ss.b, &act, &all_u),
+        c_act,
+        Mat::zeros(drv.len(), ss.nu()),
+        0.0,
+    )?
+    .with_delays(ss.input_delay.clone(), vec![0.0; drv.len()])?;
+    let body_ss = StateSpace::new(
+        pick(&ss.a, &body, &body),
+        pick(&ss.a, &body, &drv),
+        pick(&ss.c, &ys, &body),
+        Mat::zeros(ys.len(), drv.len()),
+        0.0,
+    )?;
+    let names = |idx: &[usize], from: &[String]| idx.iter().map(|&i| from[i].clone()).collect::<Vec<_>>();
+    Ok((
+        Linearization {
+            ss: actuators,
+            states: names(&act, &lin.states),
+            inputs: lin.inputs.clone(),
+            outputs: names(&drv, &lin.states),
+        },
+        Linearization {
+            ss: body_ss,
+            states: names(&body, &lin.states),
+            inputs: names(&drv, &lin.states),
+            outputs: names(&ys, &lin.outputs),
+        },
+    ))
+}
+
 /// Eigenvalues of A (the poles of a state-space model), sorted by real part.
 pub fn eigenvalues(a: &Mat<f64>) -> Result<Vec<num_complex::Complex<f64>>> {
     let mut e = a

@@ -5,6 +5,7 @@ pub mod disturbance;
 pub mod error;
 pub mod flight;
 pub mod linearize;
+pub mod lti_loop;
 pub mod math;
 pub mod montecarlo;
 pub mod presets;

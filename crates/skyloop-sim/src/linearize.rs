@@ -72,6 +72,31 @@ fn reduced_fy(v: &Vehicle, x0: &State, r: &[f64], u: &Input, f: &mut [f64], y: &
     y[12..n - 1].copy_from_slice(&r[12..n - 1]);
 }
 
+/// The linearization's output vector at a nonlinear state `x` with inputs `u`, as deviations from
+/// the trim state `x0`: [position (m), velocity (m/s), ξ = log(q0⁻¹ ⊗ q) (rad), true body rates (rad/s),
+/// actuator states]. This is what the linear model's outputs approximate, so a controller designed on
+/// `linearize(v, x0, u0)` is fed these values in a nonlinear simulation.
+pub fn output_deviation(v: &Vehicle, x0: &State, x: &State, u: &Input) -> Vec<f64> {
+    let n = v.nx();
+    let mut y = vec![0.0; n - 1];
+    for i in 0..6 {
+        y[i] = x[i] - x0[i];
+    }
+    let q0 = [x0[QUAT], x0[QUAT + 1], x0[QUAT + 2], x0[QUAT + 3]];
+    let q = [x[QUAT], x[QUAT + 1], x[QUAT + 2], x[QUAT + 3]];
+    let q0_inv = [q0[0], -q0[1], -q0[2], -q0[3]];
+    y[6..9].copy_from_slice(&math::qlog(math::qmul(q0_inv, q)));
+    let w = v.rates(x, u);
+    let w0 = v.rates(x0, u);
+    for i in 0..3 {
+        y[9 + i] = w[i] - w0[i];
+    }
+    for i in 12..n - 1 {
+        y[i] = x[i + 1] - x0[i + 1];
+    }
+    y
+}
+
 /// Linearizes `v` at state `x0` and inputs `u0` (e.g. from `Vehicle::trim_hover`).
 pub fn linearize(v: &Vehicle, x0: &State, u0: &Input) -> Result<Linearization> {
     let n = v.nx();

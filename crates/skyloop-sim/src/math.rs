@@ -111,6 +111,20 @@ pub fn to_euler(q: Quat) -> V3 {
     [roll, pitch, yaw]
 }
 
+/// True when |roll| or |pitch| of `to_euler(q)` exceeds a limit given as (cos, sin) of the angle (rad),
+/// without inverse trig: the crash check runs every physics step.
+#[inline]
+pub fn tilt_exceeds(q: Quat, (cos_l, sin_l): (f64, f64)) -> bool {
+    let [w, x, y, z] = q;
+    let (sr, cr) = (2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y));
+    // |atan2(sr, cr)| > L  ⇔  the direction (cr, sr) is more than L away from +x  ⇔  cr < cos L·|(cr, sr)|.
+    let roll = cr < cos_l * (sr * sr + cr * cr).sqrt();
+    let sp = (2.0 * (w * y - z * x)).clamp(-1.0, 1.0);
+    // A limit of π/2 or more cannot be exceeded by pitch (asin ∈ [−π/2, π/2]).
+    let pitch = cos_l > 0.0 && sp.abs() > sin_l;
+    roll || pitch
+}
+
 /// exp of a rotation vector ξ (rad) as a unit quaternion.
 pub fn qexp(xi: V3) -> Quat {
     let th = norm(xi);
@@ -132,5 +146,36 @@ pub fn qlog(q: Quat) -> V3 {
         scale(v, 2.0)
     } else {
         scale(v, 2.0 * s.atan2(q[0]) / s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tilt_test_agrees_with_euler_angles() {
+        let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for limit in [0.3, 1.0, 1.4, 2.0] {
+            let l = (f64::cos(limit), f64::sin(limit));
+            let mut hits = 0;
+            for _ in 0..20_000 {
+                let q = qnormalize([next(), next(), next(), next()]);
+                let e = to_euler(q);
+                let want = e[0].abs() > limit || e[1].abs() > limit;
+                assert_eq!(tilt_exceeds(q, l), want, "q {q:?} euler {e:?} limit {limit}");
+                hits += want as usize;
+            }
+            assert!(
+                hits > 100 && hits < 19_900,
+                "limit {limit}: both outcomes exercised ({hits})"
+            );
+        }
     }
 }

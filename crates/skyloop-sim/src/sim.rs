@@ -86,7 +86,8 @@ pub struct Simulation {
     sat_count: u64,
     ctl_count: u64,
     crashed: bool,
-    crash_tilt: f64,
+    /// Crash tilt limit as (cos, sin) of the angle.
+    crash_tilt: (f64, f64),
     ground: bool,
 }
 
@@ -199,7 +200,7 @@ impl Simulation {
             sat_count: 0,
             ctl_count: 0,
             crashed: false,
-            crash_tilt: s.crash_tilt_rad,
+            crash_tilt: (s.crash_tilt_rad.cos(), s.crash_tilt_rad.sin()),
             ground: s.altitude_m > 0.0,
         })
     }
@@ -225,8 +226,14 @@ impl Simulation {
     }
 
     fn control(&mut self) {
-        let q = [self.x[QUAT], self.x[QUAT + 1], self.x[QUAT + 2], self.x[QUAT + 3]];
-        let euler = math::to_euler(q);
+        // Euler angles cost three inverse trig calls; only the outer loops need them, and those run
+        // at a fraction of the physics rate.
+        let outer = self.k % self.div_pos == 0 || self.k % self.div_att == 0;
+        let euler = if outer {
+            math::to_euler([self.x[QUAT], self.x[QUAT + 1], self.x[QUAT + 2], self.x[QUAT + 3]])
+        } else {
+            [0.0; 3]
+        };
         while self.ref_idx < self.refs.len() && self.refs[self.ref_idx].0 <= self.t + 1e-12 {
             self.ref_now = self.refs[self.ref_idx].1;
             self.ref_idx += 1;
@@ -317,13 +324,8 @@ impl Simulation {
         self.x[QUAT..QUAT + 4].copy_from_slice(&q);
         self.k += 1;
         self.t = self.k as f64 * h;
-        let e = math::to_euler(q);
         let finite = self.x[..n].iter().all(|v| v.is_finite());
-        if !finite
-            || e[0].abs() > self.crash_tilt
-            || e[1].abs() > self.crash_tilt
-            || (self.ground && self.x[POS + 2] > 0.0)
-        {
+        if !finite || math::tilt_exceeds(q, self.crash_tilt) || (self.ground && self.x[POS + 2] > 0.0) {
             self.crashed = true;
         }
     }

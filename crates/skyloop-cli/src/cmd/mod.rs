@@ -11,6 +11,7 @@ mod log;
 mod margins;
 mod minreal;
 mod mu;
+mod musyn;
 mod ncfsyn;
 mod norm;
 mod nyquist;
@@ -74,6 +75,8 @@ pub enum Command {
     Ncfsyn(ncfsyn::Args),
     /// Controller design from a TOML spec: synthesis, gain boost, reduction, Tustin; summary, plots, report.
     Design(design::Args),
+    /// μ-synthesis by DK-iteration from a TOML spec: per-iteration γ and μ peaks, the best controller.
+    Musyn(musyn::Args),
 }
 
 /// Runs one subcommand; the error text is what the user sees.
@@ -101,5 +104,6 @@ pub fn run(cmd: Command) -> Result<(), String> {
         Command::Hinfsyn(a) => hinfsyn::run(a),
         Command::Ncfsyn(a) => ncfsyn::run(a),
         Command::Design(a) => design::run(a),
+        Command::Musyn(a) => musyn::run(a),
     }
 }

@@ -7,7 +7,8 @@ pub mod upper;
 
 pub use lower::{lower_bound, LowerBound};
 pub use sweep::{
-    mu_frequency, mu_sweep, mu_system, robust_performance, robust_stability, MuPeak, MuSweep, StabilityMargin,
+    mu_frequency, mu_frequency_bounds, mu_sweep, mu_system, robust_performance, robust_stability, MuPeak, MuSweep,
+    StabilityMargin,
 };
 pub use upper::{osborne, upper_bound, DScales, UpperBound, UpperOptions};
 

@@ -51,6 +51,20 @@ pub fn mu_frequency<F>(eval: F, w_rad_s: &[f64], s: &BlockStructure, opts: &MuOp
 where
     F: Fn(f64) -> Result<Mat<c64>>,
 {
+    Ok(mu_frequency_bounds(eval, w_rad_s, s, opts)?.0)
+}
+
+/// As [`mu_frequency`], also returning the bounds (with their D-scales and perturbations) at each
+/// grid frequency, which the D-step of μ-synthesis fits.
+pub fn mu_frequency_bounds<F>(
+    eval: F,
+    w_rad_s: &[f64],
+    s: &BlockStructure,
+    opts: &MuOptions,
+) -> Result<(MuSweep, Vec<MuBounds>)>
+where
+    F: Fn(f64) -> Result<Mat<c64>>,
+{
     if w_rad_s.is_empty() {
         return Err(LtiError::InvalidArgument("the frequency grid is empty".into()));
     }
@@ -84,12 +98,15 @@ where
         let hi = w_rad_s[(k + 1).min(w_rad_s.len() - 1)];
         refine_peak(&eval, lo, hi, s, opts, &bounds[k], &mut peak)?;
     }
-    Ok(MuSweep {
-        w_rad_s: w_rad_s.to_vec(),
-        upper,
-        lower,
-        peak,
-    })
+    Ok((
+        MuSweep {
+            w_rad_s: w_rad_s.to_vec(),
+            upper,
+            lower,
+            peak,
+        },
+        bounds,
+    ))
 }
 
 fn argmax(v: &[f64]) -> usize {

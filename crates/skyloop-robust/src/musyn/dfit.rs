@@ -5,8 +5,10 @@
 //! fitted by the Sanathanan–Koerner iteration on the linearized residual (P − m²Q)/(m²·Q_prev),
 //! which converges to a relative (≈ log-magnitude) least-squares fit. The spectral factor is then
 //! taken: the roots of P(−s²) and Q(−s²) come in ± pairs, and the left-half-plane ones become the
-//! zeros and poles of d(s); the gain is the log-magnitude least-squares optimum. Frequencies are
-//! normalized by their geometric mean for conditioning.
+//! zeros and poles of d(s). That linearized fit can fail (poles pushed onto the axis, lost degree),
+//! so its roots only start a Levenberg–Marquardt minimization of the log-magnitude error over
+//! second-order sections with ω, ζ > 0 (stable and minimum phase by construction); the gain is the
+//! log-magnitude least-squares optimum. Frequencies are normalized by their geometric mean.
 
 use faer::linalg::solvers::SolveLstsq;
 use faer::{c64, Mat};
@@ -132,17 +134,7 @@ pub fn fit_magnitude(w_rad_s: &[f64], mag: &[f64], order: usize) -> Result<DFit>
     // Back to rad/s: s = w0·s̃.
     let zeros: Vec<c64> = zeros.iter().map(|z| z * w0).collect();
     let poles: Vec<c64> = poles.iter().map(|z| z * w0).collect();
-    let shape = |w: f64| {
-        let s = c64::new(0.0, w);
-        let num: c64 = zeros.iter().fold(c64::new(1.0, 0.0), |acc, z| acc * (s - z));
-        let den: c64 = poles.iter().fold(c64::new(1.0, 0.0), |acc, p| acc * (s - p));
-        (num / den).norm()
-    };
-    let log_gain = (0..n).map(|k| mag[k].ln() - shape(w_rad_s[k]).ln()).sum::<f64>() / n as f64;
-    let gain = log_gain.exp();
-    let max_log_error = (0..n)
-        .map(|k| (log_gain + shape(w_rad_s[k]).ln() - mag[k].ln()).abs())
-        .fold(0.0, f64::max);
+    let (zeros, poles, gain, max_log_error) = refine(w_rad_s, mag, order, &zeros, &poles);
     let num = Poly::from_roots(&zeros).scale(gain);
     let den = Poly::from_roots(&poles);
     let ss = skyloop_lti::convert::tf_to_ss(&TransferFunction::siso(num, den, 0.0)?)?;
@@ -153,6 +145,221 @@ pub fn fit_magnitude(w_rad_s: &[f64], mag: &[f64], order: usize) -> Result<DFit>
         max_log_error,
         ss,
     })
+}
+
+/// Stable, minimum-phase factors of d(s): second-order sections s² + 2ζω s + ω² (ζ, ω > 0) and at
+/// most one first-order factor s + ω, so every parameter value is admissible.
+#[derive(Debug, Clone)]
+struct Sections {
+    /// (ln ω, ln ζ) per section.
+    second: Vec<(f64, f64)>,
+    /// ln ω of the first-order factor.
+    first: Option<f64>,
+}
+
+impl Sections {
+    /// Sections of `order` roots from LHP roots (padded with −pad when there are fewer).
+    fn from_roots(roots: &[c64], order: usize, pad: f64) -> Self {
+        let mut cplx: Vec<c64> = roots.iter().filter(|r| r.im > 1e-12 * r.norm()).copied().collect();
+        let mut real: Vec<f64> = roots
+            .iter()
+            .filter(|r| r.im.abs() <= 1e-12 * r.norm())
+            .map(|r| (-r.re).max(1e-300))
+            .collect();
+        cplx.truncate(order / 2);
+        while 2 * cplx.len() + real.len() < order {
+            real.push(pad);
+        }
+        real.truncate(order - 2 * cplx.len());
+        let mut second: Vec<(f64, f64)> = cplx
+            .iter()
+            .map(|r| (r.norm().ln(), (-r.re / r.norm()).max(1e-6).ln()))
+            .collect();
+        while real.len() >= 2 {
+            let (a, b) = (real.pop().unwrap_or(pad), real.pop().unwrap_or(pad));
+            let wn = (a * b).sqrt();
+            second.push((wn.ln(), ((a + b) / (2.0 * wn)).ln()));
+        }
+        Sections {
+            second,
+            first: real.first().map(|a| a.ln()),
+        }
+    }
+    fn len(&self) -> usize {
+        2 * self.second.len() + usize::from(self.first.is_some())
+    }
+    fn to_vec(&self) -> Vec<f64> {
+        let mut v: Vec<f64> = self.second.iter().flat_map(|&(a, b)| [a, b]).collect();
+        v.extend(self.first);
+        v
+    }
+    fn set(&mut self, v: &[f64]) {
+        for (k, sec) in self.second.iter_mut().enumerate() {
+            *sec = (v[2 * k], v[2 * k + 1]);
+        }
+        if let Some(f) = self.first.as_mut() {
+            *f = v[2 * self.second.len()];
+        }
+    }
+    /// ln|Π factors(jω)|.
+    fn log_mag(&self, w: f64) -> f64 {
+        let mut acc = 0.0;
+        for &(lw, lz) in &self.second {
+            let (wn, z) = (lw.exp(), lz.exp());
+            let re = wn * wn - w * w;
+            let im = 2.0 * z * wn * w;
+            acc += 0.5 * (re * re + im * im).ln();
+        }
+        if let Some(lw) = self.first {
+            let wn = lw.exp();
+            acc += 0.5 * (wn * wn + w * w).ln();
+        }
+        acc
+    }
+    fn roots(&self) -> Vec<c64> {
+        let mut out = Vec::new();
+        for &(lw, lz) in &self.second {
+            let (wn, z) = (lw.exp(), lz.exp());
+            if z < 1.0 {
+                let im = wn * (1.0 - z * z).sqrt();
+                out.push(c64::new(-z * wn, im));
+                out.push(c64::new(-z * wn, -im));
+            } else {
+                let d = wn * (z * z - 1.0).sqrt();
+                out.push(c64::new(-z * wn + d, 0.0));
+                out.push(c64::new(-z * wn - d, 0.0));
+            }
+        }
+        if let Some(lw) = self.first {
+            out.push(c64::new(-lw.exp(), 0.0));
+        }
+        out
+    }
+}
+
+/// Levenberg–Marquardt on the log-magnitude error from the Sanathanan–Koerner roots (which need not
+/// be accurate: the linearized fit can put poles on the axis or lose degree). Natural frequencies
+/// stay within a decade of the data's frequency range, which keeps the scaled plant's dynamics
+/// within the range it is analysed on. Returns zeros, poles, gain and the max log error.
+fn refine(w: &[f64], mag: &[f64], order: usize, zeros: &[c64], poles: &[c64]) -> (Vec<c64>, Vec<c64>, f64, f64) {
+    let (wmin, wmax) = w
+        .iter()
+        .fold((f64::INFINITY, 0.0_f64), |(a, b), &x| (a.min(x), b.max(x)));
+    let (lo, hi) = ((wmin / 10.0).ln(), (wmax * 10.0).ln());
+    let target: Vec<f64> = mag.iter().map(|m| m.ln()).collect();
+    let n = w.len();
+    let mut best: Option<(f64, Sections, Sections, f64)> = None;
+    // Starts: the SK roots, and roots spread log-uniformly over the data range.
+    let spread = |k: usize, m: usize, shift: f64| -> Vec<c64> {
+        (0..m)
+            .map(|i| {
+                let t = (i as f64 + 0.5 + shift) / m as f64;
+                c64::new(-(wmin.ln() + t * (wmax.ln() - wmin.ln())).exp(), 0.0) * (1.0 + 0.1 * k as f64)
+            })
+            .collect()
+    };
+    let starts: Vec<(Vec<c64>, Vec<c64>)> = vec![
+        (zeros.to_vec(), poles.to_vec()),
+        (spread(0, order, 0.0), spread(0, order, 0.25)),
+        (spread(0, order, 0.25), spread(0, order, 0.0)),
+    ];
+    let pad = (wmin * wmax).sqrt();
+    for (z0, p0) in starts {
+        let mut zs = Sections::from_roots(&z0, order, pad);
+        let mut ps = Sections::from_roots(&p0, order, pad);
+        let (nz, np) = (zs.len(), ps.len());
+        let clamp = |v: &mut Vec<f64>, secs: usize| {
+            for (k, x) in v.iter_mut().enumerate() {
+                let is_zeta = k < 2 * secs && k % 2 == 1;
+                *x = if is_zeta { x.clamp(-8.0, 4.0) } else { x.clamp(lo, hi) };
+            }
+        };
+        let mut zv = zs.to_vec();
+        let mut pv = ps.to_vec();
+        let (zsec, psec) = (zs.second.len(), ps.second.len());
+        clamp(&mut zv, zsec);
+        clamp(&mut pv, psec);
+        zs.set(&zv);
+        ps.set(&pv);
+        // Residuals with the optimal gain (mean log error) eliminated.
+        let resid = |zs: &Sections, ps: &Sections| -> (Vec<f64>, f64) {
+            let shape: Vec<f64> = w.iter().map(|&x| zs.log_mag(x) - ps.log_mag(x)).collect();
+            let lg = (0..n).map(|k| target[k] - shape[k]).sum::<f64>() / n as f64;
+            ((0..n).map(|k| lg + shape[k] - target[k]).collect(), lg)
+        };
+        let cost = |r: &[f64]| r.iter().map(|x| x * x).sum::<f64>();
+        let (mut r, _) = resid(&zs, &ps);
+        let mut c = cost(&r);
+        let mut lambda = 1e-2;
+        let npar = nz + np;
+        for _ in 0..200 {
+            if npar == 0 {
+                break;
+            }
+            let theta: Vec<f64> = zv.iter().chain(&pv).copied().collect();
+            // Forward-difference Jacobian (cheap: few parameters, ≤ a few hundred points).
+            let mut jac = Mat::<f64>::zeros(n, npar);
+            for j in 0..npar {
+                let h = 1e-6;
+                let mut t = theta.clone();
+                t[j] += h;
+                let (mut zt, mut pt) = (zs.clone(), ps.clone());
+                zt.set(&t[..nz]);
+                pt.set(&t[nz..]);
+                let (rt, _) = resid(&zt, &pt);
+                for k in 0..n {
+                    jac[(k, j)] = (rt[k] - r[k]) / h;
+                }
+            }
+            let jtj = jac.transpose() * &jac;
+            let jtr = jac.transpose() * Mat::from_fn(n, 1, |k, _| r[k]);
+            let mut improved = false;
+            for _ in 0..12 {
+                let mut a = jtj.clone();
+                for j in 0..npar {
+                    a[(j, j)] += lambda * (1.0 + jtj[(j, j)]);
+                }
+                let step = a.col_piv_qr().solve_lstsq(&jtr);
+                let mut t = theta.clone();
+                for j in 0..npar {
+                    t[j] -= step[(j, 0)];
+                }
+                let (mut tz, mut tp) = (t[..nz].to_vec(), t[nz..].to_vec());
+                clamp(&mut tz, zsec);
+                clamp(&mut tp, psec);
+                let (mut zt, mut pt) = (zs.clone(), ps.clone());
+                zt.set(&tz);
+                pt.set(&tp);
+                let (rt, _) = resid(&zt, &pt);
+                let ct = cost(&rt);
+                if ct.is_finite() && ct < c {
+                    let rel = (c - ct) / c.max(1e-300);
+                    zv = tz;
+                    pv = tp;
+                    zs = zt;
+                    ps = pt;
+                    r = rt;
+                    c = ct;
+                    lambda = (lambda / 3.0).max(1e-12);
+                    improved = rel > 1e-12;
+                    break;
+                }
+                lambda *= 4.0;
+            }
+            if !improved {
+                break;
+            }
+        }
+        let (r, lg) = resid(&zs, &ps);
+        let maxe = r.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+        if best.as_ref().is_none_or(|b| maxe < b.0) {
+            best = Some((maxe, zs, ps, lg));
+        }
+    }
+    match best {
+        Some((maxe, zs, ps, lg)) => (zs.roots(), ps.roots(), lg.exp(), maxe),
+        None => (Vec::new(), Vec::new(), 1.0, f64::INFINITY),
+    }
 }
 
 /// The left-half-plane roots of c(−s²) for c ascending in x = ω² (half of them; roots on the

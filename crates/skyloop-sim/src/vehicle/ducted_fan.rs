@@ -4,9 +4,16 @@
 //! t̂ = n̂ × ẑ, and the propeller's gyroscopic torque. Flap normals: +x, +y, −x, −y.
 //! Actuators as in Section II-D: flaps critically damped 2nd order, propeller speed 1st order.
 //!
-//! The paper writes the gyroscopic torque as ω·Jr·Rᵀ(k̂ × Ω); we use the body-frame form
-//! ω·Jr·(ẑ × Ω) = −Ω × (Jr·ω·ẑ), the reaction of a rotor spinning about body z, which agrees with
-//! it in hover (R = I up to yaw).
+//! Checked against the paper's equations (tests/ducted_fan.rs derives the hover partials by hand):
+//! - eq. (4b) as printed keeps only the d·ẑ × ℓ part of the per-flap torque; the derivation's
+//!   (a/3)·t̂ × ℓ term (t̂ × n̂ = ẑ) is the flaps' yaw authority, without which yaw would be
+//!   uncontrollable, so we keep the full per-flap torque the text derives. Its drag part
+//!   (a/3)·t̂ × F_d cancels over opposite flaps at equal angles and is second order in α.
+//! - The paper writes the gyroscopic torque as ω·Jr·Rᵀ(k̂ × Ω), which mixes frames (Rᵀ maps body to
+//!   inertial); we use the body-frame form ω·Jr·(ẑ × Ω) = −Ω × (Jr·ω·ẑ), the reaction of a rotor
+//!   spinning about body z. At the paper's yaw-45° hover the two differ by that 45° rotation.
+//! - Gravity acts in the inertial frame (eq. (2a)'s mg·Rᵀk̂ inside F is the same force written in
+//!   body axes); the thrust uses ω·|ω| so a reversed propeller pushes the other way.
 
 use crate::error::{check_min, check_pos, Result};
 use crate::math::{self, V3};

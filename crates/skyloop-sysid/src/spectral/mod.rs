@@ -309,10 +309,18 @@ pub(crate) struct Rfft {
 
 impl Rfft {
     pub fn new(n: usize) -> Rfft {
-        Rfft {
-            plan: realfft::RealFftPlanner::<f64>::new().plan_fft_forward(n),
-            n,
-        }
+        // One planner for the process: it caches plans by length, and computing the twiddles of a
+        // long mixed-radix FFT costs as much as running it. Estimates of several axes of one log all
+        // share the record length.
+        static PLANNER: std::sync::OnceLock<std::sync::Mutex<realfft::RealFftPlanner<f64>>> =
+            std::sync::OnceLock::new();
+        let planner = PLANNER.get_or_init(|| std::sync::Mutex::new(realfft::RealFftPlanner::new()));
+        let plan = match planner.lock() {
+            Ok(mut p) => p.plan_fft_forward(n),
+            // A panic elsewhere while planning poisons the lock; a fresh planner is always correct.
+            Err(_) => realfft::RealFftPlanner::<f64>::new().plan_fft_forward(n),
+        };
+        Rfft { plan, n }
     }
 
     /// X_k, k = 0..=n/2, of `x` (zero-padded or cut to n) multiplied by `window` when given.

@@ -1,6 +1,7 @@
 //! Li, Qin, Xu & Zhang, bicopter roll-rate H∞ loop shaping (../shared/seeds/000_72ec9ee75feda2b7.txt,
 //! Section IV): runs examples/bicopter.toml and sets every number the section prints beside ours.
 
+use super::Claims;
 use skyloop_lti::c64;
 use skyloop_lti::zpk::Zpk;
 use skyloop_robust::design::{design, DesignSpec};
@@ -8,22 +9,13 @@ use std::path::Path;
 
 const SPEC: &str = include_str!("../../../../../examples/bicopter.toml");
 
-struct Claims {
-    failed: Vec<String>,
-}
-
-impl Claims {
-    /// Prints paper vs ours and records a failure when |ours − paper| > tol.
-    fn num(&mut self, what: &str, paper: f64, ours: f64, tol: f64) {
-        let ok = (ours - paper).abs() <= tol;
-        println!(
-            "  [{}] {what:<58} paper {paper:>10.4}   ours {ours:>10.4}   (tol ±{tol:.4})",
-            if ok { "ok" } else { "FAIL" }
-        );
-        if !ok {
-            self.failed.push(what.to_string());
-        }
-    }
+/// Checks one printed number: paper vs ours within ±tol.
+fn num(c: &mut Claims, what: &str, paper: f64, ours: f64, tol: f64) {
+    let ok = (ours - paper).abs() <= tol;
+    c.check(
+        ok,
+        format!("{what:<58} paper {paper:>10.4}   ours {ours:>10.4}   (tol ±{tol:.4})"),
+    );
 }
 
 /// Coefficients [1, c1, c0] of (s − a)(s − b) for a conjugate pair, or [1, −a] for a real root.
@@ -47,15 +39,22 @@ pub fn run(out: &Path) -> Result<(), String> {
     let spec = DesignSpec::from_toml_str(SPEC, Path::new(".")).map_err(|e| format!("embedded spec: {e}"))?;
     let r = design(&spec).map_err(|e| format!("design: {e}"))?;
     let s = &r.summary;
-    let mut c = Claims { failed: vec![] };
+    let mut c = Claims::default();
     println!("Bicopter roll rate, H∞ loop shaping (Li, Qin, Xu & Zhang, Section IV): examples/bicopter.toml");
     let gmin = s.gamma_min.ok_or("the example must use ncfsyn")?;
     // Printed to 3 decimals.
-    c.num("Step 2: γ of ncfsyn with 3rd-order Padé", 1.748, gmin, 5e-4);
-    c.num("Step 3: order of W1·K∞·W2", 12.0, r.full.nx() as f64, 0.0);
+    num(&mut c, "Step 2: γ of ncfsyn with 3rd-order Padé", 1.748, gmin, 5e-4);
+    num(&mut c, "Step 3: order of W1·K∞·W2", 12.0, r.full.nx() as f64, 0.0);
     let red = s.stages.last().ok_or("no stages")?;
-    c.num("Step 3: order of the reduced controller", 5.0, red.order as f64, 0.0);
-    c.num(
+    num(
+        &mut c,
+        "Step 3: order of the reduced controller",
+        5.0,
+        red.order as f64,
+        0.0,
+    );
+    num(
+        &mut c,
         "Step 3: final γ after boost and reduction",
         2.862,
         red.gamma.unwrap_or(f64::NAN),
@@ -63,10 +62,11 @@ pub fn run(out: &Path) -> Result<(), String> {
     );
     let m = &red.margins;
     // The paper prints one decimal; the rounding of eq. (12)'s coefficients alone moves PM by 0.08°.
-    c.num("Step 4: phase margin, deg", 65.8, m.phase_margin_deg, 0.2);
-    c.num("Step 4: gain crossover, Hz", 1.47, m.crossover_hz, 0.005);
-    c.num("Step 4: gain margin, dB", 7.25, m.gain_margin_db, 0.05);
-    c.num(
+    num(&mut c, "Step 4: phase margin, deg", 65.8, m.phase_margin_deg, 0.2);
+    num(&mut c, "Step 4: gain crossover, Hz", 1.47, m.crossover_hz, 0.005);
+    num(&mut c, "Step 4: gain margin, dB", 7.25, m.gain_margin_db, 0.05);
+    num(
+        &mut c,
         "Step 4: unstable zero of P, Hz",
         6.68,
         s.limits.rhp_zero_hz.unwrap_or(f64::NAN),
@@ -89,7 +89,7 @@ pub fn run(out: &Path) -> Result<(), String> {
     let (pr, pq) = factors(&z.p[0][0]);
     if zr.len() == 2 && zq.len() == 1 && pr.len() == 1 && pq.len() == 2 {
         // Four significant digits printed: 0.5% relative.
-        let mut eq = |what: &str, paper: f64, ours: f64| c.num(what, paper, ours, 5e-3 * paper.abs());
+        let mut eq = |what: &str, paper: f64, ours: f64| num(&mut c, what, paper, ours, 5e-3 * paper.abs());
         // Below the far zeros, k·Π(s − z_far) ≈ k·Π(−z_far): the gain eq. (12) would show.
         let k = far.iter().fold(c64::new(z.k[0][0], 0.0), |acc, q| acc * (-q)).re;
         eq("eq. (12) gain", 24.02, k);
@@ -110,10 +110,9 @@ pub fn run(out: &Path) -> Result<(), String> {
             );
         }
     } else {
-        c.failed.push("eq. (12) structure".into());
-        println!(
-            "  [FAIL] eq. (12) structure: zeros {:?}, poles {:?}",
-            z.z[0][0], z.p[0][0]
+        c.check(
+            false,
+            format!("eq. (12) structure: zeros {:?}, poles {:?}", z.z[0][0], z.p[0][0]),
         );
     }
     if let Some(d) = &s.discrete {
@@ -132,10 +131,5 @@ pub fn run(out: &Path) -> Result<(), String> {
     let text = serde_json::to_string_pretty(s).map_err(|e| e.to_string())?;
     std::fs::write(&path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     println!("wrote {}", path.display());
-    if c.failed.is_empty() {
-        println!("all claims reproduced");
-        Ok(())
-    } else {
-        Err(format!("not reproduced: {}", c.failed.join("; ")))
-    }
+    c.finish()
 }

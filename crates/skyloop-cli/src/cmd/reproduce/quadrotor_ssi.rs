@@ -2,6 +2,7 @@
 //! eq. (32) characteristic polynomial, eq. (33) poles for Jm = J, Routh condition (35), and the
 //! nonlinear step responses with Jm = J and Jm = 0.5·J under a gust (Fig. 6–8), against a plain PI.
 
+use super::Claims;
 use skyloop_plot::traces::{plot_traces, Trace, TracePanel};
 use skyloop_sim::analysis::{self, SsiLoop};
 use skyloop_sim::flight::RateLaw;
@@ -9,19 +10,6 @@ use skyloop_sim::{disturbance::DisturbanceSpec, Sample, Scenario};
 use std::path::Path;
 
 const SCENARIO: &str = include_str!("../../../../../examples/quadrotor-ssi.toml");
-
-struct Claims {
-    failed: Vec<String>,
-}
-
-impl Claims {
-    fn check(&mut self, ok: bool, what: String) {
-        println!("  [{}] {what}", if ok { "ok" } else { "FAIL" });
-        if !ok {
-            self.failed.push(what);
-        }
-    }
-}
 
 /// Polynomial coefficients (descending, monic) from roots.
 fn poly_from_roots(r: &[num_complex::Complex64]) -> Vec<f64> {
@@ -72,7 +60,7 @@ pub fn run(out: &Path) -> Result<(), String> {
         .and_then(|v| v.build())
         .map_err(|e| e.to_string())?;
     let j = vehicle.inertia()[0];
-    let mut claims = Claims { failed: vec![] };
+    let mut claims = Claims::default();
     println!("SSI-PI quadrotor (Tai, Phang & Hoo 2018): J = {j} kg·m², Kp = {kp}, Ki = {ki}, attitude gain 1");
 
     println!("\nLinear: roll axis of the linearized quadrotor (motors residualized), SSI-PI loop closed");
@@ -296,16 +284,7 @@ pub fn run(out: &Path) -> Result<(), String> {
     let path = out.join("fig6_8_roll.svg");
     plot_traces(&path, "SSI-PI quadrotor: roll step and gust", &[step, fig8]).map_err(|e| format!("plot: {e}"))?;
     println!("\nwrote {} and per-run CSV/SVG in {}", path.display(), out.display());
-    if claims.failed.is_empty() {
-        println!("all claims reproduced");
-        Ok(())
-    } else {
-        Err(format!(
-            "{} claim(s) not reproduced: {}",
-            claims.failed.len(),
-            claims.failed.join("; ")
-        ))
-    }
+    claims.finish()
 }
 
 fn ssi(scn: &Scenario, axis: usize, frac: f64) -> RateLaw {
