@@ -13,7 +13,8 @@
 //!    is singular at γ_opt), and the closed loop is verified: stable and ‖lft(P,K)‖∞ ≤ γ·(1+1e-3);
 //!    otherwise γ is raised until it is.
 //!
-//! Discrete-time plants go through the bilinear map, which preserves the H∞ norm.
+//! Discrete-time plants go through the bilinear map (`skyloop_lti::discretize` Tustin d2c/c2d),
+//! which preserves stability and the H∞ norm.
 
 use crate::linutil::{
     balance_states, hcat, inv, max_real_eig, sigma_max, spectral_radius, sym_min_eig, uncontrollable_unstable_mode,
@@ -21,6 +22,7 @@ use crate::linutil::{
 };
 use faer::{Mat, MatRef, Side};
 use skyloop_linalg::riccati::care;
+use skyloop_lti::discretize::{c2d, d2c, Method};
 use skyloop_lti::error::Result;
 use skyloop_lti::{LtiError, StateSpace};
 
@@ -181,42 +183,20 @@ fn diagnose(p: &StateSpace, nmeas: usize, ncon: usize, last_fail: &str) -> LtiEr
     ))
 }
 
-/// Discrete-time synthesis through the bilinear map z = (1 + s)/(1 − s), which maps the unit disk
-/// onto the left half plane and preserves the H∞ norm.
+/// Discrete-time synthesis through the bilinear (Tustin) map of skyloop-lti: it maps the unit disk
+/// onto the left half plane and e^{jωT} onto j(2/T)·tan(ωT/2), so stability and the H∞ norm of
+/// every closed loop are preserved; design on d2c(P), map the controller back with c2d.
 fn hinfsyn_discrete(p: &StateSpace, nmeas: usize, ncon: usize, opts: &HinfOptions) -> Result<HinfSolution> {
-    let pc = bilinear_d2c(p)?;
+    let tustin = Method::Tustin { prewarp_rad_s: None };
+    let pc = d2c(p, tustin)?;
     let sol = hinfsyn_with(&pc, nmeas, ncon, opts)?;
-    let k = bilinear_c2d(&sol.controller, p.dt)?;
+    let k = c2d(&sol.controller, p.dt, tustin)?;
     let cl = skyloop_lti::interconnect::lft_lower(p, &k)?;
     Ok(HinfSolution {
         controller: k,
         closed_loop: cl,
         ..sol
     })
-}
-
-/// Maps a discrete model to a continuous one with s = (z − 1)/(z + 1) (unit sample time scaling).
-fn bilinear_d2c(p: &StateSpace) -> Result<StateSpace> {
-    let n = p.nx();
-    let i = Mat::<f64>::identity(n, n);
-    let m = inv((&i + &p.a).as_ref(), "I + A (the plant has a pole at z = -1)")?;
-    let a = &m * (&p.a - &i);
-    let b = &m * &p.b * 2.0f64.sqrt();
-    let c = &p.c * &m * 2.0f64.sqrt();
-    let d = &p.d - &p.c * &m * &p.b;
-    StateSpace::new(a, b, c, d, 0.0)
-}
-
-/// Inverse of [`bilinear_d2c`]: z = (1 + s)/(1 − s), returned with sample time `dt`.
-fn bilinear_c2d(k: &StateSpace, dt: f64) -> Result<StateSpace> {
-    let n = k.nx();
-    let i = Mat::<f64>::identity(n, n);
-    let m = inv((&i - &k.a).as_ref(), "I - A of the controller (pole at s = 1)")?;
-    let a = &m * (&i + &k.a);
-    let b = &m * &k.b * 2.0f64.sqrt();
-    let c = &k.c * &m * 2.0f64.sqrt();
-    let d = &k.d + &k.c * &m * &k.b;
-    StateSpace::new(a, b, c, d, dt)
 }
 
 /// Solutions of the two H∞ Riccati equations at one γ.

@@ -30,6 +30,20 @@ fn bicopter_design_is_consistent_and_matches_eq12() {
     let exact = s.stages[0].gamma.expect("synthesis gamma");
     let grid = shaped_gamma(&r.plant_rational, r.w1.as_ref(), r.w2.as_ref(), &r.synthesized).expect("grid");
     assert!((grid - exact).abs() < 1e-3 * exact, "grid {grid} vs exact {exact}");
+    // b(P, C) from the same grid agrees with the exact state-space ncfmargin (hinf_norm).
+    for (st, c) in s
+        .stages
+        .iter()
+        .zip([&r.synthesized, &r.full, r.reduced.as_ref().expect("reduced")])
+    {
+        let exact = skyloop_robust::ncfsyn::ncfmargin(&r.plant_rational, c, 3).expect("ncfmargin");
+        assert!(
+            (st.ncf_margin - exact).abs() < 1e-6 * exact,
+            "{}: {} vs {exact}",
+            st.stage,
+            st.ncf_margin
+        );
+    }
     // The boost targets the final loop: the reduced loop crosses at the spec's 1.47 Hz.
     let red = &s.stages[2];
     assert_eq!(red.order, 5);

@@ -106,27 +106,17 @@ fn gamma_range_without_solution_is_an_error() {
     assert!(hinfsyn(&p, 2, 1).is_err());
 }
 
-/// Closed form: for G = 1/(s − 1) with z = [x-output; u], y = x + w... is not trivial, so check the
-/// discrete path instead against the continuous one: the bilinear map preserves gamma.
+/// The discrete path against the continuous one: Tustin (skyloop-lti c2d) maps closed loops onto
+/// closed loops with the same H∞ norm, so the discrete γ equals the continuous γ of the same
+/// SLICOT fixture plant, and the discrete closed loop meets it (checked with the discrete hinf_norm).
 #[test]
 fn discrete_plant_via_bilinear_map() {
     let f = fixture("hinfsyn_random.json");
     let c = &f["cases"][1];
     let p = plant(&c["plant"]);
     let cont = hinfsyn(&p, 1, 1).expect("continuous");
-    // Exact bilinear image of p (z = (1 + s)/(1 − s)), dt = 0.01 s: same gamma.
-    let n = p.nx();
-    let i = Mat::<f64>::identity(n, n);
-    let m = faer::linalg::solvers::DenseSolveCore::inverse(&(&i - &p.a).partial_piv_lu());
-    let s2 = 2.0f64.sqrt();
-    let pd = StateSpace::new(
-        &m * (&i + &p.a),
-        &m * &p.b * s2,
-        &p.c * &m * s2,
-        &p.d + &p.c * &m * &p.b,
-        0.01,
-    )
-    .expect("discrete plant");
+    let tustin = skyloop_lti::discretize::Method::Tustin { prewarp_rad_s: None };
+    let pd = skyloop_lti::discretize::c2d(&p, 0.01, tustin).expect("discrete plant");
     let disc = hinfsyn(&pd, 1, 1).expect("discrete");
     assert!(
         (disc.gamma - cont.gamma).abs() < 2e-3 * cont.gamma,
@@ -137,4 +127,11 @@ fn discrete_plant_via_bilinear_map() {
     assert_eq!(disc.controller.dt, 0.01);
     let ev = disc.closed_loop.a.eigenvalues().expect("eig");
     assert!(ev.iter().all(|l| l.norm() < 1.0));
+    let (norm, _) = skyloop_lti::norms::hinf_norm(&disc.closed_loop).expect("norm");
+    assert!(norm <= disc.gamma * (1.0 + 1e-3), "{norm} > {}", disc.gamma);
+    // A discrete plant with a pole at z = −1 has no Tustin preimage: a clear error.
+    let mut bad = pd.clone();
+    bad.a = -Mat::<f64>::identity(pd.nx(), pd.nx());
+    let e = hinfsyn(&bad, 1, 1).expect_err("pole at z = -1");
+    assert!(e.to_string().contains("z = -1"), "{e}");
 }

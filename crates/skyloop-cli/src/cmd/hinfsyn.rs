@@ -29,6 +29,9 @@ pub struct Args {
     /// Print {"gamma":..,"closed_loop_norm":..,"controller":LTI JSON} on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Repeat the synthesis N times and print the fastest wall time on stderr (for bench/compare.py).
+    #[arg(long)]
+    pub bench: Option<usize>,
 }
 
 /// Runs the synthesis and prints γ and the controller u = K·y.
@@ -38,6 +41,15 @@ pub fn run(a: Args) -> Result<(), String> {
         gamma_range: (a.gamma_min, a.gamma_max.unwrap_or(f64::INFINITY)),
         rel_tol: a.tol,
     };
+    if let Some(n) = a.bench {
+        let mut best = f64::INFINITY;
+        for _ in 0..n.max(1) {
+            let t = std::time::Instant::now();
+            hinfsyn_with(&p, a.nmeas, a.ncon, &opts).map_err(|e| format!("hinfsyn: {e}"))?;
+            best = best.min(t.elapsed().as_secs_f64());
+        }
+        eprintln!("bench_seconds {best:e}");
+    }
     let sol = hinfsyn_with(&p, a.nmeas, a.ncon, &opts).map_err(|e| format!("hinfsyn: {e}"))?;
     if a.json {
         return print_json(&serde_json::json!({

@@ -2,6 +2,7 @@
 
 mod bode;
 mod c2d;
+mod design;
 mod export;
 mod freqresp;
 mod hinfsyn;
@@ -72,6 +73,8 @@ pub enum Command {
     Hinfsyn(hinfsyn::Args),
     /// Glover–McFarlane H∞ loop shaping: γ_min, γ and the controller for u = C·(r − y).
     Ncfsyn(ncfsyn::Args),
+    /// Controller design from a TOML spec: synthesis, gain boost, reduction, Tustin; summary, plots, report.
+    Design(design::Args),
     /// μ-synthesis by DK-iteration from a TOML spec: per-iteration γ and μ peaks, the best controller.
     Musyn(musyn::Args),
 }
@@ -100,6 +103,7 @@ pub fn run(cmd: Command) -> Result<(), String> {
         Command::Export(a) => export::run(a),
         Command::Hinfsyn(a) => hinfsyn::run(a),
         Command::Ncfsyn(a) => ncfsyn::run(a),
+        Command::Design(a) => design::run(a),
         Command::Musyn(a) => musyn::run(a),
     }
 }

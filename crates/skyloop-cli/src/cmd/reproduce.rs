@@ -1,6 +1,7 @@
 //! `skyloop reproduce NAME`: re-derives a paper's printed claims and checks them. One line per paper in
 //! `run`; each paper's code lives in `reproduce/<name>.rs`.
 
+mod bicopter;
 mod ducted_fan;
 mod quadrotor_ssi;
 
@@ -9,7 +10,7 @@ use std::path::PathBuf;
 /// Arguments of `skyloop reproduce`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Which paper: quadrotor-ssi, ducted-fan.
+    /// Which paper: quadrotor-ssi, ducted-fan, bicopter.
     name: String,
     /// Output directory for CSV traces and plots.
     #[arg(long, default_value = "skyloop-reproduce-out")]
@@ -24,8 +25,9 @@ pub fn run(a: Args) -> Result<(), String> {
     match a.name.as_str() {
         "quadrotor-ssi" => quadrotor_ssi::run(&a.out),
         "ducted-fan" => ducted_fan::run(&a.out, a.quick),
+        "bicopter" => bicopter::run(&a.out),
         other => Err(format!(
-            "unknown reproduction '{other}' (known: quadrotor-ssi, ducted-fan)"
+            "unknown reproduction '{other}' (known: quadrotor-ssi, ducted-fan, bicopter)"
         )),
     }
 }

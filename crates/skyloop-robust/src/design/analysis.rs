@@ -115,8 +115,20 @@ pub fn shaped_gamma(
     w2: Option<&StateSpace>,
     c: &StateSpace,
 ) -> Result<f64> {
+    Ok(four_block_norms(p_rational, w1, w2, c)?.0)
+}
+
+/// (γ of the shaped loop as in [`shaped_gamma`], 1/b(P, C) of the unweighted loop) from one set of
+/// frequency-response evaluations; both +∞ when the rational loop is not internally stable.
+/// 1/b(P, C) = ‖[I; C](1 + PC)⁻¹[I P]‖∞ is the same expression with W1 = W2 = 1 (MATLAB ncfmargin).
+pub fn four_block_norms(
+    p_rational: &StateSpace,
+    w1: Option<&StateSpace>,
+    w2: Option<&StateSpace>,
+    c: &StateSpace,
+) -> Result<(f64, f64)> {
     if !closed_loop_stable(p_rational, c)? {
-        return Ok(f64::INFINITY);
+        return Ok((f64::INFINITY, f64::INFINITY));
     }
     let mut ps = Siso::new(p_rational)?;
     let mut cs = Siso::new(c)?;
@@ -128,9 +140,9 @@ pub fn shaped_gamma(
         lo = lo.min(l);
         hi = hi.max(h);
     }
-    let mut f = |w: f64| -> f64 {
+    let mut f = |w: f64| -> [f64; 2] {
         let one = c64::new(1.0, 0.0);
-        let v = (|| -> Result<f64> {
+        let v = (|| -> Result<[f64; 2]> {
             let pv = ps.at(w)?;
             let cv = cs.at(w)?;
             let w1v = match w1s.as_mut() {
@@ -141,25 +153,35 @@ pub fn shaped_gamma(
                 Some(s) => s.at(w)?,
                 None => one,
             };
-            let sens = 1.0 / (1.0 + pv * cv);
+            let sens = (1.0 / (1.0 + pv * cv)).norm();
             let u = (w2v.norm_sqr() + (cv / w1v).norm_sqr()).sqrt();
             let v = ((1.0 / w2v).norm_sqr() + (pv * w1v).norm_sqr()).sqrt();
-            Ok(sens.norm() * u * v)
+            let plain = ((1.0 + cv.norm_sqr()) * (1.0 + pv.norm_sqr())).sqrt();
+            Ok([sens * u * v, sens * plain])
         })();
         // A grid point on a pole or zero of a weight: the neighbours carry the peak.
-        v.ok().filter(|x| x.is_finite()).unwrap_or(0.0)
+        v.ok()
+            .map(|x| x.map(|y| if y.is_finite() { y } else { 0.0 }))
+            .unwrap_or([0.0, 0.0])
     };
-    let grid = logspace((lo * 1e-3).log10(), (hi * 1e3).log10(), 1200);
-    let vals: Vec<f64> = grid.iter().map(|&w| f(w)).collect();
-    let (k, &best) = vals
-        .iter()
-        .enumerate()
-        .max_by(|a, b| a.1.total_cmp(b.1))
-        .ok_or_else(|| LtiError::Numerical("empty frequency grid".into()))?;
-    let a = grid[k.saturating_sub(1)].ln();
-    let b = grid[(k + 1).min(grid.len() - 1)].ln();
-    let (_, refined) = golden_max(|x| f(x.exp()), a, b, 1e-10);
-    Ok(best.max(refined))
+    // 80 points per decade; the peaks of these smooth norms are then bracketed and refined.
+    let (a, b) = ((lo * 1e-3).log10(), (hi * 1e3).log10());
+    let grid = logspace(a, b, ((b - a) * 80.0).ceil().max(50.0) as usize);
+    let vals: Vec<[f64; 2]> = grid.iter().map(|&w| f(w)).collect();
+    let mut out = [0.0; 2];
+    for (j, o) in out.iter_mut().enumerate() {
+        let (k, best) = vals
+            .iter()
+            .enumerate()
+            .map(|(k, v)| (k, v[j]))
+            .max_by(|x, y| x.1.total_cmp(&y.1))
+            .ok_or_else(|| LtiError::Numerical("empty frequency grid".into()))?;
+        let a = grid[k.saturating_sub(1)].ln();
+        let b = grid[(k + 1).min(grid.len() - 1)].ln();
+        let (_, refined) = golden_max(|x| f(x.exp())[j], a, b, 1e-10);
+        *o = best.max(refined);
+    }
+    Ok((out[0], out[1]))
 }
 
 /// Closeness of a controller `c` to a reference `r` over [f_lo, f_hi] Hz (400 log-spaced points).
@@ -171,6 +193,8 @@ pub struct Closeness {
     pub to_hz: f64,
     /// max |c − r|/|r| over the band.
     pub max_rel_error: f64,
+    /// max |c − r| over the band.
+    pub max_abs_error: f64,
     /// max |20·log10|c/r|| over the band, dB.
     pub max_mag_error_db: f64,
     /// max |∠(c/r)| over the band, degrees.
@@ -201,6 +225,7 @@ pub fn closeness_warped(
         from_hz,
         to_hz,
         max_rel_error: 0.0,
+        max_abs_error: 0.0,
         max_mag_error_db: 0.0,
         max_phase_error_deg: 0.0,
     };
@@ -210,6 +235,7 @@ pub fn closeness_warped(
         let rv = rs.at(warp(w))?;
         let ratio = cv / rv;
         out.max_rel_error = out.max_rel_error.max((cv - rv).norm() / rv.norm());
+        out.max_abs_error = out.max_abs_error.max((cv - rv).norm());
         out.max_mag_error_db = out.max_mag_error_db.max((20.0 * ratio.norm().log10()).abs());
         out.max_phase_error_deg = out.max_phase_error_deg.max(ratio.arg().abs().to_degrees());
     }

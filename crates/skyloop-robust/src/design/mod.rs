@@ -12,9 +12,10 @@ pub mod analysis;
 pub mod spec;
 
 use crate::mixsyn::mixsyn;
-use crate::ncfsyn::{ncfmargin, ncfsyn, NcfOptions};
-use analysis::{closeness, closeness_warped, crossover_limits, loop_gain_at, loop_margins, shaped_gamma};
+use crate::ncfsyn::{ncfsyn, NcfOptions};
+use analysis::{closeness, closeness_warped, crossover_limits, four_block_norms, loop_gain_at, loop_margins};
 use analysis::{Closeness, CrossoverLimits, LoopMargins};
+use rayon::prelude::*;
 use serde::Serialize;
 use skyloop_lti::discretize::{c2d, Method as C2dMethod};
 use skyloop_lti::error::Result;
@@ -33,7 +34,8 @@ pub struct StageSummary {
     pub order: usize,
     /// ncfsyn: 4-block norm of the shaped loop; mixsyn: the synthesis γ (synthesis step only).
     pub gamma: Option<f64>,
-    /// b(P, C) of the unweighted loop (MATLAB ncfmargin), 0 when unstable.
+    /// b(P, C) of the unweighted loop (MATLAB ncfmargin, here on the frequency grid of
+    /// [`analysis::four_block_norms`]), 0 when unstable.
     pub ncf_margin: f64,
     /// Classic and disk margins of L = P·C.
     pub margins: LoopMargins,
@@ -70,6 +72,8 @@ pub struct DesignSummary {
     pub stages: Vec<StageSummary>,
     /// Hankel singular values of the stable part of the boosted controller (reduction only).
     pub hsv: Vec<f64>,
+    /// Balanced-reduction bound on ‖C_full − C_reduced‖∞ (2·Σ discarded σ; reduction only).
+    pub reduction_error_bound: Option<f64>,
     /// Reduced against full controller over the crossover band (reduction only).
     pub reduced_vs_full: Option<Closeness>,
     /// Discretization check (discretize only).
@@ -242,16 +246,6 @@ pub fn design(spec: &DesignSpec) -> Result<DesignResult> {
         fast_modes_removed = k;
         c
     };
-    let stage = |name: &str, c: &StateSpace, gamma: Option<f64>| -> Result<StageSummary> {
-        Ok(StageSummary {
-            stage: name.into(),
-            order: c.nx(),
-            gamma,
-            ncf_margin: ncfmargin(&plant_rational, c, pade)?,
-            margins: loop_margins(&plant, c)?,
-        })
-    };
-    let mut stages = vec![stage("synthesis", &synthesized, synth_gamma)?];
 
     // Step 3 before step 2: reduction (balanced truncation and SPA) is linear in a scalar gain,
     // balred(k·C) = k·balred(C), so the unboosted controller is reduced once and the boost can
@@ -295,37 +289,58 @@ pub fn design(spec: &DesignSpec) -> Result<DesignResult> {
         };
     }
     let full = scaled(&synthesized, boost_gain);
-    if spec.boost.is_some() {
-        let gamma = if is_ncf {
-            Some(shaped_gamma(&plant_rational, w1.as_ref(), w2.as_ref(), &full)?)
-        } else {
-            None
-        };
-        stages.push(stage("boost", &full, gamma)?);
-    }
 
     let mut hsv = Vec::new();
-    let mut reduced_vs_full = None;
+    let mut reduction_error_bound = None;
     let reduced = match reduced0 {
         Some(red) => {
             let sys = scaled(&red.sys, boost_gain);
             hsv = red.hsv.iter().map(|h| h * boost_gain).collect();
-            let gamma = if is_ncf {
-                Some(shaped_gamma(&plant_rational, w1.as_ref(), w2.as_ref(), &sys)?)
-            } else {
-                None
-            };
-            let st = stage("reduction", &sys, gamma)?;
-            let fc = st.margins.crossover_hz;
-            if fc.is_finite() && fc > 0.0 {
-                let band = spec.analysis.crossover_band;
-                reduced_vs_full = Some(closeness(&sys, &full, fc / band, fc * band)?);
-            }
-            stages.push(st);
+            reduction_error_bound = Some(red.error_bound * boost_gain);
             Some(sys)
         }
         None => None,
     };
+
+    // Analysis of every step; the steps are independent, so they run in parallel. The synthesis
+    // step's γ is ncfsyn's exact one; after boost and reduction C is no longer W1·K∞·W2 with the
+    // synthesized K∞, so γ is the 4-block norm on a grid (see analysis::shaped_gamma).
+    let mut steps: Vec<(&str, &StateSpace, Option<f64>, bool)> = vec![("synthesis", &synthesized, synth_gamma, false)];
+    if spec.boost.is_some() {
+        steps.push(("boost", &full, None, is_ncf));
+    }
+    if let Some(r) = &reduced {
+        steps.push(("reduction", r, None, is_ncf));
+    }
+    let stages = steps
+        .par_iter()
+        .map(|&(name, c, gamma, grid)| -> Result<StageSummary> {
+            let (first, margins) = rayon::join(
+                || -> Result<(f64, Option<f64>)> {
+                    let (g, inv_b) = four_block_norms(&plant_rational, w1.as_ref(), w2.as_ref(), c)?;
+                    let b = if inv_b.is_finite() { 1.0 / inv_b } else { 0.0 };
+                    Ok((b, if grid { Some(g) } else { gamma }))
+                },
+                || loop_margins(&plant, c),
+            );
+            let (ncf_margin, gamma) = first?;
+            Ok(StageSummary {
+                stage: name.into(),
+                order: c.nx(),
+                gamma,
+                ncf_margin,
+                margins: margins?,
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let mut reduced_vs_full = None;
+    if let (Some(r), Some(st)) = (&reduced, stages.last()) {
+        let fc = st.margins.crossover_hz;
+        if fc.is_finite() && fc > 0.0 {
+            let band = spec.analysis.crossover_band;
+            reduced_vs_full = Some(closeness(r, &full, fc / band, fc * band)?);
+        }
+    }
 
     // Step 4: Tustin discretization of the final controller.
     let final_c = reduced.as_ref().unwrap_or(&full);
@@ -364,6 +379,7 @@ pub fn design(spec: &DesignSpec) -> Result<DesignResult> {
         fast_modes_removed,
         stages,
         hsv,
+        reduction_error_bound,
         reduced_vs_full,
         discrete: dsum,
         limits,

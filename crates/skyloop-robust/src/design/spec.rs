@@ -98,7 +98,9 @@ pub struct BoostSpec {
 pub struct ReductionSpec {
     /// Number of states of the reduced controller (unstable poles, integrators included, are kept).
     pub order: usize,
-    /// "balanced" (truncation, MATLAB balred 'Truncate') or "spa" (DC matched, 'MatchDC').
+    /// "balanced" (truncation, MATLAB balred 'Truncate') or "spa" (DC matched, 'MatchDC'). SPA leaves
+    /// a feedthrough, so with a strictly proper W2 the shaped K = W1⁻¹·C·W2⁻¹ is improper and the
+    /// reported γ after reduction grows with the grid's upper frequency (it is infinite).
     #[serde(default = "default_reduction_method")]
     pub method: String,
 }

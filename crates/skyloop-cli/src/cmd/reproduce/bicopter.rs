@@ -1,0 +1,135 @@
+//! Li, Qin, Xu & Zhang, bicopter roll-rate H∞ loop shaping (../shared/seeds/000_72ec9ee75feda2b7.txt,
+//! Section IV): runs examples/bicopter.toml and sets every number the section prints beside ours.
+
+use super::Claims;
+use skyloop_lti::c64;
+use skyloop_lti::zpk::Zpk;
+use skyloop_robust::design::{design, DesignSpec};
+use std::path::Path;
+
+const SPEC: &str = include_str!("../../../../../examples/bicopter.toml");
+
+/// Checks one printed number: paper vs ours within ±tol.
+fn num(c: &mut Claims, what: &str, paper: f64, ours: f64, tol: f64) {
+    let ok = (ours - paper).abs() <= tol;
+    c.check(
+        ok,
+        format!("{what:<58} paper {paper:>10.4}   ours {ours:>10.4}   (tol ±{tol:.4})"),
+    );
+}
+
+/// Coefficients [1, c1, c0] of (s − a)(s − b) for a conjugate pair, or [1, −a] for a real root.
+fn factors(roots: &[c64]) -> (Vec<f64>, Vec<[f64; 2]>) {
+    let mut reals = Vec::new();
+    let mut quads = Vec::new();
+    for r in roots {
+        if r.im.abs() <= 1e-9 * r.norm().max(1.0) {
+            reals.push(r.re);
+        } else if r.im > 0.0 {
+            quads.push([-2.0 * r.re, r.norm_sqr()]);
+        }
+    }
+    reals.sort_by(|a, b| a.total_cmp(b));
+    quads.sort_by(|a, b| a[1].total_cmp(&b[1]));
+    (reals, quads)
+}
+
+/// Runs the reproduction; fails when a printed number is missed.
+pub fn run(out: &Path) -> Result<(), String> {
+    let spec = DesignSpec::from_toml_str(SPEC, Path::new(".")).map_err(|e| format!("embedded spec: {e}"))?;
+    let r = design(&spec).map_err(|e| format!("design: {e}"))?;
+    let s = &r.summary;
+    let mut c = Claims::default();
+    println!("Bicopter roll rate, H∞ loop shaping (Li, Qin, Xu & Zhang, Section IV): examples/bicopter.toml");
+    let gmin = s.gamma_min.ok_or("the example must use ncfsyn")?;
+    // Printed to 3 decimals.
+    num(&mut c, "Step 2: γ of ncfsyn with 3rd-order Padé", 1.748, gmin, 5e-4);
+    num(&mut c, "Step 3: order of W1·K∞·W2", 12.0, r.full.nx() as f64, 0.0);
+    let red = s.stages.last().ok_or("no stages")?;
+    num(
+        &mut c,
+        "Step 3: order of the reduced controller",
+        5.0,
+        red.order as f64,
+        0.0,
+    );
+    num(
+        &mut c,
+        "Step 3: final γ after boost and reduction",
+        2.862,
+        red.gamma.unwrap_or(f64::NAN),
+        0.005,
+    );
+    let m = &red.margins;
+    // The paper prints one decimal; the rounding of eq. (12)'s coefficients alone moves PM by 0.08°.
+    num(&mut c, "Step 4: phase margin, deg", 65.8, m.phase_margin_deg, 0.2);
+    num(&mut c, "Step 4: gain crossover, Hz", 1.47, m.crossover_hz, 0.005);
+    num(&mut c, "Step 4: gain margin, dB", 7.25, m.gain_margin_db, 0.05);
+    num(
+        &mut c,
+        "Step 4: unstable zero of P, Hz",
+        6.68,
+        s.limits.rhp_zero_hz.unwrap_or(f64::NAN),
+        0.005,
+    );
+    println!(
+        "  crossover {:.3} Hz < RHP-zero limit |z|/2 = {:.3} Hz (paper: 'lower than the unstable zero')",
+        m.crossover_hz,
+        s.limits.rhp_zero_limit_hz.unwrap_or(f64::NAN)
+    );
+
+    // Eq. (12): C = 24.02 (s+54.01)(s+0.2474)(s²+139.3s+2.624e4) / (s (s²+24.14s+8544)(s²+232.4s+7.041e4)).
+    let reduced = r.reduced.as_ref().ok_or("the example must reduce")?;
+    let z = Zpk::from_ss(reduced).map_err(|e| e.to_string())?;
+    // A far zero comes from the tiny feedthrough D the residualized fast mode leaves (eq. (12) is
+    // strictly proper): zeros beyond 100x the fastest pole are listed apart, not compared.
+    let pmax = z.p[0][0].iter().map(|p| p.norm()).fold(0.0, f64::max);
+    let (near, far): (Vec<c64>, Vec<c64>) = z.z[0][0].iter().partition(|q| q.norm() <= 100.0 * pmax);
+    let (zr, zq) = factors(&near);
+    let (pr, pq) = factors(&z.p[0][0]);
+    if zr.len() == 2 && zq.len() == 1 && pr.len() == 1 && pq.len() == 2 {
+        // Four significant digits printed: 0.5% relative.
+        let mut eq = |what: &str, paper: f64, ours: f64| num(&mut c, what, paper, ours, 5e-3 * paper.abs());
+        // Below the far zeros, k·Π(s − z_far) ≈ k·Π(−z_far): the gain eq. (12) would show.
+        let k = far.iter().fold(c64::new(z.k[0][0], 0.0), |acc, q| acc * (-q)).re;
+        eq("eq. (12) gain", 24.02, k);
+        eq("eq. (12) zero s + 54.01", 54.01, -zr[0]);
+        eq("eq. (12) zero s + 0.2474", 0.2474, -zr[1]);
+        eq("eq. (12) zeros s² + 139.3 s", 139.3, zq[0][0]);
+        eq("eq. (12) zeros s² + ... + 2.624e4", 2.624e4, zq[0][1]);
+        eq("eq. (12) poles s² + 24.14 s", 24.14, pq[0][0]);
+        eq("eq. (12) poles s² + ... + 8544", 8544.0, pq[0][1]);
+        eq("eq. (12) poles s² + 232.4 s", 232.4, pq[1][0]);
+        eq("eq. (12) poles s² + ... + 7.041e4", 7.041e4, pq[1][1]);
+        println!("  eq. (12) integrator: ours at {:.2e}", pr[0]);
+        for q in &far {
+            println!(
+                "  ours has a far zero at {:.3e} rad/s (feedthrough D = {:.3e}; eq. (12) has none)",
+                q.re,
+                reduced.d[(0, 0)]
+            );
+        }
+    } else {
+        c.check(
+            false,
+            format!("eq. (12) structure: zeros {:?}, poles {:?}", z.z[0][0], z.p[0][0]),
+        );
+    }
+    if let Some(d) = &s.discrete {
+        println!(
+            "  Step 5: Tustin at {} Hz; up to {} Hz the discrete controller is within {:.2} dB and {:.2}° of the \
+             continuous one (frequency warping; exact on the warped axis to {:.1e})",
+            d.rate_hz,
+            d.vs_continuous.to_hz,
+            d.vs_continuous.max_mag_error_db,
+            d.vs_continuous.max_phase_error_deg,
+            d.vs_warped.max_rel_error
+        );
+    }
+    std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    let path = out.join("bicopter_summary.json");
+    let text = serde_json::to_string_pretty(s).map_err(|e| e.to_string())?;
+    std::fs::write(&path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    println!("wrote {}", path.display());
+    c.finish()
+}
