@@ -624,8 +624,14 @@ pub fn pole_summary(sys: &StateSpace) -> Result<PoleSummary> {
         } else {
             be.block_norm
         };
+    // Eigenvalues isolated by the balancing permutation are diagonal entries of A, exact for the
+    // model as given, but a model assembled by interconnection (a controller W1·K∞·W2 with an
+    // integrating weight) carries its integrator as a rounding-sized entry such as 1e-9. Relative to
+    // the spectrum's own scale (similarity invariant, unlike ‖A‖) such an entry is an integrator.
+    let spectral_scale = be.eig.iter().map(|p| p.norm()).fold(0.0, f64::max);
+    let tol_exact = 1e-7 * if sys.dt > 0.0 { spectral_scale.max(1.0) } else { spectral_scale };
     for (k, &p) in be.eig.iter().enumerate() {
-        let tol = if k < be.exact { 0.0 } else { tol0 };
+        let tol = if k < be.exact { tol_exact } else { tol0 };
         let (near0, s, boundary_dist) = if sys.dt > 0.0 {
             ((p - 1.0).norm() <= tol, p.ln() / sys.dt, p.norm() - 1.0)
         } else {
