@@ -338,6 +338,9 @@ pub struct UpperOptions {
     pub t_max: f64,
     /// BFGS iterations per smoothing stage.
     pub iters_per_stage: usize,
+    /// First smoothing exponent t (4 from a cold start; larger when the start is already near the
+    /// optimum, e.g. the D-scales of a previous pass or of a neighbouring frequency).
+    pub t_start: f64,
 }
 
 impl Default for UpperOptions {
@@ -346,6 +349,7 @@ impl Default for UpperOptions {
             rel_tol: 1e-6,
             t_max: 65536.0,
             iters_per_stage: 40,
+            t_start: 4.0,
         }
     }
 }
@@ -373,7 +377,7 @@ pub fn upper_bound(
     };
     let np: usize = s.blocks().iter().map(n_params).sum();
     let mut b = d.apply(m);
-    let mut t = 4.0;
+    let mut t = opts.t_start.clamp(1.0, opts.t_max.max(1.0));
     let mut cur = evaluate(b.as_ref(), s, t)?;
     let mut best = UpperBound {
         value: cur.sigma_max,
@@ -435,7 +439,14 @@ pub fn upper_bound(
             if sy > 1e-300 {
                 bfgs_update(&mut h, &step, &y, sy);
             }
-            if df <= 1e-13 * (1.0 + cur.f.abs()) {
+            // Intermediate stages only steer towards the next one: resolving them finer than their
+            // smoothing bias (≤ ln(multiplicity)/(2t)) buys nothing; the last stage goes to rel_tol.
+            let stage_tol = if t >= opts.t_max {
+                (1e-2 * opts.rel_tol).max(1e-13)
+            } else {
+                (1e-3 / t).max(1e-13)
+            };
+            if df <= stage_tol * (1.0 + cur.f.abs()) {
                 break;
             }
         }
