@@ -59,16 +59,38 @@ fn dot(a: &[c64], b: &[c64]) -> c64 {
     a.iter().zip(b).fold(zero(), |acc, (x, y)| acc + x.conj() * y)
 }
 
-fn mul(m: MatRef<c64>, x: &[c64]) -> Vec<c64> {
-    (0..m.nrows())
-        .map(|i| (0..m.ncols()).fold(zero(), |acc, j| acc + m[(i, j)] * x[j]))
-        .collect()
+/// M copied column-major into one slice: the power iteration's matrix–vector products run on
+/// contiguous memory instead of through the strided view.
+struct Dense {
+    nr: usize,
+    nc: usize,
+    data: Vec<c64>,
 }
 
-fn mul_adj(m: MatRef<c64>, x: &[c64]) -> Vec<c64> {
-    (0..m.ncols())
-        .map(|j| (0..m.nrows()).fold(zero(), |acc, i| acc + m[(i, j)].conj() * x[i]))
-        .collect()
+impl Dense {
+    fn new(m: MatRef<c64>) -> Self {
+        let (nr, nc) = (m.nrows(), m.ncols());
+        let data = (0..nc).flat_map(|j| (0..nr).map(move |i| m[(i, j)])).collect();
+        Dense { nr, nc, data }
+    }
+
+    /// out = M x.
+    fn mul_into(&self, x: &[c64], out: &mut [c64]) {
+        out.iter_mut().for_each(|o| *o = zero());
+        for (col, &xj) in self.data.chunks_exact(self.nr).zip(x) {
+            for (o, &mij) in out.iter_mut().zip(col) {
+                *o += mij * xj;
+            }
+        }
+    }
+
+    /// out = Mᴴ x.
+    fn mul_adj_into(&self, x: &[c64], out: &mut [c64]) {
+        for (o, col) in out.iter_mut().zip(self.data.chunks_exact(self.nr)) {
+            *o = col.iter().zip(x).fold(zero(), |acc, (mij, xi)| acc + mij.conj() * xi);
+        }
+        debug_assert_eq!(out.len(), self.nc);
+    }
 }
 
 /// The block-diagonal Q (Δ-shaped: M cols × M rows) aligned with the vectors a (M-row space) and
@@ -106,10 +128,13 @@ fn power_iteration(m: MatRef<c64>, s: &BlockStructure, b0: &[c64], w0: &[c64], i
     let mut w = w0.to_vec();
     normalize(&mut b);
     normalize(&mut w);
-    let mut a = mul(m, &b);
+    let md = Dense::new(m);
+    let mut a = vec![zero(); m.nrows()];
+    md.mul_into(&b, &mut a);
+    let mut wn = vec![zero(); m.ncols()];
     let mut beta_old = f64::NAN;
     for _ in 0..iters {
-        a = mul(m, &b);
+        md.mul_into(&b, &mut a);
         let beta = normalize(&mut a);
         if beta == 0.0 {
             break;
@@ -134,11 +159,11 @@ fn power_iteration(m: MatRef<c64>, s: &BlockStructure, b0: &[c64], w0: &[c64], i
                 }
             }
         }
-        let mut wn = mul_adj(m, &z);
+        md.mul_adj_into(&z, &mut wn);
         if normalize(&mut wn) == 0.0 {
             break;
         }
-        w = wn;
+        std::mem::swap(&mut w, &mut wn);
         let mut bn = vec![zero(); b.len()];
         for (j, blk) in s.blocks().iter().enumerate() {
             let (rr, cr) = (s.row_range(j), s.col_range(j));
