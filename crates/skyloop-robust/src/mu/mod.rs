@@ -65,10 +65,10 @@ pub fn mu_with(m: MatRef<c64>, s: &BlockStructure, opts: &MuOptions, warm: Optio
     s.check_matrix(m.nrows(), m.ncols())?;
     let quick = UpperOptions {
         rel_tol: opts.rel_tol,
-        t_max: if warm.is_some() { 256.0 } else { 16.0_f64 }.min(opts.t_max),
+        t_max: if warm.is_some() { 1024.0 } else { 16.0_f64 }.min(opts.t_max),
         iters_per_stage: 20,
         // A warm start (the previous frequency's optimum) is already past the coarse stages.
-        t_start: if warm.is_some() { 64.0 } else { 4.0 },
+        t_start: if warm.is_some() { 1024.0 } else { 4.0 },
     };
     let ub0 = upper_bound(m, s, warm, 0.0, &quick)?;
     let mut starts = vec![start_from(m, &ub0)];
