@@ -112,6 +112,14 @@ fn warm_started_sweep_matches_cold_starts() {
             w.upper,
             cold.upper
         );
+        // The power iteration finds local maxima, so this is not a theorem; here the previous
+        // frequency's vectors find the same branch as the pseudo-random starts.
+        assert!(
+            w.lower >= cold.lower * (1.0 - 1e-3),
+            "warm {} cold {}",
+            w.lower,
+            cold.lower
+        );
         assert!(w.upper >= w.lower);
     }
 }

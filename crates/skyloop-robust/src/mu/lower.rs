@@ -122,8 +122,14 @@ fn build_q(s: &BlockStructure, a: &[c64], w: &[c64]) -> Mat<c64> {
     q
 }
 
-/// One power-iteration run from (b0, w0); returns the final a and w.
-fn power_iteration(m: MatRef<c64>, s: &BlockStructure, b0: &[c64], w0: &[c64], iters: usize) -> (Vec<c64>, Vec<c64>) {
+/// One power-iteration run from (b0, w0); returns the final a, w and b.
+fn power_iteration(
+    m: MatRef<c64>,
+    s: &BlockStructure,
+    b0: &[c64],
+    w0: &[c64],
+    iters: usize,
+) -> (Vec<c64>, Vec<c64>, Vec<c64>) {
     let mut b = b0.to_vec();
     let mut w = w0.to_vec();
     normalize(&mut b);
@@ -193,7 +199,7 @@ fn power_iteration(m: MatRef<c64>, s: &BlockStructure, b0: &[c64], w0: &[c64], i
         }
         beta_old = beta;
     }
-    (a, w)
+    (a, w, b)
 }
 
 /// Eigenvalues of a square complex matrix.
@@ -328,11 +334,23 @@ pub fn lower_bound(
     starts: &[(Vec<c64>, Vec<c64>)],
     iters: usize,
 ) -> Result<LowerBound> {
+    Ok(lower_bound_vectors(m, s, starts, iters)?.0)
+}
+
+/// As [`lower_bound`], also returning the final (b, w) of the best run: a start for the power
+/// iteration at a neighbouring frequency (empty when nothing was found).
+pub fn lower_bound_vectors(
+    m: MatRef<c64>,
+    s: &BlockStructure,
+    starts: &[(Vec<c64>, Vec<c64>)],
+    iters: usize,
+) -> Result<(LowerBound, (Vec<c64>, Vec<c64>))> {
     s.check_matrix(m.nrows(), m.ncols())?;
     let mut best = LowerBound {
         value: 0.0,
         delta: Mat::zeros(s.m_cols(), s.m_rows()),
     };
+    let mut best_start = (Vec::new(), Vec::new());
     for (b0, w0) in starts {
         if b0.len() != m.ncols() || w0.len() != m.ncols() {
             return Err(LtiError::Dimension(format!(
@@ -340,11 +358,12 @@ pub fn lower_bound(
                 m.ncols()
             )));
         }
-        let (a, w) = power_iteration(m, s, b0, w0, iters);
+        let (a, w, b) = power_iteration(m, s, b0, w0, iters);
         let c = candidate(m, s, &build_q(s, &a, &w))?;
         if c.value > best.value {
             best = c;
+            best_start = (b, w);
         }
     }
-    Ok(best)
+    Ok((best, best_start))
 }
