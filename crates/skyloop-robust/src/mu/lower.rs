@@ -59,16 +59,38 @@ fn dot(a: &[c64], b: &[c64]) -> c64 {
     a.iter().zip(b).fold(zero(), |acc, (x, y)| acc + x.conj() * y)
 }
 
-fn mul(m: MatRef<c64>, x: &[c64]) -> Vec<c64> {
-    (0..m.nrows())
-        .map(|i| (0..m.ncols()).fold(zero(), |acc, j| acc + m[(i, j)] * x[j]))
-        .collect()
+/// M copied column-major into one slice: the power iteration's matrix–vector products run on
+/// contiguous memory instead of through the strided view.
+struct Dense {
+    nr: usize,
+    nc: usize,
+    data: Vec<c64>,
 }
 
-fn mul_adj(m: MatRef<c64>, x: &[c64]) -> Vec<c64> {
-    (0..m.ncols())
-        .map(|j| (0..m.nrows()).fold(zero(), |acc, i| acc + m[(i, j)].conj() * x[i]))
-        .collect()
+impl Dense {
+    fn new(m: MatRef<c64>) -> Self {
+        let (nr, nc) = (m.nrows(), m.ncols());
+        let data = (0..nc).flat_map(|j| (0..nr).map(move |i| m[(i, j)])).collect();
+        Dense { nr, nc, data }
+    }
+
+    /// out = M x.
+    fn mul_into(&self, x: &[c64], out: &mut [c64]) {
+        out.iter_mut().for_each(|o| *o = zero());
+        for (col, &xj) in self.data.chunks_exact(self.nr).zip(x) {
+            for (o, &mij) in out.iter_mut().zip(col) {
+                *o += mij * xj;
+            }
+        }
+    }
+
+    /// out = Mᴴ x.
+    fn mul_adj_into(&self, x: &[c64], out: &mut [c64]) {
+        for (o, col) in out.iter_mut().zip(self.data.chunks_exact(self.nr)) {
+            *o = col.iter().zip(x).fold(zero(), |acc, (mij, xi)| acc + mij.conj() * xi);
+        }
+        debug_assert_eq!(out.len(), self.nc);
+    }
 }
 
 /// The block-diagonal Q (Δ-shaped: M cols × M rows) aligned with the vectors a (M-row space) and
@@ -100,16 +122,25 @@ fn build_q(s: &BlockStructure, a: &[c64], w: &[c64]) -> Mat<c64> {
     q
 }
 
-/// One power-iteration run from (b0, w0); returns the final a and w.
-fn power_iteration(m: MatRef<c64>, s: &BlockStructure, b0: &[c64], w0: &[c64], iters: usize) -> (Vec<c64>, Vec<c64>) {
+/// One power-iteration run from (b0, w0); returns the final a, w and b.
+fn power_iteration(
+    m: MatRef<c64>,
+    s: &BlockStructure,
+    b0: &[c64],
+    w0: &[c64],
+    iters: usize,
+) -> (Vec<c64>, Vec<c64>, Vec<c64>) {
     let mut b = b0.to_vec();
     let mut w = w0.to_vec();
     normalize(&mut b);
     normalize(&mut w);
-    let mut a = mul(m, &b);
+    let md = Dense::new(m);
+    let mut a = vec![zero(); m.nrows()];
+    md.mul_into(&b, &mut a);
+    let mut wn = vec![zero(); m.ncols()];
     let mut beta_old = f64::NAN;
     for _ in 0..iters {
-        a = mul(m, &b);
+        md.mul_into(&b, &mut a);
         let beta = normalize(&mut a);
         if beta == 0.0 {
             break;
@@ -134,11 +165,11 @@ fn power_iteration(m: MatRef<c64>, s: &BlockStructure, b0: &[c64], w0: &[c64], i
                 }
             }
         }
-        let mut wn = mul_adj(m, &z);
+        md.mul_adj_into(&z, &mut wn);
         if normalize(&mut wn) == 0.0 {
             break;
         }
-        w = wn;
+        std::mem::swap(&mut w, &mut wn);
         let mut bn = vec![zero(); b.len()];
         for (j, blk) in s.blocks().iter().enumerate() {
             let (rr, cr) = (s.row_range(j), s.col_range(j));
@@ -168,7 +199,7 @@ fn power_iteration(m: MatRef<c64>, s: &BlockStructure, b0: &[c64], w0: &[c64], i
         }
         beta_old = beta;
     }
-    (a, w)
+    (a, w, b)
 }
 
 /// Eigenvalues of a square complex matrix.
@@ -303,11 +334,23 @@ pub fn lower_bound(
     starts: &[(Vec<c64>, Vec<c64>)],
     iters: usize,
 ) -> Result<LowerBound> {
+    Ok(lower_bound_vectors(m, s, starts, iters)?.0)
+}
+
+/// As [`lower_bound`], also returning the final (b, w) of the best run: a start for the power
+/// iteration at a neighbouring frequency (empty when nothing was found).
+pub fn lower_bound_vectors(
+    m: MatRef<c64>,
+    s: &BlockStructure,
+    starts: &[(Vec<c64>, Vec<c64>)],
+    iters: usize,
+) -> Result<(LowerBound, (Vec<c64>, Vec<c64>))> {
     s.check_matrix(m.nrows(), m.ncols())?;
     let mut best = LowerBound {
         value: 0.0,
         delta: Mat::zeros(s.m_cols(), s.m_rows()),
     };
+    let mut best_start = (Vec::new(), Vec::new());
     for (b0, w0) in starts {
         if b0.len() != m.ncols() || w0.len() != m.ncols() {
             return Err(LtiError::Dimension(format!(
@@ -315,11 +358,12 @@ pub fn lower_bound(
                 m.ncols()
             )));
         }
-        let (a, w) = power_iteration(m, s, b0, w0, iters);
+        let (a, w, b) = power_iteration(m, s, b0, w0, iters);
         let c = candidate(m, s, &build_q(s, &a, &w))?;
         if c.value > best.value {
             best = c;
+            best_start = (b, w);
         }
     }
-    Ok(best)
+    Ok((best, best_start))
 }

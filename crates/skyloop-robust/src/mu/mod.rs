@@ -5,7 +5,7 @@ pub mod lower;
 pub mod sweep;
 pub mod upper;
 
-pub use lower::{lower_bound, LowerBound};
+pub use lower::{lower_bound, lower_bound_vectors, LowerBound};
 pub use sweep::{
     mu_frequency, mu_frequency_bounds, mu_sweep, mu_system, robust_performance, robust_stability, MuPeak, MuSweep,
     StabilityMargin,
@@ -53,6 +53,9 @@ pub struct MuBounds {
     pub d: DScales,
     /// Structured Δ (M cols × M rows) with σ̄(Δ) = 1/lower and det(I − MΔ) = 0 (zeros if lower = 0).
     pub delta: Mat<c64>,
+    /// Final power-iteration vectors (b, w) behind `lower` (empty if none): the lower-bound start at
+    /// a neighbouring frequency.
+    pub lower_start: (Vec<c64>, Vec<c64>),
 }
 
 /// μ bounds of M for the structure with default options.
@@ -62,35 +65,64 @@ pub fn mu(m: MatRef<c64>, s: &BlockStructure) -> Result<MuBounds> {
 
 /// μ bounds of M; `warm` D-scales (e.g. from the previous frequency) replace Osborne's start.
 pub fn mu_with(m: MatRef<c64>, s: &BlockStructure, opts: &MuOptions, warm: Option<&DScales>) -> Result<MuBounds> {
+    mu_warm(m, s, opts, warm, None)
+}
+
+/// μ bounds of M warm-started from a neighbouring frequency's bounds: its D-scales start the upper
+/// bound and its power-iteration vectors replace the pseudo-random lower-bound starts.
+pub fn mu_from(m: MatRef<c64>, s: &BlockStructure, opts: &MuOptions, prev: &MuBounds) -> Result<MuBounds> {
+    let lower = (!prev.lower_start.0.is_empty()).then_some(&prev.lower_start);
+    mu_warm(m, s, opts, Some(&prev.d), lower)
+}
+
+fn mu_warm(
+    m: MatRef<c64>,
+    s: &BlockStructure,
+    opts: &MuOptions,
+    warm: Option<&DScales>,
+    warm_lower: Option<&(Vec<c64>, Vec<c64>)>,
+) -> Result<MuBounds> {
     s.check_matrix(m.nrows(), m.ncols())?;
     let quick = UpperOptions {
         rel_tol: opts.rel_tol,
-        t_max: 16.0_f64.min(opts.t_max),
+        t_max: if warm.is_some() { 1024.0 } else { 16.0_f64 }.min(opts.t_max),
         iters_per_stage: 20,
+        // A warm start (the previous frequency's optimum) is already past the coarse stages.
+        t_start: if warm.is_some() { 1024.0 } else { 4.0 },
     };
     let ub0 = upper_bound(m, s, warm, 0.0, &quick)?;
     let mut starts = vec![start_from(m, &ub0)];
     let mut rng = rand::rngs::StdRng::seed_from_u64(0x6d75);
-    for _ in 0..opts.random_starts {
+    let n_random = match warm_lower {
+        Some(st) if st.0.len() == m.ncols() && st.1.len() == m.ncols() => {
+            starts.push(st.clone());
+            0
+        }
+        _ => opts.random_starts,
+    };
+    for _ in 0..n_random {
         let mut r = || c64::new(rng.gen::<f64>() - 0.5, rng.gen::<f64>() - 0.5);
         let b: Vec<c64> = (0..m.ncols()).map(|_| r()).collect();
         let w: Vec<c64> = (0..m.ncols()).map(|_| r()).collect();
         starts.push((b, w));
     }
-    let mut lb = lower_bound(m, s, &starts, opts.power_iters)?;
+    let (mut lb, mut lb_start) = lower_bound_vectors(m, s, &starts, opts.power_iters)?;
     let full = UpperOptions {
         rel_tol: opts.rel_tol,
         t_max: opts.t_max,
         iters_per_stage: 40,
+        // Continue from the quick pass's scales where its last stage ended.
+        t_start: 4.0 * quick.t_start.max(quick.t_max),
     };
     let mut ub = upper_bound(m, s, Some(&ub0.d), lb.value, &full)?;
     if ub0.value < ub.value {
         ub = ub0;
     }
     if ub.value > lb.value * (1.0 + opts.rel_tol) {
-        let again = lower_bound(m, s, &[start_from(m, &ub)], opts.power_iters)?;
+        let (again, again_start) = lower_bound_vectors(m, s, &[start_from(m, &ub)], opts.power_iters)?;
         if again.value > lb.value {
             lb = again;
+            lb_start = again_start;
         }
     }
     Ok(MuBounds {
@@ -100,6 +132,7 @@ pub fn mu_with(m: MatRef<c64>, s: &BlockStructure, opts: &MuOptions, warm: Optio
         lower: lb.value.min(ub.value),
         d: ub.d,
         delta: lb.delta,
+        lower_start: lb_start,
     })
 }
 

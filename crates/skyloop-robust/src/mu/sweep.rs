@@ -1,7 +1,7 @@
 //! μ over frequency: sweeps with warm-started D-scales, refinement of the peak between grid
 //! points, the robust stability margin and robust performance (main loop theorem).
 
-use super::{mu_with, MuBounds, MuOptions};
+use super::{mu_from, mu_with, MuBounds, MuOptions};
 use crate::uncertainty::blocks::BlockStructure;
 use faer::{c64, Mat};
 use skyloop_lti::error::Result;
@@ -35,12 +35,16 @@ pub struct MuSweep {
     pub peak: MuPeak,
 }
 
-/// μ bounds for a list of matrices (one per frequency), each warm-started from the previous D-scales.
+/// μ bounds for a list of matrices (one per frequency), each warm-started from the previous bounds
+/// (D-scales and lower-bound vectors).
 pub fn mu_sweep(responses: &[Mat<c64>], s: &BlockStructure, opts: &MuOptions) -> Result<Vec<MuBounds>> {
     let mut out: Vec<MuBounds> = Vec::with_capacity(responses.len());
     for m in responses {
-        let warm = out.last().map(|b| b.d.clone());
-        out.push(mu_with(m.as_ref(), s, opts, warm.as_ref())?);
+        let b = match out.last() {
+            Some(prev) => mu_from(m.as_ref(), s, opts, prev)?,
+            None => mu_with(m.as_ref(), s, opts, None)?,
+        };
+        out.push(b);
     }
     Ok(out)
 }
