@@ -5,21 +5,11 @@
 use skyloop_lti::freqresp::{evalfr, logspace};
 use skyloop_lti::{c64, StateSpace};
 use std::f64::consts::PI;
-use std::process::Command;
 
 const BICOPTER: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/bicopter.toml");
 
-fn skyloop(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_skyloop"))
-        .args(args)
-        .output()
-        .expect("run skyloop");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+mod common;
+use common::skyloop;
 
 fn tmp(name: &str) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("skyloop-design-cli-{}", std::process::id()));

@@ -1,18 +1,7 @@
 //! CLI tests of `freqresp`, `margins` and `norm`: JSON shapes, the bicopter golden margins, bad input.
 
-use std::process::Command;
-
-fn skyloop(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_skyloop"))
-        .args(args)
-        .output()
-        .expect("the skyloop binary runs");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+mod common;
+use common::skyloop;
 
 fn json(out: &str) -> serde_json::Value {
     serde_json::from_str(out).expect("exactly one JSON object on stdout")

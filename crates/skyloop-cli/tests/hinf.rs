@@ -1,18 +1,7 @@
 //! CLI tests of `skyloop hinfsyn` and `skyloop ncfsyn`: JSON output, and exit 2 on ill-posed problems.
 
-use std::process::Command;
-
-fn skyloop(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_skyloop"))
-        .args(args)
-        .output()
-        .expect("run skyloop");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+mod common;
+use common::skyloop;
 
 fn write(name: &str, text: &str) -> String {
     let dir = std::env::temp_dir().join(format!("skyloop-hinf-cli-{}", std::process::id()));

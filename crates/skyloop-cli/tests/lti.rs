@@ -1,18 +1,7 @@
 //! CLI tests for models given as expressions, and the LTI commands (c2d, poles, zeros).
 
-use std::process::Command;
-
-fn skyloop(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_skyloop"))
-        .args(args)
-        .output()
-        .expect("the skyloop binary runs");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+mod common;
+use common::skyloop;
 
 const BICOPTER: &str = "0.0887*exp(-0.032*s)/(0.0256*s+1) * (42^2 - s^2)/s * 2.221e5/(s^2+666.4*s+2.221e5)";
 

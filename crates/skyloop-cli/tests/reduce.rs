@@ -2,19 +2,9 @@
 //! skyloop-lti, written by tools/gen_reduce.py).
 
 use serde_json::{json, Value};
-use std::process::Command;
 
-fn skyloop(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_skyloop"))
-        .args(args)
-        .output()
-        .expect("the skyloop binary runs");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+mod common;
+use common::skyloop;
 
 fn fixture_case(name: &str) -> Value {
     let text = std::fs::read_to_string(concat!(

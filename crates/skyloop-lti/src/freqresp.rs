@@ -629,7 +629,12 @@ pub fn pole_summary(sys: &StateSpace) -> Result<PoleSummary> {
     // integrating weight) carries its integrator as a rounding-sized entry such as 1e-9. Relative to
     // the spectrum's own scale (similarity invariant, unlike ‖A‖) such an entry is an integrator.
     let spectral_scale = be.eig.iter().map(|p| p.norm()).fold(0.0, f64::max);
-    let tol_exact = 1e-7 * if sys.dt > 0.0 { spectral_scale.max(1.0) } else { spectral_scale };
+    let tol_exact = 1e-7
+        * if sys.dt > 0.0 {
+            spectral_scale.max(1.0)
+        } else {
+            spectral_scale
+        };
     for (k, &p) in be.eig.iter().enumerate() {
         let tol = if k < be.exact { tol_exact } else { tol0 };
         let (near0, s, boundary_dist) = if sys.dt > 0.0 {
