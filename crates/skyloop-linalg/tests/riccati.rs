@@ -268,22 +268,9 @@ fn carex_benchmark_table() {
         ));
         // Accuracy comparable to the references: within 100× of the better of scipy/SLICOT
         // (or at rounding level).
-        if let (Some(ours), Some(best)) = (our_res, [sp_res, sl_res].into_iter().flatten().reduce(f64::min)) {
-            if ours > (100.0 * best).max(1e-13) {
-                failures.push(format!(
-                    "{} ({param}): residual {ours:e} vs best reference {best:e}",
-                    p.name
-                ));
-            }
-        }
-        if let (Some(ours), Some(best)) = (our_err, [sp_err, sl_err].into_iter().flatten().reduce(f64::min)) {
-            if ours > (100.0 * best).max(1e-12) {
-                failures.push(format!(
-                    "{} ({param}): error {ours:e} vs best reference {best:e}",
-                    p.name
-                ));
-            }
-        }
+        let what = format!("{} ({param})", p.name);
+        check_vs_references(&mut failures, &what, "residual", our_res, [sp_res, sl_res], 1e-13);
+        check_vs_references(&mut failures, &what, "error", our_err, [sp_err, sl_err], 1e-12);
     }
     if std::env::var("SKYLOOP_WRITE_TABLES").is_ok() {
         std::fs::write(format!("{FIXTURES}carex_table.md"), &table).expect("write table");
@@ -433,26 +420,30 @@ fn darex_benchmark_table() {
             fmt(sp_err),
             fmt(sl_err)
         ));
-        if let (Some(ours), Some(best)) = (our_res, [sp_res, sl_res].into_iter().flatten().reduce(f64::min)) {
-            if ours > (100.0 * best).max(1e-13) {
-                failures.push(format!(
-                    "{} ({param}): residual {ours:e} vs best reference {best:e}",
-                    p.name
-                ));
-            }
-        }
-        if let (Some(ours), Some(best)) = (our_err, [sp_err, sl_err].into_iter().flatten().reduce(f64::min)) {
-            if ours > (100.0 * best).max(1e-12) {
-                failures.push(format!(
-                    "{} ({param}): error {ours:e} vs best reference {best:e}",
-                    p.name
-                ));
-            }
-        }
+        let what = format!("{} ({param})", p.name);
+        check_vs_references(&mut failures, &what, "residual", our_res, [sp_res, sl_res], 1e-13);
+        check_vs_references(&mut failures, &what, "error", our_err, [sp_err, sl_err], 1e-12);
     }
     if std::env::var("SKYLOOP_WRITE_TABLES").is_ok() {
         std::fs::write(format!("{FIXTURES}darex_table.md"), &table).expect("write table");
     }
     eprintln!("{table}");
     assert!(failures.is_empty(), "DAREX failures:\n{}", failures.join("\n"));
+}
+
+/// Records a failure when our `quantity` exceeds 100× the better of the scipy/SLICOT references (or
+/// `floor`, the rounding level): accuracy comparable to the references.
+fn check_vs_references(
+    failures: &mut Vec<String>,
+    what: &str,
+    quantity: &str,
+    ours: Option<f64>,
+    refs: [Option<f64>; 2],
+    floor: f64,
+) {
+    if let (Some(ours), Some(best)) = (ours, refs.into_iter().flatten().reduce(f64::min)) {
+        if ours > (100.0 * best).max(floor) {
+            failures.push(format!("{what}: {quantity} {ours:e} vs best reference {best:e}"));
+        }
+    }
 }
