@@ -33,6 +33,7 @@ fn eq8_fixture() -> Frf {
         response,
         coherence: vec![1.0; n],
         dof: vec![1.0; n],
+        bandwidth_hz: vec![0.0; n],
     }
 }
 

@@ -203,16 +203,38 @@ pub fn minimize<F: Fn(&[f64]) -> Result<Vec<f64>>>(
 /// Standard errors s·√diag((JᵀJ)⁻¹) with s² = ‖r‖²/(m − n); NaN for a parameter the data do not
 /// determine (singular JᵀJ).
 pub fn standard_errors(res: &LmResult) -> Vec<f64> {
+    standard_errors_correlated(res, &[])
+}
+
+/// Standard errors when residual rows are correlated: the sandwich covariance
+/// s²·(JᵀJ)⁻¹·(JᵀRJ)·(JᵀJ)⁻¹, R the residuals' correlation matrix with unit diagonal and the
+/// off-diagonal entries `corr` = (row i, row j, ρᵢⱼ), each pair listed once. Overlapping spectral
+/// estimates make neighbouring residuals correlated; treating them as independent would overstate
+/// the information in the data.
+pub fn standard_errors_correlated(res: &LmResult, corr: &[(usize, usize, f64)]) -> Vec<f64> {
     let (m, n) = (res.jacobian.nrows(), res.jacobian.ncols());
     if m <= n {
         return vec![f64::NAN; n];
     }
+    let j = &res.jacobian;
     let s2 = 2.0 * res.cost / (m - n) as f64;
-    let a = res.jacobian.transpose() * &res.jacobian;
+    let a = j.transpose() * j;
     let inv = a.partial_piv_lu().inverse();
+    let mut meat = a.clone();
+    for &(r, q, rho) in corr {
+        if r >= m || q >= m || r == q {
+            continue;
+        }
+        for p in 0..n {
+            for l in 0..n {
+                meat[(p, l)] += rho * (j[(r, p)] * j[(q, l)] + j[(q, p)] * j[(r, l)]);
+            }
+        }
+    }
+    let cov = &inv * &meat * &inv;
     (0..n)
         .map(|i| {
-            let v = inv[(i, i)] * s2;
+            let v = cov[(i, i)] * s2;
             if v.is_finite() && v >= 0.0 {
                 v.sqrt()
             } else {

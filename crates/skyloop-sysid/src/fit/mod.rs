@@ -91,6 +91,8 @@ pub struct FitResult {
 /// The measured points a fit uses: (ω rad/s, G, weight).
 pub(crate) struct Target {
     pub w: Vec<f64>,
+    /// Smoothing-kernel width of each point's estimate, Hz (see [`Frf::bandwidth_hz`]).
+    pub bandwidth_hz: Vec<f64>,
     pub g: Vec<C64>,
     pub weight: Vec<f64>,
 }
@@ -104,6 +106,7 @@ impl Target {
         }
         let mut t = Target {
             w: vec![],
+            bandwidth_hz: vec![],
             g: vec![],
             weight: vec![],
         };
@@ -121,6 +124,7 @@ impl Target {
                 Weighting::InverseVariance => 2.0 * nu * c.min(0.999) / (1.0 - c.min(0.999)),
             };
             t.w.push(2.0 * std::f64::consts::PI * f);
+            t.bandwidth_hz.push(frf.bandwidth_hz.get(i).copied().unwrap_or(0.0));
             t.g.push(g);
             t.weight.push(wt.sqrt());
         }
@@ -144,6 +148,28 @@ impl Target {
             r.push(w * e.im);
         }
         r
+    }
+
+    /// Correlated pairs of residual rows (Re with Re, Im with Im of two points whose smoothing kernels
+    /// overlap), as [`lm::standard_errors_correlated`] takes them.
+    pub fn residual_correlation(&self) -> Vec<(usize, usize, f64)> {
+        let mut out = Vec::new();
+        let hz = |i: usize| self.w[i] / (2.0 * std::f64::consts::PI);
+        for i in 0..self.w.len() {
+            for k in i + 1..self.w.len() {
+                let d = hz(k) - hz(i);
+                // The points are sorted by frequency: once past both half widths, none further overlaps.
+                if d >= 0.5 * (self.bandwidth_hz[i] + self.bandwidth_hz[k]) && d >= self.bandwidth_hz[i] {
+                    break;
+                }
+                let rho = crate::spectral::kernel_correlation(d, self.bandwidth_hz[i], self.bandwidth_hz[k]);
+                if rho > 1e-6 {
+                    out.push((2 * i, 2 * k, rho));
+                    out.push((2 * i + 1, 2 * k + 1, rho));
+                }
+            }
+        }
+        out
     }
 
     /// MATLAB-style fit percentage of model values `m`.

@@ -84,7 +84,7 @@ pub fn fit_expr(frf: &Frf, model: &Expr, params: &[ParamSpec], o: &FitOptions) -
     let lo: Vec<f64> = params.iter().map(|p| p.lower).collect();
     let hi: Vec<f64> = params.iter().map(|p| p.upper).collect();
     let res = lm::minimize(f, &x0, &lo, &hi, &o.lm)?;
-    let se = lm::standard_errors(&res);
+    let se = lm::standard_errors_correlated(&res, &target.residual_correlation());
     let fit = target.fit_percent(&eval_all(&res.x)?);
     let at_bounds = params
         .iter()

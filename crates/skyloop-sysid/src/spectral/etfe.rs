@@ -43,6 +43,7 @@ pub fn etfe(d: &IoData, o: &Options) -> Result<Frf> {
         let sm = Frf::from_cross(pts, p.r.is_some())?;
         if sm.freq_hz.len() == frf.freq_hz.len() {
             frf.response = sm.response;
+            frf.bandwidth_hz = vec![w; frf.freq_hz.len()];
         }
     } else {
         for (g, f) in frf.response.iter_mut().zip(&frf.freq_hz) {

@@ -119,6 +119,10 @@ pub struct Frf {
     pub coherence: Vec<f64>,
     /// Equivalent number of independent averages ν behind each estimate.
     pub dof: Vec<f64>,
+    /// Full width, Hz, of the Hann-shaped frequency kernel each estimate averages the raw spectra over;
+    /// 0 where estimates at different frequencies share no raw DFT bin (raw ETFE, Welch). Estimates
+    /// closer than their kernels' half widths are correlated; [`kernel_correlation`] gives by how much.
+    pub bandwidth_hz: Vec<f64>,
 }
 
 impl Frf {
@@ -191,6 +195,7 @@ impl Frf {
             response: keep.iter().map(|&i| self.response[i]).collect(),
             coherence: keep.iter().map(|&i| self.coherence[i]).collect(),
             dof: keep.iter().map(|&i| self.dof[i]).collect(),
+            bandwidth_hz: keep.iter().map(|&i| self.bandwidth_hz[i]).collect(),
         }
     }
 
@@ -200,6 +205,7 @@ impl Frf {
             response: vec![],
             coherence: vec![],
             dof: vec![],
+            bandwidth_hz: vec![],
         };
         for (hz, c, nu) in points {
             let (g, coh) = c.response(closed);
@@ -208,6 +214,7 @@ impl Frf {
                 f.response.push(g);
                 f.coherence.push(coh.clamp(0.0, 1.0));
                 f.dof.push(nu);
+                f.bandwidth_hz.push(0.0);
             }
         }
         if f.freq_hz.is_empty() {
@@ -217,6 +224,42 @@ impl Frf {
         }
         Ok(f)
     }
+}
+
+/// Correlation between the errors of two estimates whose frequencies differ by `df_hz` and that
+/// average a smooth (white-noise-like) raw spectrum with Hann kernels of full widths `b1_hz`, `b2_hz`:
+/// ∫h₁(x)h₂(x − Δ)dx / √(∫h₁²·∫h₂²). 1 for the same kernel, 0 once the kernels no longer overlap
+/// or when either width is 0 (independent bins).
+pub fn kernel_correlation(df_hz: f64, b1_hz: f64, b2_hz: f64) -> f64 {
+    let d = df_hz.abs();
+    if !(b1_hz > 0.0 && b2_hz > 0.0) || d >= 0.5 * (b1_hz + b2_hz) {
+        return 0.0;
+    }
+    let hann = |x: f64, b: f64| {
+        if x.abs() >= 0.5 * b {
+            0.0
+        } else {
+            0.5 * (1.0 + (2.0 * std::f64::consts::PI * x / b).cos())
+        }
+    };
+    let (a, z) = ((-0.5 * b1_hz).max(d - 0.5 * b2_hz), (0.5 * b1_hz).min(d + 0.5 * b2_hz));
+    // Simpson's rule: the integrand is smooth (both kernels end with zero slope) on [a, z].
+    const N: usize = 64;
+    let h = (z - a) / N as f64;
+    let mut sum = 0.0;
+    for i in 0..=N {
+        let x = a + i as f64 * h;
+        let c = if i == 0 || i == N {
+            1.0
+        } else if i % 2 == 1 {
+            4.0
+        } else {
+            2.0
+        };
+        sum += c * hann(x, b1_hz) * hann(x - d, b2_hz);
+    }
+    // ∫ of a squared Hann kernel of full width b is 3b/8.
+    (sum * h / 3.0 / (0.375 * (b1_hz * b2_hz).sqrt())).clamp(0.0, 1.0)
 }
 
 /// Unwraps a phase sequence in degrees (jumps over 180° are removed).
@@ -336,5 +379,49 @@ impl Rfft {
             .process(&mut buf, &mut out)
             .map_err(|e| SysidError::Numerical(format!("FFT failed: {e}")))?;
         Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::kernel_correlation;
+
+    /// Against a fine midpoint sum of the same overlap integral (a different quadrature), and the
+    /// limits: identical kernels correlate fully, disjoint or zero-width ones not at all.
+    #[test]
+    fn kernel_correlation_matches_direct_sum() {
+        let hann = |x: f64, b: f64| {
+            if x.abs() >= 0.5 * b {
+                0.0
+            } else {
+                0.5 * (1.0 + (2.0 * std::f64::consts::PI * x / b).cos())
+            }
+        };
+        for (d, b1, b2) in [
+            (0.0, 1.0, 1.0),
+            (0.3, 1.0, 1.0),
+            (0.2, 0.8, 1.3),
+            (0.9, 1.0, 1.2),
+            (1.05, 1.0, 1.2),
+        ] {
+            let n = 200_000;
+            let (a, z) = (-2.0, 3.0);
+            let h = (z - a) / n as f64;
+            let (mut s12, mut s11, mut s22) = (0.0, 0.0, 0.0);
+            for i in 0..n {
+                let x = a + (i as f64 + 0.5) * h;
+                let (p, q) = (hann(x, b1), hann(x - d, b2));
+                s12 += p * q * h;
+                s11 += p * p * h;
+                s22 += q * q * h;
+            }
+            let want = s12 / (s11 * s22).sqrt();
+            let got = kernel_correlation(d, b1, b2);
+            assert!((got - want).abs() < 1e-6, "({d}, {b1}, {b2}): {got} vs {want}");
+            assert!((kernel_correlation(-d, b2, b1) - got).abs() < 1e-12);
+        }
+        assert!((kernel_correlation(0.0, 2.0, 2.0) - 1.0).abs() < 1e-9);
+        assert_eq!(kernel_correlation(1.5, 1.0, 2.0), 0.0);
+        assert_eq!(kernel_correlation(0.0, 0.0, 2.0), 0.0);
     }
 }

@@ -104,5 +104,10 @@ pub fn spa(d: &IoData, o: &Options) -> Result<Frf> {
         })
         .filter(|(f, _, _)| *f > 0.0)
         .collect();
-    Frf::from_cross(points, p.r.is_some())
+    let mut frf = Frf::from_cross(points, p.r.is_some())?;
+    // The Hann lag window of half-length M smooths the periodograms with a kernel whose equivalent
+    // bandwidth, 4/(3·M·dt), equals that of a Hann frequency kernel of full width 2/(M·dt).
+    let width = 2.0 / (m as f64 * p.dt);
+    frf.bandwidth_hz = vec![width; frf.freq_hz.len()];
+    Ok(frf)
 }

@@ -86,14 +86,16 @@ pub fn spafdr(d: &IoData, o: &Options) -> Result<Frf> {
         )));
     }
     let ratio = (hi / lo).powf(1.0 / (o.n_freq - 1) as f64);
+    let width = |f: f64| (o.resolution * f).max(MIN_WIDTH_BINS * dft.df);
     let points = (0..o.n_freq)
         .filter_map(|i| {
             let f = lo * ratio.powi(i as i32);
-            let width = (o.resolution * f).max(MIN_WIDTH_BINS * dft.df);
-            dft.smooth(f, width).map(|(c, nu)| (f, c, nu))
+            dft.smooth(f, width(f)).map(|(c, nu)| (f, c, nu))
         })
         .collect();
-    Frf::from_cross(points, p.r.is_some())
+    let mut frf = Frf::from_cross(points, p.r.is_some())?;
+    frf.bandwidth_hz = frf.freq_hz.iter().map(|&f| width(f)).collect();
+    Ok(frf)
 }
 
 #[cfg(test)]
