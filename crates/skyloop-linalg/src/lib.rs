@@ -1,5 +1,5 @@
 //! Dense numerics on faer: balancing, real Schur form and reordering, Sylvester, Lyapunov
-//! (also in Cholesky-factor form), CARE and DARE, matrix exponential.
+//! (also in Cholesky-factor form), CARE and DARE, matrix exponential, bounded Levenberg–Marquardt.
 //!
 //! Ported from the published algorithms (LAPACK dgebal/dlahqr/dtrexc/dlaexc/dlasy2/dtrsyl,
 //! Hammarling, Laub's ordered-Schur Riccati method); no Fortran.
@@ -11,6 +11,7 @@ pub use faer::{c64, Mat, MatRef};
 pub mod balance;
 mod dense;
 pub mod expm;
+pub mod lm;
 pub mod logm;
 pub mod lyapunov;
 pub mod riccati;

@@ -38,3 +38,14 @@ pub type Result<T> = std::result::Result<T, SysidError>;
 pub(crate) fn invalid(msg: impl Into<String>) -> SysidError {
     SysidError::InvalidArgument(msg.into())
 }
+
+impl From<skyloop_linalg::LinalgError> for SysidError {
+    fn from(e: skyloop_linalg::LinalgError) -> SysidError {
+        use skyloop_linalg::LinalgError as L;
+        match e {
+            L::InvalidArgument(m) => SysidError::InvalidArgument(m),
+            L::Dimension(m) => SysidError::NotEnoughData(m),
+            other => SysidError::Numerical(other.to_string()),
+        }
+    }
+}

@@ -12,6 +12,8 @@
 
 use faer::linalg::solvers::SolveLstsq;
 use faer::{c64, Mat};
+use skyloop_linalg::lm::{self, LmOptions};
+use skyloop_linalg::LinalgError;
 use skyloop_lti::error::Result;
 use skyloop_lti::poly::Poly;
 use skyloop_lti::tf::TransferFunction;
@@ -268,86 +270,56 @@ fn refine(w: &[f64], mag: &[f64], order: usize, zeros: &[c64], poles: &[c64]) ->
         let mut zs = Sections::from_roots(&z0, order, pad);
         let mut ps = Sections::from_roots(&p0, order, pad);
         let (nz, np) = (zs.len(), ps.len());
-        let clamp = |v: &mut Vec<f64>, secs: usize| {
-            for (k, x) in v.iter_mut().enumerate() {
-                let is_zeta = k < 2 * secs && k % 2 == 1;
-                *x = if is_zeta { x.clamp(-8.0, 4.0) } else { x.clamp(lo, hi) };
-            }
-        };
-        let mut zv = zs.to_vec();
-        let mut pv = ps.to_vec();
         let (zsec, psec) = (zs.second.len(), ps.second.len());
-        clamp(&mut zv, zsec);
-        clamp(&mut pv, psec);
-        zs.set(&zv);
-        ps.set(&pv);
+        // Box: damping logs of second-order sections in [−8, 4], natural-frequency logs within a
+        // decade of the data.
+        let bounds = |secs: usize, len: usize| -> (Vec<f64>, Vec<f64>) {
+            (0..len)
+                .map(|k| {
+                    if k < 2 * secs && k % 2 == 1 {
+                        (-8.0, 4.0)
+                    } else {
+                        (lo, hi)
+                    }
+                })
+                .unzip()
+        };
+        let (zlo, zhi) = bounds(zsec, nz);
+        let (plo, phi) = bounds(psec, np);
+        let (blo, bhi): (Vec<f64>, Vec<f64>) = (
+            zlo.iter().chain(&plo).copied().collect(),
+            zhi.iter().chain(&phi).copied().collect(),
+        );
         // Residuals with the optimal gain (mean log error) eliminated.
         let resid = |zs: &Sections, ps: &Sections| -> (Vec<f64>, f64) {
             let shape: Vec<f64> = w.iter().map(|&x| zs.log_mag(x) - ps.log_mag(x)).collect();
             let lg = (0..n).map(|k| target[k] - shape[k]).sum::<f64>() / n as f64;
             ((0..n).map(|k| lg + shape[k] - target[k]).collect(), lg)
         };
-        let cost = |r: &[f64]| r.iter().map(|x| x * x).sum::<f64>();
-        let (mut r, _) = resid(&zs, &ps);
-        let mut c = cost(&r);
-        let mut lambda = 1e-2;
-        let npar = nz + np;
-        for _ in 0..200 {
-            if npar == 0 {
-                break;
-            }
-            let theta: Vec<f64> = zv.iter().chain(&pv).copied().collect();
-            // Forward-difference Jacobian (cheap: few parameters, ≤ a few hundred points).
-            let mut jac = Mat::<f64>::zeros(n, npar);
-            for j in 0..npar {
-                let h = 1e-6;
-                let mut t = theta.clone();
-                t[j] += h;
+        let theta0: Vec<f64> = zs
+            .to_vec()
+            .into_iter()
+            .chain(ps.to_vec())
+            .enumerate()
+            .map(|(k, x)| x.clamp(blo[k], bhi[k]))
+            .collect();
+        zs.set(&theta0[..nz]);
+        ps.set(&theta0[nz..]);
+        if nz + np > 0 {
+            let f = |t: &[f64]| {
                 let (mut zt, mut pt) = (zs.clone(), ps.clone());
                 zt.set(&t[..nz]);
                 pt.set(&t[nz..]);
-                let (rt, _) = resid(&zt, &pt);
-                for k in 0..n {
-                    jac[(k, j)] = (rt[k] - r[k]) / h;
-                }
-            }
-            let jtj = jac.transpose() * &jac;
-            let jtr = jac.transpose() * Mat::from_fn(n, 1, |k, _| r[k]);
-            let mut improved = false;
-            for _ in 0..12 {
-                let mut a = jtj.clone();
-                for j in 0..npar {
-                    a[(j, j)] += lambda * (1.0 + jtj[(j, j)]);
-                }
-                let step = a.col_piv_qr().solve_lstsq(&jtr);
-                let mut t = theta.clone();
-                for j in 0..npar {
-                    t[j] -= step[(j, 0)];
-                }
-                let (mut tz, mut tp) = (t[..nz].to_vec(), t[nz..].to_vec());
-                clamp(&mut tz, zsec);
-                clamp(&mut tp, psec);
-                let (mut zt, mut pt) = (zs.clone(), ps.clone());
-                zt.set(&tz);
-                pt.set(&tp);
-                let (rt, _) = resid(&zt, &pt);
-                let ct = cost(&rt);
-                if ct.is_finite() && ct < c {
-                    let rel = (c - ct) / c.max(1e-300);
-                    zv = tz;
-                    pv = tp;
-                    zs = zt;
-                    ps = pt;
-                    r = rt;
-                    c = ct;
-                    lambda = (lambda / 3.0).max(1e-12);
-                    improved = rel > 1e-12;
-                    break;
-                }
-                lambda *= 4.0;
-            }
-            if !improved {
-                break;
+                Ok::<_, LinalgError>(resid(&zt, &pt).0)
+            };
+            let opts = LmOptions {
+                max_iter: 200,
+                ..LmOptions::default()
+            };
+            // A start the minimizer rejects (non-finite model) competes as it is.
+            if let Ok(res) = lm::minimize(f, &theta0, &blo, &bhi, &opts) {
+                zs.set(&res.x[..nz]);
+                ps.set(&res.x[nz..]);
             }
         }
         let (r, lg) = resid(&zs, &ps);

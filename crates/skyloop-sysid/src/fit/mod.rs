@@ -7,7 +7,7 @@
 //! weight W_γ = [1.58·(1 − e^(−γ²))]² of Tischler & Remple (Aircraft and Rotorcraft System
 //! Identification, eq. 11.4), unless weighting is off.
 
-pub mod lm;
+pub use skyloop_linalg::lm;
 pub mod model;
 pub mod tfest;
 

@@ -4,7 +4,7 @@
 use faer::linalg::solvers::{DenseSolveCore, Solve};
 use faer::Mat;
 
-use crate::error::{Result, SysidError};
+use crate::error::LinalgError;
 
 /// Stopping rules.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -49,13 +49,13 @@ fn cost(r: &[f64]) -> f64 {
 }
 
 /// Central-difference Jacobian, one-sided at a bound.
-fn jacobian<F: Fn(&[f64]) -> Result<Vec<f64>>>(
+fn jacobian<E, F: Fn(&[f64]) -> Result<Vec<f64>, E>>(
     f: &F,
     x: &[f64],
     r0: &[f64],
     lo: &[f64],
     hi: &[f64],
-) -> Result<Mat<f64>> {
+) -> Result<Mat<f64>, E> {
     let (m, n) = (r0.len(), x.len());
     let mut j = Mat::<f64>::zeros(m, n);
     let mut xp = x.to_vec();
@@ -77,32 +77,29 @@ fn jacobian<F: Fn(&[f64]) -> Result<Vec<f64>>>(
     Ok(j)
 }
 
-/// Minimizes ½‖f(x)‖² over lo ≤ x ≤ hi from x0 (clamped into the box).
-pub fn minimize<F: Fn(&[f64]) -> Result<Vec<f64>>>(
+/// Minimizes ½‖f(x)‖² over lo ≤ x ≤ hi from x0 (clamped into the box). `f`'s own errors pass through;
+/// the minimizer's (bad bounds, fewer residuals than parameters, non-finite model) are [`LinalgError`]s.
+pub fn minimize<E: From<LinalgError>, F: Fn(&[f64]) -> Result<Vec<f64>, E>>(
     f: F,
     x0: &[f64],
     lo: &[f64],
     hi: &[f64],
     opts: &LmOptions,
-) -> Result<LmResult> {
+) -> Result<LmResult, E> {
     let n = x0.len();
     if lo.len() != n || hi.len() != n || (0..n).any(|i| !(lo[i] <= hi[i])) {
-        return Err(SysidError::InvalidArgument(
-            "bounds must have lower ≤ upper for every parameter".into(),
-        ));
+        return Err(LinalgError::InvalidArgument("bounds must have lower ≤ upper for every parameter".into()).into());
     }
     let clamp = |x: &mut [f64]| (0..n).for_each(|i| x[i] = x[i].clamp(lo[i], hi[i]));
     let mut x = x0.to_vec();
     clamp(&mut x);
     let mut r = f(&x)?;
     if r.iter().any(|v| !v.is_finite()) {
-        return Err(SysidError::Numerical(
-            "the model is not finite at the initial parameters".into(),
-        ));
+        return Err(LinalgError::InvalidArgument("the model is not finite at the initial parameters".into()).into());
     }
     let m = r.len();
     if m < n {
-        return Err(SysidError::NotEnoughData(format!("{m} residuals for {n} parameters")));
+        return Err(LinalgError::Dimension(format!("{m} residuals for {n} parameters")).into());
     }
     let mut c = cost(&r);
     let mut j = jacobian(&f, &x, &r, lo, hi)?;
@@ -147,9 +144,7 @@ pub fn minimize<F: Fn(&[f64]) -> Result<Vec<f64>>>(
         let dnorm = d.iter().map(|v| v * v).sum::<f64>().sqrt();
         let xnorm = x.iter().map(|v| v * v).sum::<f64>().sqrt();
         if !d.iter().all(|v| v.is_finite()) {
-            return Err(SysidError::Numerical(
-                "singular normal equations (a parameter has no effect?)".into(),
-            ));
+            return Err(LinalgError::Singular("normal equations (a parameter has no effect?)".into()).into());
         }
         if dnorm <= opts.xtol * (xnorm + opts.xtol) {
             converged = true;
@@ -251,7 +246,7 @@ mod tests {
     /// Rosenbrock as residuals (10(x2 − x1²), 1 − x1): minimum at (1, 1) with zero cost (closed form).
     #[test]
     fn rosenbrock() {
-        let f = |x: &[f64]| Ok(vec![10.0 * (x[1] - x[0] * x[0]), 1.0 - x[0]]);
+        let f = |x: &[f64]| Ok::<_, LinalgError>(vec![10.0 * (x[1] - x[0] * x[0]), 1.0 - x[0]]);
         let r = minimize(f, &[-1.2, 1.0], &[-5.0, -5.0], &[5.0, 5.0], &LmOptions::default()).unwrap();
         assert!((r.x[0] - 1.0).abs() < 1e-8 && (r.x[1] - 1.0).abs() < 1e-8, "{:?}", r.x);
         assert!(r.converged);
@@ -260,7 +255,7 @@ mod tests {
     /// With a bound at x1 ≤ 0.5 the minimum moves onto the bound: x1 = 0.5, x2 = 0.25.
     #[test]
     fn bounds_are_respected() {
-        let f = |x: &[f64]| Ok(vec![10.0 * (x[1] - x[0] * x[0]), 1.0 - x[0]]);
+        let f = |x: &[f64]| Ok::<_, LinalgError>(vec![10.0 * (x[1] - x[0] * x[0]), 1.0 - x[0]]);
         let r = minimize(f, &[-1.2, 1.0], &[-5.0, -5.0], &[0.5, 5.0], &LmOptions::default()).unwrap();
         assert!((r.x[0] - 0.5).abs() < 1e-9 && (r.x[1] - 0.25).abs() < 1e-6, "{:?}", r.x);
     }
@@ -274,7 +269,7 @@ mod tests {
             .enumerate()
             .map(|(i, t)| 1.0 + 2.0 * t + if i % 2 == 0 { 0.1 } else { -0.1 })
             .collect();
-        let f = |p: &[f64]| Ok(t.iter().zip(&y).map(|(t, y)| p[0] + p[1] * t - y).collect());
+        let f = |p: &[f64]| Ok::<_, LinalgError>(t.iter().zip(&y).map(|(t, y)| p[0] + p[1] * t - y).collect());
         let r = minimize(f, &[0.0, 0.0], &[-1e9; 2], &[1e9; 2], &LmOptions::default()).unwrap();
         let se = standard_errors(&r);
         // Closed form: Sxx = Σ(t − t̄)² = 82.5; s² = SSR/(n − 2); se(slope) = s/√Sxx.
@@ -284,5 +279,29 @@ mod tests {
         let s = (ssr / 8.0).sqrt();
         assert!((se[1] - s / sxx.sqrt()).abs() < 1e-6 * se[1]);
         assert!((se[0] - s * (1.0 / 10.0 + tm * tm / sxx).sqrt()).abs() < 1e-6 * se[0]);
+    }
+
+    /// Every residual listed twice with correlation 1: the data carry no more information than once,
+    /// so the sandwich gives the single-copy errors, up to the residual variance's degrees of freedom:
+    /// se_dup = se·√(2(m − n)/(2m − n)) (closed form: JᵀJ doubles, the middle term quadruples).
+    #[test]
+    fn fully_correlated_duplicates_add_no_information() {
+        let t: Vec<f64> = (0..12).map(|i| i as f64 * 0.5).collect();
+        let y: Vec<f64> = t.iter().map(|t| 0.3 - 1.5 * t + 0.2 * (3.0 * t).sin()).collect();
+        let single = |p: &[f64]| Ok::<_, LinalgError>(t.iter().zip(&y).map(|(t, y)| p[0] + p[1] * t - y).collect());
+        let double =
+            |p: &[f64]| Ok::<_, LinalgError>(t.iter().zip(&y).flat_map(|(t, y)| [p[0] + p[1] * t - y; 2]).collect());
+        let o = LmOptions::default();
+        let r1 = minimize(single, &[0.0, 0.0], &[-1e9; 2], &[1e9; 2], &o).unwrap();
+        let r2 = minimize(double, &[0.0, 0.0], &[-1e9; 2], &[1e9; 2], &o).unwrap();
+        let pairs: Vec<(usize, usize, f64)> = (0..t.len()).map(|i| (2 * i, 2 * i + 1, 1.0)).collect();
+        let (se1, se2) = (standard_errors(&r1), standard_errors_correlated(&r2, &pairs));
+        let (m, n) = (t.len() as f64, 2.0);
+        let k = (2.0 * (m - n) / (2.0 * m - n)).sqrt();
+        for i in 0..2 {
+            assert!((se2[i] - se1[i] * k).abs() < 1e-6 * se1[i], "{se1:?} {se2:?}");
+        }
+        // Ignoring the correlation would claim √2 less uncertainty.
+        assert!(standard_errors(&r2)[1] < 0.8 * se2[1]);
     }
 }
