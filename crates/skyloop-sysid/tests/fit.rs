@@ -241,27 +241,7 @@ fn closed_loop_other_plants_and_noise() {
 fn servo_open_loop_chirp_recovers_eq6() {
     // Eq. (6): P_m = e^(−0.03 s)·0.764/(0.0332 s + 1); chirp 0.8–20 Hz as in Section III-A.
     let dt = 0.004;
-    let sub = 40;
-    let mut plant = Plant::new("0.764/(0.0332*s+1)", 0.03, dt / sub as f64);
-    let spec = ChirpSpec {
-        f0_hz: 0.8,
-        f1_hz: 20.0,
-        duration_s: 40.0,
-        amplitude: 1.0,
-        amplitude_end: None,
-        fade_s: 0.5,
-        sweep: Sweep::Exponential,
-    };
-    let u = chirp(&spec, 1.0 / dt).unwrap().values;
-    let mut rng = rand::rngs::StdRng::seed_from_u64(5);
-    let noise = Normal::new(0.0, 0.02).unwrap();
-    let mut y = Vec::with_capacity(u.len());
-    for &uk in &u {
-        y.push(plant.output(0.0) + noise.sample(&mut rng));
-        for _ in 0..sub {
-            plant.step(uk);
-        }
-    }
+    let (u, y) = common::servo_experiment(dt, 40, 0.02, 5);
     let o = Options {
         fmin_hz: Some(0.8),
         fmax_hz: Some(20.0),

@@ -3,42 +3,11 @@
 
 mod common;
 
-use common::Plant;
-use rand::SeedableRng;
-use rand_distr::{Distribution, Normal};
 use skyloop_lti::expr::parse;
 use skyloop_sysid::fit::{fit_expr, FitOptions, ParamSpec};
-use skyloop_sysid::signal::{chirp, ChirpSpec, Sweep};
 use skyloop_sysid::spectral::{estimate, IoData, Method, Options};
 
 const DT: f64 = 0.004;
-
-/// The servo experiment of the bicopter paper (eq. (6): 0.764·e^(−0.03 s)/(0.0332 s + 1), chirp
-/// 0.8–20 Hz) with white output noise of `noise_std`.
-fn servo_run(seed: u64, noise_std: f64) -> (Vec<f64>, Vec<f64>) {
-    let sub = 4;
-    let mut plant = Plant::new("0.764/(0.0332*s+1)", 0.03, DT / sub as f64);
-    let spec = ChirpSpec {
-        f0_hz: 0.8,
-        f1_hz: 20.0,
-        duration_s: 40.0,
-        amplitude: 1.0,
-        amplitude_end: None,
-        fade_s: 0.5,
-        sweep: Sweep::Exponential,
-    };
-    let u = chirp(&spec, 1.0 / DT).unwrap().values;
-    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
-    let noise = Normal::new(0.0, noise_std).unwrap();
-    let mut y = Vec::with_capacity(u.len());
-    for &uk in &u {
-        y.push(plant.output(0.0) + noise.sample(&mut rng));
-        for _ in 0..sub {
-            plant.step(uk);
-        }
-    }
-    (u, y)
-}
 
 fn bounded(name: &str, init: f64, lower: f64, upper: f64) -> ParamSpec {
     ParamSpec {
@@ -64,7 +33,7 @@ fn monte_carlo(method: Method, runs: u64, noise_std: f64) -> (Vec<[f64; 3]>, Vec
     };
     let (mut est, mut se) = (vec![], vec![]);
     for seed in 0..runs {
-        let (u, y) = servo_run(1000 + seed, noise_std);
+        let (u, y) = common::servo_experiment(DT, 4, noise_std, 1000 + seed);
         let frf = estimate(
             &IoData {
                 u: &u,

@@ -81,3 +81,33 @@ impl Plant {
         self.x = x;
     }
 }
+
+/// The bicopter paper's servo experiment (Section III-A, eq. (6): 0.764·e^(−0.03 s)/(0.0332 s + 1)):
+/// an exponential chirp 0.8–20 Hz for 40 s logged at 1/`dt_s`, plant integrated on `sub` fine steps per
+/// sample, white output noise of `noise_std` from `seed`. Returns (u, y).
+pub fn servo_experiment(dt_s: f64, sub: usize, noise_std: f64, seed: u64) -> (Vec<f64>, Vec<f64>) {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    use skyloop_sysid::signal::{chirp, ChirpSpec, Sweep};
+    let mut plant = Plant::new("0.764/(0.0332*s+1)", 0.03, dt_s / sub as f64);
+    let spec = ChirpSpec {
+        f0_hz: 0.8,
+        f1_hz: 20.0,
+        duration_s: 40.0,
+        amplitude: 1.0,
+        amplitude_end: None,
+        fade_s: 0.5,
+        sweep: Sweep::Exponential,
+    };
+    let u = chirp(&spec, 1.0 / dt_s).unwrap().values;
+    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+    let noise = Normal::new(0.0, noise_std).unwrap();
+    let mut y = Vec::with_capacity(u.len());
+    for &uk in &u {
+        y.push(plant.output(0.0) + noise.sample(&mut rng));
+        for _ in 0..sub {
+            plant.step(uk);
+        }
+    }
+    (u, y)
+}
