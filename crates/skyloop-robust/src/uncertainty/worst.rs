@@ -200,6 +200,31 @@ fn siso_allpass(c: c64, w0_rad_s: f64, j: usize) -> Result<StateSpace> {
     }
 }
 
+/// The phase θ that puts arg(uᵢ) + θ and arg(vh_q) − θ farthest from multiples of π: the middle of
+/// the widest gap between the forbidden values −arg(uᵢ) and arg(vh_q) (mod π). Entries of rounding
+/// size are skipped (they are realized as constants anyway).
+fn common_phase(u: &[c64], vh: &[c64]) -> f64 {
+    let big = u.iter().chain(vh).fold(0.0f64, |m, z| m.max(z.norm()));
+    let tiny = 1e-14 * big;
+    let mut f: Vec<f64> = u
+        .iter()
+        .filter(|z| z.norm() > tiny)
+        .map(|z| (-z.arg()).rem_euclid(PI))
+        .chain(vh.iter().filter(|z| z.norm() > tiny).map(|z| z.arg().rem_euclid(PI)))
+        .collect();
+    if f.is_empty() {
+        return 0.0;
+    }
+    f.sort_by(f64::total_cmp);
+    let mut best = (f[0] + PI - f[f.len() - 1], f[f.len() - 1]);
+    for w in f.windows(2) {
+        if w[1] - w[0] > best.0 {
+            best = (w[1] - w[0], w[0]);
+        }
+    }
+    best.1 + best.0 / 2.0
+}
+
 /// A full `rows × cols` block: its rank-one part σ·u·vᴴ realized as σ·u(s)·vᴴ(s); returns the system and
 /// the dropped relative singular value σ₂/σ₁.
 fn full_block(sub: &Mat<c64>, rows: usize, cols: usize, w0_rad_s: f64, j: usize) -> Result<(StateSpace, f64)> {
@@ -230,9 +255,16 @@ fn full_block(sub: &Mat<c64>, rows: usize, cols: usize, w0_rad_s: f64, j: usize)
         return Ok((StateSpace::gain(Mat::zeros(rows, cols), 0.0)?, 0.0));
     }
     let dropped = if k > 1 { sig[1] / s1 } else { 0.0 };
-    let u: Vec<c64> = (0..rows).map(|i| svd.U()[(i, 0)]).collect();
+    // u·vᴴ = (u·e^{jθ})·(v·e^{jθ})ᴴ for any θ: choose θ to keep every entry's phase away from 0 and
+    // ±π, where the all-pass corner a = ω₀/tan(−φ/2) would run off to ∞ or 0 and spread the poles over
+    // many decades (which ruins the conditioning of everything the Δ is closed around).
+    let u0: Vec<c64> = (0..rows).map(|i| svd.U()[(i, 0)]).collect();
     // vᴴ's entries are the conjugates of v's.
-    let vh: Vec<c64> = (0..cols).map(|i| svd.V()[(i, 0)].conj()).collect();
+    let vh0: Vec<c64> = (0..cols).map(|i| svd.V()[(i, 0)].conj()).collect();
+    let theta = common_phase(&u0, &vh0);
+    let rot = c64::from_polar(1.0, theta);
+    let u: Vec<c64> = u0.iter().map(|&z| z * rot).collect();
+    let vh: Vec<c64> = vh0.iter().map(|&z| z * rot.conj()).collect();
     // States: one per non-real entry of vᴴ (the input side), then one per non-real entry of u.
     let pv: Vec<(Option<f64>, f64)> = vh
         .iter()
@@ -383,6 +415,12 @@ mod tests {
             d[(0, 0)] = c64::new(-0.4, 0.0);
             let sys = check(&d, &s, w0);
             assert!(sys.nx() <= 1 + 5 + 2 + 1);
+            // The common phase of the full block keeps its corners within a few decades of ω₀
+            // (the scalar blocks' corners depend on their phases alone, so only check the full block).
+            let fb = realize_perturbation(f.as_ref(), &BlockStructure::parse("f3x2").expect("spec"), w0).expect("ok");
+            for z in poles(&fb).expect("poles") {
+                assert!(z.norm() < 100.0 * w0 && z.norm() > 0.01 * w0, "pole {z} for ω₀ = {w0}");
+            }
         }
     }
 
