@@ -100,17 +100,21 @@ fn rp_peak(p: &Plants, k: &StateSpace, w: &[f64]) -> Result<f64, String> {
     Ok(rp.peak.upper)
 }
 
+/// A reduced controller, its robust-performance μ peak and the orders tried (with their outcome).
+pub struct Reduction {
+    /// The reduced controller.
+    pub k: StateSpace,
+    /// Its robust-performance μ peak (upper bound).
+    pub rp: f64,
+    /// Orders tried by the bisection and what each gave.
+    pub tried: Vec<(usize, String)>,
+}
+
 /// Controller reduction: the smallest balanced truncation of `k` (unstable part kept) whose loop with
 /// G_nom is stable and whose robust-performance μ peak is at most `1 + rise` times `rp_full`, by
-/// bisection over the order (assuming that a larger order never does worse). Returns the reduced
-/// controller, its RP μ peak and the orders tried with their outcome.
-pub fn reduce_controller(
-    p: &Plants,
-    k: &StateSpace,
-    w: &[f64],
-    rp_full: f64,
-    rise: f64,
-) -> Result<(StateSpace, f64, Vec<(usize, String)>), String> {
+/// bisection over the order (assuming that a larger order never does worse, which need not hold: the
+/// result is the smallest order the bisection found, not a global minimum).
+pub fn reduce_controller(p: &Plants, k: &StateSpace, w: &[f64], rp_full: f64, rise: f64) -> Result<Reduction, String> {
     let kb = balanced(k)?;
     let mut tried = Vec::new();
     let mut best = (k.clone(), rp_full);
@@ -142,7 +146,11 @@ pub fn reduce_controller(
             None => lo = mid + 1,
         }
     }
-    Ok((best.0, best.1, tried))
+    Ok(Reduction {
+        k: best.0,
+        rp: best.1,
+        tried,
+    })
 }
 
 /// `sys` with its outputs scaled by `k`.
@@ -578,7 +586,11 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
 
     println!("\nReduction of K_μ (balanced truncation, unstable part kept; bisection on the order): smallest order with a stable loop and RP μ peak within +2 %:");
     let t = Instant::now();
-    let (k_red, rp_red, tried) = reduce_controller(&p, &k_mu, &w, mm.rp.peak.upper, 0.02)?;
+    let Reduction {
+        k: k_red,
+        rp: rp_red,
+        tried,
+    } = reduce_controller(&p, &k_mu, &w, mm.rp.peak.upper, 0.02)?;
     println!(
         "  tried: {}",
         tried
@@ -878,7 +890,10 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
     );
     // Diverging traces are drawn up to where they leave ±3 steps, so the others stay readable.
     let clip = |x: &[f64]| -> (Vec<f64>, Vec<f64>) {
-        let n = x.iter().position(|v| !(v.abs() <= 3.0 * STEP_M)).unwrap_or(x.len());
+        let n = x
+            .iter()
+            .position(|v| v.is_nan() || v.abs() > 3.0 * STEP_M)
+            .unwrap_or(x.len());
         (t_lin[..n].to_vec(), x[..n].to_vec())
     };
     let lin_traces: Vec<Trace> = lin
