@@ -8,7 +8,10 @@
 //! all-pass −|c|·(a − s)/(a + s) for phases in (0, π); both have the constant gain |c| at every
 //! frequency. A full block's lower-bound perturbation is rank one, σ·u·vᴴ, realized as
 //! σ·u(s)·vᴴ(s) with every entry such an all-pass: then ‖u(jω)‖ = ‖v(jω)‖ = 1 for all ω, so
-//! σ̄(Δ(jω)) = σ at every frequency.
+//! σ̄(Δ(jω)) = σ at every frequency. A full block's common phase (u·e^{jθ}, v·e^{jθ}) is chosen to
+//! keep every entry's phase away from 0 and ±π, so its all-pass corners stay within a decade or two of
+//! ω₀; a scalar block has no such freedom, and a phase within a few 1e-k rad of 0 or ±π puts its corner
+//! about 10^k times above or below ω₀ (phases within 1e-12 rad are realized as real constants).
 
 use super::blocks::{BlockKind, BlockStructure};
 use faer::{c64, Mat, MatRef};
