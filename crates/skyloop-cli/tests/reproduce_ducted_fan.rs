@@ -75,6 +75,32 @@ fn reproduces_hinf_design_mu_analysis_and_nonlinear_steps() {
         stdout.contains("[ok] μ perturbed: the nonlinear x-step stays stable"),
         "{stdout}"
     );
+    // Controller reduction: fewer states than the DK-iteration's controller, RP μ within 2 % (checked
+    // inside the run against the full controller's μ).
+    assert!(stdout.contains("[ok] reduced K_μ ("), "{stdout}");
+    let full = number_after(&stdout, "K_μ reduced:");
+    let reduced = number_after(&stdout, "reduced K_μ (");
+    assert!(reduced < full, "reduced {reduced} vs {full}");
+    // Fig. 6 by the worst-case perturbation: the realized Δ sits on K∞'s margin, and at a size between
+    // the two controllers' margins it destabilizes the H∞ loop but not the μ loop.
+    assert!(stdout.contains("[ok] Δ_wc(s) is K∞'s margin"), "{stdout}");
+    assert!(stdout.contains("[ok] Fig. 6 (worst-case Δ"), "{stdout}");
+    let pct = number_after(&stdout, "Fig. 6 (worst-case Δ at");
+    assert!(
+        pct > 0.0 && pct < 100.0,
+        "applied Δ {pct} % of the modelled uncertainty"
+    );
+    let csv = std::fs::read_to_string(out.join("fig6_worst_case_linear.csv")).expect("csv");
+    let rows: Vec<Vec<f64>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|v| v.parse().expect("number")).collect())
+        .collect();
+    // Columns: t, H∞ nominal, H∞ worst case, μ nominal, μ worst case.
+    let last = rows.last().expect("rows");
+    assert!((last[1] - 0.5).abs() < 0.02 && (last[3] - 0.5).abs() < 0.02 && (last[4] - 0.5).abs() < 0.02);
+    let h_peak = rows.iter().fold(0.0f64, |m, r| m.max(r[2].abs()));
+    assert!(h_peak > 0.75, "H∞ worst-case step peaks at {h_peak} m");
     let first = number_after(&stdout, "iteration 1: γ =");
     assert!(first.is_finite() && first > 0.0);
     for f in [
@@ -84,6 +110,9 @@ fn reproduces_hinf_design_mu_analysis_and_nonlinear_steps() {
         "hinf_perturbed.csv",
         "fig4b_mu.svg",
         "fig5_6_x_step.svg",
+        "fig6_worst_case_linear.csv",
+        "mu_worst_case_actuator.csv",
+        "hinf_worst_case_actuator.csv",
     ] {
         let p = out.join(f);
         assert!(p.exists(), "missing {}", p.display());

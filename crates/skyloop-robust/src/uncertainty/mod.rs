@@ -12,3 +12,5 @@ pub use params::{UComplex, ULtiDyn, UReal};
 pub use sample::{sample_delta, sample_ltidyn};
 pub use usys::{input_multiplicative, output_multiplicative, UncertainSystem};
 pub use weights::{makeweight, makeweight_mag};
+pub mod worst;
+pub use worst::{realize_perturbation, realize_perturbation_detailed, RealizedPerturbation};

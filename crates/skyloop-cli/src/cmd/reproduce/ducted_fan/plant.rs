@@ -111,6 +111,9 @@ pub struct Plants {
     pub g: StateSpace,
     /// Nominal plant G_nom of eq. (11).
     pub g_nom: StateSpace,
+    /// G with the positions P (m, from hover) as three more outputs after e and before y_m, for
+    /// time responses of the linear loop (not used in synthesis).
+    pub g_pos: StateSpace,
     /// Number of uncertainty channels (14 = 4 + 1 + 9).
     pub n_unc: usize,
     /// Exogenous inputs w and performance outputs e.
@@ -314,7 +317,7 @@ pub fn build(params: DuctedFanParams, d: &Design) -> Result<Plants, String> {
     let w_p = append_all(&[wp(0)?, wp(0)?, wp(1)?])?;
 
     let ks = d.perf_scale;
-    let plant = |with_unc: bool| -> Result<StateSpace, String> {
+    let plant = |with_unc: bool, with_pos: bool| -> Result<StateSpace, String> {
         let n_unc = if with_unc { 14 } else { 0 };
         let (d0, r0, n0, u_0) = (n_unc, n_unc + 5, n_unc + 8, n_unc + 20);
         let mut wr = Wiring::new(n_unc + 25);
@@ -373,6 +376,11 @@ pub fn build(params: DuctedFanParams, d: &Design) -> Result<Plants, String> {
         for i in 0..3 {
             wr.output(vec![(ks * d.w_rate[usize::from(i == 2)], Sig::Out(clin, 9 + 9 + i))]);
         }
+        if with_pos {
+            for i in 0..3 {
+                wr.output(vec![(1.0, Sig::Out(clin, 9 + i))]);
+            }
+        }
         for i in 0..12 {
             let level = d.noise[i / 3];
             let mut terms = vec![(level, Sig::Ext(n0 + i))];
@@ -387,8 +395,9 @@ pub fn build(params: DuctedFanParams, d: &Design) -> Result<Plants, String> {
         wr.build()
     };
     Ok(Plants {
-        g: plant(true)?,
-        g_nom: plant(false)?,
+        g: plant(true, false)?,
+        g_nom: plant(false, false)?,
+        g_pos: plant(true, true)?,
         n_unc: 14,
         n_w: 20,
         n_e: 17,
