@@ -83,6 +83,11 @@ fn mu_warm(
     warm_lower: Option<&(Vec<c64>, Vec<c64>)>,
 ) -> Result<MuBounds> {
     s.check_matrix(m.nrows(), m.ncols())?;
+    if let (Some(d0), Some(st)) = (warm, warm_lower) {
+        if st.0.len() == m.ncols() && st.1.len() == m.ncols() {
+            return mu_neighbour(m, s, opts, d0, st);
+        }
+    }
     let quick = UpperOptions {
         rel_tol: opts.rel_tol,
         t_max: if warm.is_some() { 1024.0 } else { 16.0_f64 }.min(opts.t_max),
@@ -129,6 +134,41 @@ fn mu_warm(
         upper: ub.value,
         // Both are computed independently in floating point; a lower bound above the upper one can
         // only be rounding, so it is clipped (the Δ still proves the unclipped value to rounding).
+        lower: lb.value.min(ub.value),
+        d: ub.d,
+        delta: lb.delta,
+        lower_start: lb_start,
+    })
+}
+
+/// μ bounds from a neighbouring frequency's optimum: the lower bound first (the previous power-iteration
+/// vectors usually land on the same branch at once), so that the upper bound, started from the previous
+/// D-scales at a sharp smoothing stage, can stop as soon as it meets it.
+fn mu_neighbour(
+    m: MatRef<c64>,
+    s: &BlockStructure,
+    opts: &MuOptions,
+    d0: &DScales,
+    st: &(Vec<c64>, Vec<c64>),
+) -> Result<MuBounds> {
+    let (mut lb, mut lb_start) = lower_bound_vectors(m, s, std::slice::from_ref(st), opts.power_iters)?;
+    let up = UpperOptions {
+        rel_tol: opts.rel_tol,
+        t_max: opts.t_max,
+        iters_per_stage: 40,
+        t_start: 1024.0_f64.min(opts.t_max),
+    };
+    let ub = upper_bound(m, s, Some(d0), lb.value, &up)?;
+    if ub.value > lb.value * (1.0 + opts.rel_tol) {
+        let (again, again_start) = lower_bound_vectors(m, s, &[start_from(m, &ub)], opts.power_iters)?;
+        if again.value > lb.value {
+            lb = again;
+            lb_start = again_start;
+        }
+    }
+    Ok(MuBounds {
+        upper: ub.value,
+        // As in mu_warm: a lower bound above the upper one can only be rounding.
         lower: lb.value.min(ub.value),
         d: ub.d,
         delta: lb.delta,

@@ -446,7 +446,7 @@ pub fn upper_bound(
         u: cur.u.clone(),
         v: cur.v.clone(),
     };
-    if cur.sigma_max == 0.0 {
+    if cur.sigma_max == 0.0 || (target > 0.0 && best.value <= target * (1.0 + opts.rel_tol)) {
         return Ok(best);
     }
     // Inverse Hessian approximation in the (local) generator coordinates.
@@ -502,6 +502,10 @@ pub fn upper_bound(
             cur_sp = en_sp;
             if sy > 1e-300 {
                 bfgs_update(&mut h, &step, &y, sy);
+            }
+            // The bound cannot get meaningfully below a proven lower bound: stop as soon as it meets it.
+            if target > 0.0 && best.value <= target * (1.0 + opts.rel_tol) {
+                return Ok(best);
             }
             // Intermediate stages only steer towards the next one: resolving them finer than their
             // smoothing bias (≤ ln(multiplicity)/(2t)) buys nothing; the last stage goes to rel_tol.
