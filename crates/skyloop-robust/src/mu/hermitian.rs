@@ -99,10 +99,10 @@ pub(crate) fn top_eigen(a: MatRef<c64>, ws: &mut Workspace, n_vecs: impl FnOnce(
 fn tridiagonalize(a: MatRef<c64>, ws: &mut Workspace) {
     let n = a.nrows();
     ws.a.clear();
-    // Column-major copy, Hermitian completion from the lower triangle.
+    // Column-major copy; only the lower triangle is used.
     for j in 0..n {
         for i in 0..n {
-            ws.a.push(if i >= j { a[(i, j)] } else { a[(j, i)].conj() });
+            ws.a.push(if i >= j { a[(i, j)] } else { c64::new(0.0, 0.0) });
         }
     }
     ws.v.clear();
@@ -136,24 +136,37 @@ fn tridiagonalize(a: MatRef<c64>, ws: &mut Workspace) {
         ws.tau.push(tau);
         e_c.push(alpha);
         // Trailing block A22 ← H A22 H = A22 − v qᴴ − q vᴴ with p = τ A22 v, q = p − (τ vᴴp / 2) v.
+        // Only the lower triangle of A22 is read and updated (column slices, symv/her2-style).
         let v = &ws.v[v_off..v_off + m];
-        let mut vp = 0.0;
-        for (r, i) in (k + 1..n).enumerate() {
-            let mut acc = c64::new(0.0, 0.0);
-            for (cc, j) in (k + 1..n).enumerate() {
-                acc += ws.a[at(j, i)] * v[cc];
+        let p = &mut ws.p[..m];
+        p.iter_mut().for_each(|x| *x = c64::new(0.0, 0.0));
+        for c in 0..m {
+            let j = k + 1 + c;
+            let col = &ws.a[j * n + j..j * n + n];
+            let vc = v[c];
+            // Diagonal entry (real), then the strictly lower part feeds p_c (by symmetry) and p_i.
+            let mut acc = col[0] * vc;
+            for ((pi, aij), vi) in p[c + 1..].iter_mut().zip(&col[1..]).zip(&v[c + 1..]) {
+                *pi += aij * vc;
+                acc += aij.conj() * vi;
             }
-            ws.p[r] = acc * tau;
-            vp += (v[r].conj() * ws.p[r]).re;
+            p[c] += acc;
+        }
+        let mut vp = 0.0;
+        for (pr, vr) in p.iter_mut().zip(v) {
+            *pr *= tau;
+            vp += (vr.conj() * *pr).re;
         }
         let kk = 0.5 * tau * vp;
-        for r in 0..m {
-            ws.p[r] -= v[r] * kk;
+        for (pr, vr) in p.iter_mut().zip(v) {
+            *pr -= vr * kk;
         }
-        for (cc, j) in (k + 1..n).enumerate() {
-            let (vj, qj) = (v[cc].conj(), ws.p[cc].conj());
-            for (r, i) in (k + 1..n).enumerate() {
-                ws.a[at(j, i)] -= v[r] * qj + ws.p[r] * vj;
+        for c in 0..m {
+            let j = k + 1 + c;
+            let (vj, qj) = (v[c].conj(), p[c].conj());
+            let col = &mut ws.a[j * n + j..j * n + n];
+            for ((aij, vi), qi) in col.iter_mut().zip(&v[c..]).zip(&p[c..]) {
+                *aij -= vi * qj + qi * vj;
             }
         }
     }

@@ -196,7 +196,7 @@ fn power_iteration(
             break;
         }
         std::mem::swap(&mut b, &mut bn);
-        if (beta - beta_old).abs() <= 1e-13 * beta {
+        if (beta - beta_old).abs() <= 1e-10 * beta {
             break;
         }
         beta_old = beta;

@@ -542,7 +542,16 @@ pub fn upper_bound_from(
                     accepted = Some((step, dn, bn, en, en_sp));
                     break;
                 }
-                alpha *= 0.5;
+                // Backtrack to the minimizer of the quadratic through f(0), f'(0) and f(α)
+                // (Nocedal & Wright §3.5), kept within [α/10, α/2]: a far too long first step
+                // (e.g. a neighbour's curvature that does not fit here) costs a few evaluations, not ten.
+                let excess = en.f - cur.f - slope * alpha;
+                let quad = if excess > 0.0 && excess.is_finite() {
+                    -slope * alpha * alpha / (2.0 * excess)
+                } else {
+                    0.5 * alpha
+                };
+                alpha = quad.clamp(0.1 * alpha, 0.5 * alpha);
             }
             let Some((step, dn, bn, en, en_sp)) = accepted else {
                 break;
