@@ -491,10 +491,12 @@ pub fn upper_bound_from(
     if cur.sigma_max == 0.0 || (target > 0.0 && best.value <= target * (1.0 + opts.rel_tol)) {
         return Ok(best);
     }
-    // Inverse Hessian approximation in the (local) generator coordinates; the curvature of the
-    // smoothed kink grows like t, so a neighbour's estimate is rescaled to this t.
+    // Inverse Hessian approximation in the (local) generator coordinates. A neighbour's estimate is
+    // reused only if it was made at a stage no sharper than this one (rescaled by tw/t: the kink's
+    // curvature grows like t). One from a sharper stage, scaled up, makes the steps along the smooth
+    // directions far too long; on the bench sweeps that left the bound ~1e-5 short of its optimum.
     let mut h = match curvature {
-        Some((hw, tw)) if hw.len() == np * np && hw.iter().all(|x| x.is_finite()) && *tw > 0.0 => {
+        Some((hw, tw)) if hw.len() == np * np && hw.iter().all(|x| x.is_finite()) && *tw > 0.0 && *tw <= t => {
             let f = tw / t;
             (0..np).map(|i| (0..np).map(|k| hw[i * np + k] * f).collect()).collect()
         }
