@@ -214,7 +214,9 @@ fn eigenvalues(x: MatRef<c64>) -> Result<Vec<c64>> {
 /// block's Q_j is rank one and a δI_k block contributes k columns, so r is the number of full blocks
 /// plus the sizes of the scalar blocks, usually far below M's size.
 fn low_rank_q(s: &BlockStructure, a: &[c64], w: &[c64]) -> (Mat<c64>, Mat<c64>) {
-    let mut cols: Vec<(Vec<(usize, c64)>, Vec<(usize, c64)>)> = Vec::new();
+    // One (u, v) pair per column, each a sparse list of (index, value).
+    type Sparse = Vec<(usize, c64)>;
+    let mut cols: Vec<(Sparse, Sparse)> = Vec::new();
     for (j, blk) in s.blocks().iter().enumerate() {
         let (rr, cr) = (s.row_range(j), s.col_range(j));
         let (aj, wj) = (&a[rr.clone()], &w[cr.clone()]);
