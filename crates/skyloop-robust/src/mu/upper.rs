@@ -393,13 +393,23 @@ fn block_exponentials(s: &BlockStructure, theta: &[f64]) -> Result<Vec<Mat<c64>>
                 if r == 1 {
                     out.push(Mat::from_fn(1, 1, |_, _| c64::new(e[(0, 0)].re.exp(), 0.0)));
                 } else {
-                    let evd = e.self_adjoint_eigen(Side::Lower).map_err(|err| {
-                        LtiError::Numerical(format!("eigen-decomposition of a D-scale generator failed: {err:?}"))
-                    })?;
-                    let uq = evd.U();
+                    // exp(E) = Σ e^{λ_k} x_k x_kᴴ; the small solver avoids the dense one's set-up cost.
+                    let mut ws = Workspace::default();
+                    let (lam, uq) = match top_eigen(e.as_ref(), &mut ws, |l| l.len()) {
+                        Some(te) => (te.lam.iter().rev().copied().collect::<Vec<f64>>(), te.vecs),
+                        None => {
+                            let evd = e.self_adjoint_eigen(Side::Lower).map_err(|err| {
+                                LtiError::Numerical(format!(
+                                    "eigen-decomposition of a D-scale generator failed: {err:?}"
+                                ))
+                            })?;
+                            let lam = (0..r).map(|k| evd.S().column_vector()[k].re).collect();
+                            (lam, evd.U().to_owned())
+                        }
+                    };
                     let ex = Mat::<c64>::from_fn(r, r, |p, q| {
                         (0..r).fold(c64::new(0.0, 0.0), |acc, k| {
-                            acc + uq[(p, k)] * evd.S().column_vector()[k].re.exp() * uq[(q, k)].conj()
+                            acc + uq[(p, k)] * lam[k].exp() * uq[(q, k)].conj()
                         })
                     });
                     out.push(ex);
