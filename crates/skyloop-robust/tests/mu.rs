@@ -89,6 +89,31 @@ fn upper_at_least_lower_on_random_structures() {
 }
 
 #[test]
+fn upper_bound_is_the_dense_svd_of_the_returned_scaling() {
+    // The upper bound is computed by the crate's own tridiagonal eigen-solver on the Gram matrix; it
+    // must be σ̄(D_L M D_R⁻¹) of the returned scales as a dense SVD (faer) computes it, so that it is
+    // a valid bound and not an estimate: here at every point of a warm-started bench-like sweep.
+    let s = BlockStructure::parse("f2x2,c3r,c1x1,f2x2,f2x2").expect("spec");
+    let (a0, a1) = (pseudo_random(10, 10, 17), pseudo_random(10, 10, 18));
+    let ms: Vec<Mat<c64>> = (0..20)
+        .map(|k| {
+            let p = c64::new(1.0, 10f64.powf(-1.0 + 2.0 * k as f64 / 19.0));
+            Mat::from_fn(10, 10, |i, j| a0[(i, j)] + a1[(i, j)] / p)
+        })
+        .collect();
+    let sweep = skyloop_robust::mu::mu_sweep(&ms, &s, &MuOptions::default()).expect("sweep");
+    for (m, r) in ms.iter().zip(&sweep) {
+        let dense = sigma_max(r.d.apply(m.as_ref()).as_ref());
+        assert!(
+            (r.upper - dense).abs() <= 1e-12 * dense,
+            "upper {} vs dense σ̄ {dense}",
+            r.upper
+        );
+        assert!(r.upper >= r.lower);
+    }
+}
+
+#[test]
 fn warm_started_sweep_matches_cold_starts() {
     // inf_D σ̄(DMD⁻¹) is a convex problem (Sezginer & Overton 1990): the sweep, which starts each
     // frequency from the previous D-scales at a sharper smoothing stage, must reach the same upper

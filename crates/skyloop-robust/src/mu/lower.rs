@@ -138,6 +138,8 @@ fn power_iteration(
     let mut a = vec![zero(); m.nrows()];
     md.mul_into(&b, &mut a);
     let mut wn = vec![zero(); m.ncols()];
+    let mut z = vec![zero(); m.nrows()];
+    let mut bn = vec![zero(); m.ncols()];
     let mut beta_old = f64::NAN;
     for _ in 0..iters {
         md.mul_into(&b, &mut a);
@@ -145,7 +147,7 @@ fn power_iteration(
         if beta == 0.0 {
             break;
         }
-        let mut z = vec![zero(); a.len()];
+        z.iter_mut().for_each(|x| *x = zero());
         for (j, blk) in s.blocks().iter().enumerate() {
             let (rr, cr) = (s.row_range(j), s.col_range(j));
             match blk {
@@ -170,7 +172,7 @@ fn power_iteration(
             break;
         }
         std::mem::swap(&mut w, &mut wn);
-        let mut bn = vec![zero(); b.len()];
+        bn.iter_mut().for_each(|x| *x = zero());
         for (j, blk) in s.blocks().iter().enumerate() {
             let (rr, cr) = (s.row_range(j), s.col_range(j));
             match blk {
@@ -193,8 +195,8 @@ fn power_iteration(
         if normalize(&mut bn) == 0.0 {
             break;
         }
-        b = bn;
-        if (beta - beta_old).abs() <= 1e-13 * beta {
+        std::mem::swap(&mut b, &mut bn);
+        if (beta - beta_old).abs() <= 1e-10 * beta {
             break;
         }
         beta_old = beta;
@@ -208,13 +210,61 @@ fn eigenvalues(x: MatRef<c64>) -> Result<Vec<c64>> {
         .map_err(|e| LtiError::Numerical(format!("eigenvalues in the mu lower bound failed: {e:?}")))
 }
 
-/// The candidate bound of Q: for complex structures ρ(QM) and Δ = Q e^{−i∠λ}/|λ|.
-fn candidate(m: MatRef<c64>, s: &BlockStructure, q: &Mat<c64>) -> Result<LowerBound> {
-    if s.has_real() {
-        return real_candidate(m, s, q);
+/// Q of `build_q` as a sum of r outer products Q = U Vᴴ (U: M cols × r, V: M rows × r): a full
+/// block's Q_j is rank one and a δI_k block contributes k columns, so r is the number of full blocks
+/// plus the sizes of the scalar blocks, usually far below M's size.
+fn low_rank_q(s: &BlockStructure, a: &[c64], w: &[c64]) -> (Mat<c64>, Mat<c64>) {
+    // One (u, v) pair per column, each a sparse list of (index, value).
+    type Sparse = Vec<(usize, c64)>;
+    let mut cols: Vec<(Sparse, Sparse)> = Vec::new();
+    for (j, blk) in s.blocks().iter().enumerate() {
+        let (rr, cr) = (s.row_range(j), s.col_range(j));
+        let (aj, wj) = (&a[rr.clone()], &w[cr.clone()]);
+        match blk {
+            BlockKind::Full { .. } => {
+                let (na, nw) = (norm(aj), norm(wj));
+                if na > 0.0 && nw > 0.0 {
+                    let u = cr.clone().zip(wj).map(|(i, x)| (i, x / nw)).collect();
+                    let v = rr.clone().zip(aj).map(|(i, x)| (i, x / na)).collect();
+                    cols.push((u, v));
+                }
+            }
+            _ => {
+                let ph = phase(dot(aj, wj));
+                for (p, q) in cr.zip(rr) {
+                    cols.push((vec![(p, ph)], vec![(q, c64::new(1.0, 0.0))]));
+                }
+            }
+        }
     }
-    let qm = q * m;
-    let lam = eigenvalues(qm.as_ref())?;
+    let r = cols.len();
+    let mut u = Mat::<c64>::zeros(s.m_cols(), r);
+    let mut v = Mat::<c64>::zeros(s.m_rows(), r);
+    for (c, (uc, vc)) in cols.iter().enumerate() {
+        for &(i, x) in uc {
+            u[(i, c)] = x;
+        }
+        for &(i, x) in vc {
+            v[(i, c)] = x;
+        }
+    }
+    (u, v)
+}
+
+/// The candidate bound of Q = build_q(a, w): for complex structures ρ(QM) and Δ = Q e^{−i∠λ}/|λ|.
+fn candidate(m: MatRef<c64>, s: &BlockStructure, a: &[c64], w: &[c64]) -> Result<LowerBound> {
+    let q = build_q(s, a, w);
+    if s.has_real() {
+        return real_candidate(m, s, &q);
+    }
+    // The nonzero eigenvalues of QM = U (VᴴM) are those of the small VᴴMU.
+    let (u, v) = low_rank_q(s, a, w);
+    let lam = if u.ncols() == 0 {
+        Vec::new()
+    } else {
+        let small = v.adjoint() * (m * &u);
+        eigenvalues(small.as_ref())?
+    };
     let best = lam.iter().copied().max_by(|x, y| x.norm().total_cmp(&y.norm()));
     match best {
         Some(l) if l.norm() > 0.0 => {
@@ -359,7 +409,7 @@ pub fn lower_bound_vectors(
             )));
         }
         let (a, w, b) = power_iteration(m, s, b0, w0, iters);
-        let c = candidate(m, s, &build_q(s, &a, &w))?;
+        let c = candidate(m, s, &a, &w)?;
         if c.value > best.value {
             best = c;
             best_start = (b, w);

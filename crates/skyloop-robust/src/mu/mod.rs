@@ -1,6 +1,7 @@
 //! The structured singular value μ: bounds for one matrix, frequency sweeps with peak refinement,
 //! robust stability margins and robust performance by the main loop theorem.
 
+mod hermitian;
 pub mod lower;
 pub mod sweep;
 pub mod upper;
@@ -10,7 +11,7 @@ pub use sweep::{
     mu_frequency, mu_frequency_bounds, mu_sweep, mu_system, robust_performance, robust_stability, MuPeak, MuSweep,
     StabilityMargin,
 };
-pub use upper::{osborne, upper_bound, DScales, UpperBound, UpperOptions};
+pub use upper::{osborne, upper_bound, upper_bound_from, DScales, UpperBound, UpperOptions};
 
 use crate::uncertainty::blocks::BlockStructure;
 use faer::{c64, Mat, MatRef};
@@ -56,6 +57,9 @@ pub struct MuBounds {
     /// Final power-iteration vectors (b, w) behind `lower` (empty if none): the lower-bound start at
     /// a neighbouring frequency.
     pub lower_start: (Vec<c64>, Vec<c64>),
+    /// The upper-bound optimizer's final inverse Hessian and smoothing exponent
+    /// (`UpperBound::curvature`): its start at a neighbouring frequency.
+    pub upper_curvature: (Vec<f64>, f64),
 }
 
 /// μ bounds of M for the structure with default options.
@@ -65,14 +69,15 @@ pub fn mu(m: MatRef<c64>, s: &BlockStructure) -> Result<MuBounds> {
 
 /// μ bounds of M; `warm` D-scales (e.g. from the previous frequency) replace Osborne's start.
 pub fn mu_with(m: MatRef<c64>, s: &BlockStructure, opts: &MuOptions, warm: Option<&DScales>) -> Result<MuBounds> {
-    mu_warm(m, s, opts, warm, None)
+    mu_warm(m, s, opts, warm, None, None)
 }
 
 /// μ bounds of M warm-started from a neighbouring frequency's bounds: its D-scales start the upper
 /// bound and its power-iteration vectors replace the pseudo-random lower-bound starts.
 pub fn mu_from(m: MatRef<c64>, s: &BlockStructure, opts: &MuOptions, prev: &MuBounds) -> Result<MuBounds> {
     let lower = (!prev.lower_start.0.is_empty()).then_some(&prev.lower_start);
-    mu_warm(m, s, opts, Some(&prev.d), lower)
+    let curvature = (!prev.upper_curvature.0.is_empty()).then_some(&prev.upper_curvature);
+    mu_warm(m, s, opts, Some(&prev.d), lower, curvature)
 }
 
 fn mu_warm(
@@ -81,8 +86,14 @@ fn mu_warm(
     opts: &MuOptions,
     warm: Option<&DScales>,
     warm_lower: Option<&(Vec<c64>, Vec<c64>)>,
+    warm_curvature: Option<&(Vec<f64>, f64)>,
 ) -> Result<MuBounds> {
     s.check_matrix(m.nrows(), m.ncols())?;
+    if let (Some(d0), Some(st)) = (warm, warm_lower) {
+        if st.0.len() == m.ncols() && st.1.len() == m.ncols() {
+            return mu_neighbour(m, s, opts, d0, st, warm_curvature);
+        }
+    }
     let quick = UpperOptions {
         rel_tol: opts.rel_tol,
         t_max: if warm.is_some() { 1024.0 } else { 16.0_f64 }.min(opts.t_max),
@@ -133,6 +144,44 @@ fn mu_warm(
         d: ub.d,
         delta: lb.delta,
         lower_start: lb_start,
+        upper_curvature: ub.curvature,
+    })
+}
+
+/// μ bounds from a neighbouring frequency's optimum: the lower bound first (the previous power-iteration
+/// vectors usually land on the same branch at once), so that the upper bound, started from the previous
+/// D-scales at a sharp smoothing stage, can stop as soon as it meets it.
+fn mu_neighbour(
+    m: MatRef<c64>,
+    s: &BlockStructure,
+    opts: &MuOptions,
+    d0: &DScales,
+    st: &(Vec<c64>, Vec<c64>),
+    curvature: Option<&(Vec<f64>, f64)>,
+) -> Result<MuBounds> {
+    let (mut lb, mut lb_start) = lower_bound_vectors(m, s, std::slice::from_ref(st), opts.power_iters)?;
+    let up = UpperOptions {
+        rel_tol: opts.rel_tol,
+        t_max: opts.t_max,
+        iters_per_stage: 40,
+        t_start: 1024.0_f64.min(opts.t_max),
+    };
+    let ub = upper_bound_from(m, s, Some(d0), curvature, lb.value, &up)?;
+    if ub.value > lb.value * (1.0 + opts.rel_tol) {
+        let (again, again_start) = lower_bound_vectors(m, s, &[start_from(m, &ub)], opts.power_iters)?;
+        if again.value > lb.value {
+            lb = again;
+            lb_start = again_start;
+        }
+    }
+    Ok(MuBounds {
+        upper: ub.value,
+        // As in mu_warm: a lower bound above the upper one can only be rounding.
+        lower: lb.value.min(ub.value),
+        d: ub.d,
+        delta: lb.delta,
+        lower_start: lb_start,
+        upper_curvature: ub.curvature,
     })
 }
 

@@ -10,6 +10,7 @@
 //! valid upper bound; the smallest one is returned. Real scalar blocks are treated as complex
 //! (a valid but conservative bound: D-G scalings are not implemented).
 
+use super::hermitian::{top_eigen, Workspace};
 use crate::uncertainty::blocks::{BlockKind, BlockStructure};
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat, MatRef, Side};
@@ -133,6 +134,9 @@ pub struct UpperBound {
     pub u: Vec<c64>,
     /// Top right singular vector of the scaled matrix.
     pub v: Vec<c64>,
+    /// BFGS inverse Hessian (row-major, one row per D-scale generator parameter) and the smoothing
+    /// exponent t where the optimization ended: a warm start for a neighbouring frequency.
+    pub curvature: (Vec<f64>, f64),
 }
 
 /// Osborne's iteration on the block norms: scalar d_j making each block row and column of
@@ -210,7 +214,8 @@ struct Eval {
     v: Vec<c64>,
 }
 
-/// Eigen-decomposition of the smaller Gram matrix of the scaled matrix (ascending eigenvalues).
+/// Eigenvalues of the smaller Gram matrix of the scaled matrix (ascending) and the eigenvectors of
+/// the largest ones: column c of `vecs` belongs to `lam[n − 1 − c]`.
 struct Spectrum {
     /// Whether the Gram matrix is BᴴB (right singular vectors) rather than BBᴴ.
     use_right: bool,
@@ -218,27 +223,48 @@ struct Spectrum {
     vecs: Mat<c64>,
 }
 
-fn spectrum(b: MatRef<c64>) -> Result<Spectrum> {
+/// Weights (λᵢ/λ₁)^t below this are dropped from the surrogate (and need no eigenvector).
+const WEIGHT_FLOOR: f64 = 1e-15;
+
+/// Spectrum of `b` with eigenvectors for every eigenvalue whose surrogate weight at `t` (or any
+/// larger t) reaches WEIGHT_FLOOR.
+fn spectrum(b: MatRef<c64>, t: f64, ws: &mut Workspace) -> Result<Spectrum> {
     let (nr, nc) = (b.nrows(), b.ncols());
     // Work with the smaller Gram matrix; singular vectors on the other side follow from B.
     let use_right = nc <= nr;
     let gram = if use_right { b.adjoint() * b } else { b * b.adjoint() };
+    let needed = |lam: &[f64]| {
+        let top = lam.last().copied().unwrap_or(0.0).max(0.0);
+        if top == 0.0 {
+            return 1;
+        }
+        let k = lam
+            .iter()
+            .rev()
+            .take_while(|&&l| (l.max(0.0) / top).powf(t) >= WEIGHT_FLOOR)
+            .count();
+        k.max(1)
+    };
+    if let Some(te) = top_eigen(gram.as_ref(), ws, needed) {
+        return Ok(Spectrum {
+            use_right,
+            lam: te.lam.iter().map(|l| l.max(0.0)).collect(),
+            vecs: te.vecs,
+        });
+    }
+    // The tridiagonal QR did not converge: the dense solver decides.
     let evd = gram
         .self_adjoint_eigen(Side::Lower)
         .map_err(|e| LtiError::Numerical(format!("eigen-decomposition in the mu upper bound failed: {e:?}")))?;
-    let lam = (0..gram.nrows())
-        .map(|i| evd.S().column_vector()[i].re.max(0.0))
-        .collect();
-    Ok(Spectrum {
-        use_right,
-        lam,
-        vecs: evd.U().to_owned(),
-    })
+    let n = gram.nrows();
+    let lam: Vec<f64> = (0..n).map(|i| evd.S().column_vector()[i].re.max(0.0)).collect();
+    let vecs = Mat::from_fn(n, n, |p, c| evd.U()[(p, n - 1 - c)]);
+    Ok(Spectrum { use_right, lam, vecs })
 }
 
 /// Evaluates f_t at the scaled matrix `b` (rows × cols), with gradients in the block generators.
-fn evaluate(b: MatRef<c64>, s: &BlockStructure, t: f64) -> Result<(Eval, Spectrum)> {
-    let sp = spectrum(b)?;
+fn evaluate(b: MatRef<c64>, s: &BlockStructure, t: f64, ws: &mut Workspace) -> Result<(Eval, Spectrum)> {
+    let sp = spectrum(b, t, ws)?;
     Ok((surrogate(b, s, t, &sp)?, sp))
 }
 
@@ -270,7 +296,8 @@ fn surrogate(b: MatRef<c64>, s: &BlockStructure, t: f64, sp: &Spectrum) -> Resul
     let mut sum = 0.0;
     for i in (0..n).rev() {
         let w = (lam[i] / top).powf(t);
-        if w < 1e-15 {
+        // Vectors exist for every weight ≥ WEIGHT_FLOOR at the spectrum's t ≤ this t.
+        if w < WEIGHT_FLOOR || n - 1 - i >= sp.vecs.ncols() {
             break;
         }
         weights.push((i, w));
@@ -281,7 +308,7 @@ fn surrogate(b: MatRef<c64>, s: &BlockStructure, t: f64, sp: &Spectrum) -> Resul
     let (mut u_top, mut v_top) = (Vec::new(), Vec::new());
     for (k, &(i, w)) in weights.iter().enumerate() {
         let sig = lam[i].sqrt().max(f64::MIN_POSITIVE);
-        let x: Vec<c64> = (0..n).map(|p| sp.vecs[(p, i)]).collect();
+        let x: Vec<c64> = (0..n).map(|p| sp.vecs[(p, n - 1 - i)]).collect();
         // The other side: B v / σ (or Bᴴ u / σ).
         let (u, v) = if use_right {
             let u: Vec<c64> = (0..nr)
@@ -366,13 +393,23 @@ fn block_exponentials(s: &BlockStructure, theta: &[f64]) -> Result<Vec<Mat<c64>>
                 if r == 1 {
                     out.push(Mat::from_fn(1, 1, |_, _| c64::new(e[(0, 0)].re.exp(), 0.0)));
                 } else {
-                    let evd = e.self_adjoint_eigen(Side::Lower).map_err(|err| {
-                        LtiError::Numerical(format!("eigen-decomposition of a D-scale generator failed: {err:?}"))
-                    })?;
-                    let uq = evd.U();
+                    // exp(E) = Σ e^{λ_k} x_k x_kᴴ; the small solver avoids the dense one's set-up cost.
+                    let mut ws = Workspace::default();
+                    let (lam, uq) = match top_eigen(e.as_ref(), &mut ws, |l| l.len()) {
+                        Some(te) => (te.lam.iter().rev().copied().collect::<Vec<f64>>(), te.vecs),
+                        None => {
+                            let evd = e.self_adjoint_eigen(Side::Lower).map_err(|err| {
+                                LtiError::Numerical(format!(
+                                    "eigen-decomposition of a D-scale generator failed: {err:?}"
+                                ))
+                            })?;
+                            let lam = (0..r).map(|k| evd.S().column_vector()[k].re).collect();
+                            (lam, evd.U().to_owned())
+                        }
+                    };
                     let ex = Mat::<c64>::from_fn(r, r, |p, q| {
                         (0..r).fold(c64::new(0.0, 0.0), |acc, k| {
-                            acc + uq[(p, k)] * evd.S().column_vector()[k].re.exp() * uq[(q, k)].conj()
+                            acc + uq[(p, k)] * lam[k].exp() * uq[(q, k)].conj()
                         })
                     });
                     out.push(ex);
@@ -424,6 +461,19 @@ pub fn upper_bound(
     target: f64,
     opts: &UpperOptions,
 ) -> Result<UpperBound> {
+    upper_bound_from(m, s, start, None, target, opts)
+}
+
+/// As [`upper_bound`], with the quasi-Newton curvature (`UpperBound::curvature`) of a neighbouring
+/// problem as the initial inverse Hessian (ignored when its size does not match the structure).
+pub fn upper_bound_from(
+    m: MatRef<c64>,
+    s: &BlockStructure,
+    start: Option<&DScales>,
+    curvature: Option<&(Vec<f64>, f64)>,
+    target: f64,
+    opts: &UpperOptions,
+) -> Result<UpperBound> {
     s.check_matrix(m.nrows(), m.ncols())?;
     for j in 0..m.ncols() {
         for i in 0..m.nrows() {
@@ -438,19 +488,34 @@ pub fn upper_bound(
     };
     let np: usize = s.blocks().iter().map(n_params).sum();
     let mut b = d.apply_blocks(s, m);
+    let mut ws = Workspace::default();
     let mut t = opts.t_start.clamp(1.0, opts.t_max.max(1.0));
-    let (mut cur, mut cur_sp) = evaluate(b.as_ref(), s, t)?;
+    let (mut cur, mut cur_sp) = evaluate(b.as_ref(), s, t, &mut ws)?;
     let mut best = UpperBound {
         value: cur.sigma_max,
         d: d.clone(),
         u: cur.u.clone(),
         v: cur.v.clone(),
+        curvature: (Vec::new(), t),
     };
-    if cur.sigma_max == 0.0 {
+    if cur.sigma_max == 0.0 || (target > 0.0 && best.value <= target * (1.0 + opts.rel_tol)) {
         return Ok(best);
     }
-    // Inverse Hessian approximation in the (local) generator coordinates.
-    let mut h = identity(np);
+    // Inverse Hessian approximation in the (local) generator coordinates. A neighbour's estimate is
+    // reused only if it was made at a stage no sharper than this one (rescaled by tw/t: the kink's
+    // curvature grows like t). One from a sharper stage, scaled up, makes the steps along the smooth
+    // directions far too long; on the bench sweeps that left the bound ~1e-5 short of its optimum.
+    let mut h = match curvature {
+        Some((hw, tw)) if hw.len() == np * np && hw.iter().all(|x| x.is_finite()) && *tw > 0.0 && *tw <= t => {
+            let f = tw / t;
+            (0..np).map(|i| (0..np).map(|k| hw[i * np + k] * f).collect()).collect()
+        }
+        _ => identity(np),
+    };
+    let finish = |mut best: UpperBound, h: &[Vec<f64>], t: f64| {
+        best.curvature = (h.iter().flatten().copied().collect(), t);
+        best
+    };
     loop {
         for _ in 0..opts.iters_per_stage {
             let gnorm = cur.grad.iter().map(|g| g * g).sum::<f64>().sqrt();
@@ -475,20 +540,30 @@ pub fn upper_bound(
                 let step: Vec<f64> = p.iter().map(|x| alpha * x).collect();
                 let dn = update_scales(s, &d, &step)?;
                 let bn = dn.apply_blocks(s, m);
-                let (en, en_sp) = evaluate(bn.as_ref(), s, t)?;
+                let (en, en_sp) = evaluate(bn.as_ref(), s, t, &mut ws)?;
                 if en.sigma_max < best.value {
                     best = UpperBound {
                         value: en.sigma_max,
                         d: dn.clone(),
                         u: en.u.clone(),
                         v: en.v.clone(),
+                        curvature: (Vec::new(), t),
                     };
                 }
                 if en.f <= cur.f + 1e-4 * alpha * slope {
                     accepted = Some((step, dn, bn, en, en_sp));
                     break;
                 }
-                alpha *= 0.5;
+                // Backtrack to the minimizer of the quadratic through f(0), f'(0) and f(α)
+                // (Nocedal & Wright §3.5), kept within [α/10, α/2]: a far too long first step
+                // (e.g. a neighbour's curvature that does not fit here) costs a few evaluations, not ten.
+                let excess = en.f - cur.f - slope * alpha;
+                let quad = if excess > 0.0 && excess.is_finite() {
+                    -slope * alpha * alpha / (2.0 * excess)
+                } else {
+                    0.5 * alpha
+                };
+                alpha = quad.clamp(0.1 * alpha, 0.5 * alpha);
             }
             let Some((step, dn, bn, en, en_sp)) = accepted else {
                 break;
@@ -502,6 +577,10 @@ pub fn upper_bound(
             cur_sp = en_sp;
             if sy > 1e-300 {
                 bfgs_update(&mut h, &step, &y, sy);
+            }
+            // The bound cannot get meaningfully below a proven lower bound: stop as soon as it meets it.
+            if target > 0.0 && best.value <= target * (1.0 + opts.rel_tol) {
+                return Ok(finish(best, &h, t));
             }
             // Intermediate stages only steer towards the next one: resolving them finer than their
             // smoothing bias (≤ ln(multiplicity)/(2t)) buys nothing; the last stage goes to rel_tol.
@@ -530,7 +609,7 @@ pub fn upper_bound(
         // Same matrix, sharper surrogate: only the weights change, not the spectrum.
         cur = surrogate(b.as_ref(), s, t, &cur_sp)?;
     }
-    Ok(best)
+    Ok(finish(best, &h, t))
 }
 
 fn identity(n: usize) -> Vec<Vec<f64>> {
