@@ -78,12 +78,11 @@ fn spafdr_fit_standard_errors_match_monte_carlo_scatter() {
 /// The other estimators, measured: SPA's and Welch's fits report conservative errors — their
 /// residuals also carry the estimators' smoothing bias (SPA's default 30-lag window, Welch's segment
 /// length), which the residual variance counts as noise (observed/reported 0.04–0.5). The raw ETFE's
-/// are optimistic by up to ≈ 1.5: its inverse-variance weights come from a coherence smoothed over
-/// bins that include the point itself, so noisy points get low weight and the residual variance
-/// underestimates the noise.
+/// are within ≈ 0.8–1.3 (1.1–1.5 before its coherence weights left the point's own bin out); the log of
+/// a single periodogram ratio has heavier tails than the Gaussian the standard errors assume.
 #[test]
 fn other_estimators_fit_standard_errors() {
-    for (m, hi) in [(Method::Spa, 1.0), (Method::Welch, 1.0), (Method::Etfe, 1.8)] {
+    for (m, hi) in [(Method::Spa, 1.0), (Method::Welch, 1.0), (Method::Etfe, 1.5)] {
         let (est, se) = monte_carlo(m, 40, 0.1);
         let ratio = scatter_ratio(&est, &se);
         eprintln!("{m:?} observed/reported σ (K, tau, Td): {ratio:?}");

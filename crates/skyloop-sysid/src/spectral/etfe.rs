@@ -5,8 +5,9 @@ use super::spafdr::Dft;
 use super::{limits, prepare, Frf, IoData, Options};
 use crate::error::Result;
 
-/// Bins used for the coherence and confidence of a raw (unsmoothed) ETFE: a single periodogram has
-/// coherence 1 by construction, so those two come from a 5-bin Hann smoothing.
+/// Bins used for the coherence of a raw (unsmoothed) ETFE: a single periodogram has coherence 1 by
+/// construction, so it comes from the neighbouring bins of a 5-bin Hann smoothing (the point's own bin
+/// left out); the confidence then uses ν = 1, as the estimate is a single periodogram ratio.
 const COHERENCE_BINS: usize = 5;
 
 /// ETFE at every DFT bin in [fmin, fmax].
@@ -28,7 +29,18 @@ pub fn etfe(d: &IoData, o: &Options) -> Result<Frf> {
         .iter()
         .filter_map(|&k| {
             let f = k as f64 * dft.df;
-            dft.smooth(f, width).map(|(c, nu)| (f, c, nu))
+            dft.smooth(f, width).map(|(mut c, mut nu)| {
+                if bins == 1 {
+                    // Leave the point's own bin out of the coherence behind its raw estimate (the Hann
+                    // window's centre tap is 1): otherwise a bin hit by more noise also gets a lower
+                    // coherence, so a lower fit weight, and the fit's residual variance underestimates
+                    // the noise.
+                    c.add(-1.0, dft.u[k], dft.y[k], dft.r.as_ref().map(|r| r[k]));
+                    // The estimate itself is one periodogram ratio: one average.
+                    nu = 1.0;
+                }
+                (f, c, nu)
+            })
         })
         .collect();
     let mut frf = Frf::from_cross(points, p.r.is_some())?;
