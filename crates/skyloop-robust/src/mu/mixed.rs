@@ -13,6 +13,7 @@
 //! meets it. The final (D, G) is mapped back to M's coordinates and the inequality is checked there
 //! with a dense eigen-decomposition; only a bound that passes is returned.
 
+use super::hermitian::{top_eigen, Workspace};
 use super::upper::DScales;
 use crate::uncertainty::blocks::{BlockKind, BlockStructure};
 use faer::linalg::solvers::DenseSolveCore;
@@ -134,11 +135,25 @@ fn eigen(h: &Mat<c64>) -> Result<(Vec<f64>, Mat<c64>)> {
 
 /// f_t and its gradient in (log-D generators, Ĝ) at the scaled matrix `b` (already divided by the
 /// normalization), Ĝ = `g`.
-fn evaluate(b: MatRef<c64>, s: &BlockStructure, g: &[Mat<c64>], t: f64) -> Result<Eval> {
+fn evaluate(b: MatRef<c64>, s: &BlockStructure, g: &[Mat<c64>], t: f64, ws: &mut Workspace) -> Result<Eval> {
     let h = h_matrix(b, s, g);
-    let (lam, vecs) = eigen(&h)?;
-    let n = lam.len();
-    let top = lam.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let n = h.nrows();
+    // Vectors only for the eigenvalues that carry weight e^{t(λ−λ₁)} > 1e-16 (the tridiagonal solver
+    // of the complex bound); the dense solver only if its QR iteration fails.
+    let needed = |lam: &[f64]| {
+        let top = lam.last().copied().unwrap_or(0.0);
+        lam.iter().filter(|&&l| t * (l - top) > -36.8).count().max(1)
+    };
+    let (lam, vecs) = match top_eigen(h.as_ref(), ws, needed) {
+        Some(te) => (te.lam, te.vecs),
+        None => {
+            let (lam, u) = eigen(&h)?;
+            // eigen() is ascending; reorder the vectors so that column c belongs to lam[n − 1 − c].
+            let vecs = Mat::from_fn(n, n, |p, c| u[(p, n - 1 - c)]);
+            (lam, vecs)
+        }
+    };
+    let top = lam.last().copied().unwrap_or(f64::NAN);
     if !top.is_finite() {
         return Err(LtiError::Numerical(
             "non-finite eigenvalue in the mixed mu bound".into(),
@@ -148,12 +163,13 @@ fn evaluate(b: MatRef<c64>, s: &BlockStructure, g: &[Mat<c64>], t: f64) -> Resul
     let mut grad = vec![0.0; np];
     let mut sum = 0.0;
     let mut weights = Vec::new();
-    for (i, &l) in lam.iter().enumerate() {
+    for (c, &l) in lam.iter().rev().enumerate() {
         let w = (t * (l - top)).exp();
-        if w > 1e-16 {
-            weights.push((i, w));
-            sum += w;
+        if w <= 1e-16 || c >= vecs.ncols() {
+            break;
         }
+        weights.push((c, w));
+        sum += w;
     }
     let f = top + sum.ln() / t;
     let nr = b.nrows();
@@ -307,8 +323,9 @@ pub fn mixed_upper_bound(
     let tgt = (target / norm).powi(2);
     let mut t = 8.0;
     let t_max = 1.0e6;
+    let mut ws = Workspace::default();
     let mut b = scaled(m, &x, norm);
-    let mut cur = evaluate(b.as_ref(), s, &x.g, t)?;
+    let mut cur = evaluate(b.as_ref(), s, &x.g, t, &mut ws)?;
     let mut best = (cur.lam_max, x.clone());
     let mut h = identity(np);
     let done = |lam: f64| lam <= 0.0 || (target > 0.0 && lam <= tgt * (1.0 + 2.0 * rel_tol));
@@ -335,7 +352,7 @@ pub fn mixed_upper_bound(
                 let step: Vec<f64> = p.iter().map(|v| alpha * v).collect();
                 let xn = step_point(s, &x, &step)?;
                 let bn = scaled(m, &xn, norm);
-                let en = evaluate(bn.as_ref(), s, &xn.g, t)?;
+                let en = evaluate(bn.as_ref(), s, &xn.g, t, &mut ws)?;
                 if en.lam_max < best.0 {
                     best = (en.lam_max, xn.clone());
                 }
@@ -351,7 +368,7 @@ pub fn mixed_upper_bound(
             // Along Ĝ the function can be (nearly) linear and unbounded below (μ = 0 when no real δ
             // fits): BFGS learns no curvature there, so a step taken in full is stretched while it
             // keeps paying off, within the per-step cap on the D generators (e³).
-            if alpha == alpha0 {
+            if alpha == alpha0 && cur.f - en.f >= -0.9 * alpha * slope {
                 for _ in 0..40 {
                     let longer: Vec<f64> = step.iter().map(|v| 4.0 * v).collect();
                     if d_step_max(s, &longer) > 3.0 || longer.iter().any(|v| v.abs() > 1e8) {
@@ -359,7 +376,7 @@ pub fn mixed_upper_bound(
                     }
                     let xl = step_point(s, &x, &longer)?;
                     let bl = scaled(m, &xl, norm);
-                    let el = evaluate(bl.as_ref(), s, &xl.g, t)?;
+                    let el = evaluate(bl.as_ref(), s, &xl.g, t, &mut ws)?;
                     if el.lam_max < best.0 {
                         best = (el.lam_max, xl.clone());
                     }
@@ -395,7 +412,7 @@ pub fn mixed_upper_bound(
                 *v *= 0.25;
             }
         }
-        cur = evaluate(b.as_ref(), s, &x.g, t)?;
+        cur = evaluate(b.as_ref(), s, &x.g, t, &mut ws)?;
     }
     certify(m, s, &best.1, norm)
 }
