@@ -287,3 +287,19 @@ fn sweep_with_a_real_block_stays_between_the_bounds() {
     }
     assert!(sw.peak.upper >= sw.peak.lower);
 }
+
+#[test]
+fn mixed_bound_rejects_bad_input() {
+    let s = BlockStructure::parse("r1,c1x1").expect("spec");
+    let m = pseudo_random(2, 2, 5);
+    let ub = upper_bound(m.as_ref(), &s, None, 0.0, &UpperOptions::default()).expect("ub");
+    // D-scales of another structure.
+    let other = BlockStructure::parse("r1,f2x2").expect("spec");
+    let m3 = pseudo_random(3, 3, 6);
+    let ub3 = upper_bound(m3.as_ref(), &other, None, 0.0, &UpperOptions::default()).expect("ub");
+    assert!(mixed_upper_bound(m.as_ref(), &s, &ub3.d, ub.value, 0.0, 1e-6).is_err());
+    let mut nan = m.clone();
+    nan[(0, 1)] = c64::new(f64::NAN, 0.0);
+    assert!(mixed_upper_bound(nan.as_ref(), &s, &ub.d, ub.value, 0.0, 1e-6).is_err());
+    assert!(mixed_upper_bound(m3.as_ref(), &s, &ub.d, ub.value, 0.0, 1e-6).is_err());
+}

@@ -302,6 +302,23 @@ pub fn mixed_upper_bound(
     rel_tol: f64,
 ) -> Result<Option<MixedUpper>> {
     s.check_matrix(m.nrows(), m.ncols())?;
+    let fits = d0.left.nrows() == m.nrows()
+        && d0.left.ncols() == m.nrows()
+        && d0.right_inv.nrows() == m.ncols()
+        && d0.right_inv.ncols() == m.ncols()
+        && d0.per_block.len() == s.len()
+        && s.blocks().iter().zip(&d0.per_block).all(|(b, dj)| {
+            let r = if let BlockKind::Full { .. } = b { 1 } else { b.rows() };
+            dj.nrows() == r && dj.ncols() == r
+        });
+    if !fits {
+        return Err(LtiError::InvalidArgument(
+            "the D-scales do not fit the block structure and M".into(),
+        ));
+    }
+    if (0..m.ncols()).any(|j| (0..m.nrows()).any(|i| !(m[(i, j)].re.is_finite() && m[(i, j)].im.is_finite()))) {
+        return Err(LtiError::InvalidArgument("M has a non-finite entry".into()));
+    }
     if !(s.has_real() && complex.is_finite() && complex > 0.0) {
         return Ok(None);
     }
