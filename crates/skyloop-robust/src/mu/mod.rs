@@ -1,5 +1,6 @@
 //! The structured singular value μ: bounds for one matrix, frequency sweeps with peak refinement,
-//! robust stability margins and robust performance by the main loop theorem.
+//! robust stability margins and robust performance by the main loop theorem. With real scalar
+//! blocks the upper bound is the certified D–G (mixed-μ) bound of [`mixed`].
 
 mod hermitian;
 pub mod lower;
