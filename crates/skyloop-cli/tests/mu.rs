@@ -62,6 +62,24 @@ fn siso_expression_is_its_gain() {
 }
 
 #[test]
+fn real_scalar_block_uses_the_dg_bound() {
+    // One real scalar block: 1 − δG(jω) = 0 needs a real δ = 1/G(jω), so μ = |G(0)| = 1 at 0 Hz and
+    // μ = 0 wherever G(jω) is not real (closed form); the complex-only bound would give |G(jω)| = 0.30
+    // at 0.5 Hz.
+    let out = skyloop(&["mu", "1/(s+1)", "--blocks", "r1", "--hz", "0,0.5", "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let (up, lo) = (floats(&v["upper"]), floats(&v["lower"]));
+    assert!(
+        (up[0] - 1.0).abs() < 1e-6 && (lo[0] - 1.0).abs() < 1e-9,
+        "{} {}",
+        up[0],
+        lo[0]
+    );
+    assert!(up[1] <= 1e-6 && lo[1] <= up[1], "{} {}", up[1], lo[1]);
+}
+
+#[test]
 fn bad_input_exits_2() {
     let model = tmp_model(
         "gain.json",

@@ -36,6 +36,12 @@ fn bench(c: &mut Criterion) {
     g.bench_function("20x20_6blocks_200freq", |b| {
         b.iter(|| mu_sweep(&ms, &s, &opts).expect("mu"));
     });
+    // The first 20 responses with the repeated complex scalar made real (r3): the D–G bound on top
+    // of the complex one (no target; it shows the cost of real blocks, per 20 frequencies).
+    let sr = BlockStructure::parse("f4x4,f4x4,r3,c1x1,f4x4,f4x4").expect("spec");
+    g.bench_function("20x20_6blocks_r3_20freq", |b| {
+        b.iter(|| mu_sweep(&ms[..20], &sr, &opts).expect("mu"));
+    });
     g.finish();
 }
 

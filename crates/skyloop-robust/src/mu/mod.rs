@@ -1,12 +1,15 @@
 //! The structured singular value μ: bounds for one matrix, frequency sweeps with peak refinement,
-//! robust stability margins and robust performance by the main loop theorem.
+//! robust stability margins and robust performance by the main loop theorem. With real scalar
+//! blocks the upper bound is the certified D–G (mixed-μ) bound of [`mixed`].
 
 mod hermitian;
 pub mod lower;
+pub mod mixed;
 pub mod sweep;
 pub mod upper;
 
 pub use lower::{lower_bound, lower_bound_vectors, LowerBound};
+pub use mixed::{mixed_upper_bound, MixedUpper};
 pub use sweep::{
     mu_frequency, mu_frequency_bounds, mu_sweep, mu_system, robust_performance, robust_stability, MuPeak, MuSweep,
     StabilityMargin,
@@ -46,11 +49,12 @@ impl Default for MuOptions {
 /// Upper and lower bounds of μ for one matrix, with the scales and the perturbation that prove them.
 #[derive(Debug, Clone)]
 pub struct MuBounds {
-    /// Upper bound σ̄(D_L M D_R⁻¹).
+    /// Upper bound: σ̄(D_L M D_R⁻¹), or for structures with real scalar blocks the certified D–G
+    /// bound ([`mixed_upper_bound`]) when it is smaller.
     pub upper: f64,
     /// Lower bound ρ(QM) of a structured Q in the unit ball.
     pub lower: f64,
-    /// The D-scales of the upper bound.
+    /// The D-scales of the complex upper bound σ̄(D_L M D_R⁻¹) (also the D–G bound's start).
     pub d: DScales,
     /// Structured Δ (M cols × M rows) with σ̄(Δ) = 1/lower and det(I − MΔ) = 0 (zeros if lower = 0).
     pub delta: Mat<c64>,
@@ -136,11 +140,12 @@ fn mu_warm(
             lb_start = again_start;
         }
     }
+    let upper = with_real_blocks(m, s, opts, &ub, lb.value)?;
     Ok(MuBounds {
-        upper: ub.value,
+        upper,
         // Both are computed independently in floating point; a lower bound above the upper one can
         // only be rounding, so it is clipped (the Δ still proves the unclipped value to rounding).
-        lower: lb.value.min(ub.value),
+        lower: lb.value.min(upper),
         d: ub.d,
         delta: lb.delta,
         lower_start: lb_start,
@@ -174,14 +179,27 @@ fn mu_neighbour(
             lb_start = again_start;
         }
     }
+    let upper = with_real_blocks(m, s, opts, &ub, lb.value)?;
     Ok(MuBounds {
-        upper: ub.value,
+        upper,
         // As in mu_warm: a lower bound above the upper one can only be rounding.
-        lower: lb.value.min(ub.value),
+        lower: lb.value.min(upper),
         d: ub.d,
         delta: lb.delta,
         lower_start: lb_start,
         upper_curvature: ub.curvature,
+    })
+}
+
+/// The upper bound to report: the complex one, or with real scalar blocks the certified D–G bound
+/// started from its D-scales if that is smaller (all-complex structures take no extra step).
+fn with_real_blocks(m: MatRef<c64>, s: &BlockStructure, opts: &MuOptions, ub: &UpperBound, lower: f64) -> Result<f64> {
+    if !s.has_real() || ub.value <= lower * (1.0 + opts.rel_tol) {
+        return Ok(ub.value);
+    }
+    Ok(match mixed_upper_bound(m, s, &ub.d, ub.value, lower, opts.rel_tol)? {
+        Some(mx) if mx.value < ub.value => mx.value,
+        _ => ub.value,
     })
 }
 

@@ -7,8 +7,9 @@
 //! t = 4, 16, …, 65536 (f_t − log σ̄ ≤ ln(multiplicity)/(2t)). Steps are multiplicative,
 //! D ← exp(E)·D with E Hermitian and block diagonal (a scalar per full block, a Hermitian r×r
 //! matrix per repeated scalar block), so every iterate is a valid scaling and every σ̄ seen is a
-//! valid upper bound; the smallest one is returned. Real scalar blocks are treated as complex
-//! (a valid but conservative bound: D-G scalings are not implemented).
+//! valid upper bound; the smallest one is returned. Real scalar blocks are treated as complex here
+//! (a valid but conservative bound); for structures with real blocks `mu` then tightens it with
+//! D–G scalings started from this optimum (`mixed::mixed_upper_bound`).
 
 use super::hermitian::{top_eigen, Workspace};
 use crate::uncertainty::blocks::{BlockKind, BlockStructure};
