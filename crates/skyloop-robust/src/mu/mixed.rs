@@ -13,6 +13,7 @@
 //! meets it. The final (D, G) is mapped back to M's coordinates and the inequality is checked there
 //! with a dense eigen-decomposition; only a bound that passes is returned.
 
+use super::bfgs::{bfgs_update, descent, identity, scale};
 use super::hermitian::{top_eigen, Workspace};
 use super::upper::DScales;
 use crate::uncertainty::blocks::{BlockKind, BlockStructure};
@@ -348,21 +349,9 @@ pub fn mixed_upper_bound(
     let done = |lam: f64| lam <= 0.0 || (target > 0.0 && lam <= tgt * (1.0 + 2.0 * rel_tol));
     'stages: loop {
         for _ in 0..60 {
-            let gnorm = cur.grad.iter().map(|g| g * g).sum::<f64>().sqrt();
-            if gnorm < 1e-14 {
+            let Some((p, slope, mut alpha)) = descent(&mut h, &cur.grad, 1e-14) else {
                 break;
-            }
-            let mut p: Vec<f64> = (0..np)
-                .map(|i| -(0..np).map(|k| h[i][k] * cur.grad[k]).sum::<f64>())
-                .collect();
-            let mut slope: f64 = p.iter().zip(&cur.grad).map(|(a, g)| a * g).sum();
-            if slope >= 0.0 {
-                h = identity(np);
-                p = cur.grad.iter().map(|g| -g).collect();
-                slope = -gnorm * gnorm;
-            }
-            let pmax = p.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
-            let mut alpha: f64 = if pmax > 3.0 { 3.0 / pmax } else { 1.0 };
+            };
             let alpha0 = alpha;
             let mut accepted = None;
             for _ in 0..30 {
@@ -424,11 +413,7 @@ pub fn mixed_upper_bound(
             break;
         }
         t *= 4.0;
-        for row in h.iter_mut() {
-            for v in row.iter_mut() {
-                *v *= 0.25;
-            }
-        }
+        scale(&mut h, 0.25);
         cur = evaluate(b.as_ref(), s, &x.g, t, &mut ws)?;
     }
     certify(m, s, &best.1, norm)
@@ -497,23 +482,4 @@ fn certify(m: MatRef<c64>, s: &BlockStructure, x: &Point, norm: f64) -> Result<O
         d: x.d.clone(),
         g,
     }))
-}
-
-fn identity(n: usize) -> Vec<Vec<f64>> {
-    (0..n)
-        .map(|i| (0..n).map(|k| if i == k { 1.0 } else { 0.0 }).collect())
-        .collect()
-}
-
-/// BFGS update of the inverse Hessian H with step s and gradient change y (sᵀy > 0).
-fn bfgs_update(h: &mut [Vec<f64>], s: &[f64], y: &[f64], sy: f64) {
-    let n = s.len();
-    let hy: Vec<f64> = (0..n).map(|i| (0..n).map(|k| h[i][k] * y[k]).sum()).collect();
-    let yhy: f64 = y.iter().zip(&hy).map(|(a, b)| a * b).sum();
-    let rho = 1.0 / sy;
-    for i in 0..n {
-        for k in 0..n {
-            h[i][k] += -rho * (hy[i] * s[k] + s[i] * hy[k]) + (rho * rho * yhy + rho) * s[i] * s[k];
-        }
-    }
 }

@@ -2,6 +2,7 @@
 //! robust stability margins and robust performance by the main loop theorem. With real scalar
 //! blocks the upper bound is the certified D–G (mixed-μ) bound of [`mixed`].
 
+mod bfgs;
 mod hermitian;
 pub mod lower;
 pub mod mixed;

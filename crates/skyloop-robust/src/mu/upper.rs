@@ -11,6 +11,7 @@
 //! (a valid but conservative bound); for structures with real blocks `mu` then tightens it with
 //! D–G scalings started from this optimum (`mixed::mixed_upper_bound`).
 
+use super::bfgs::{bfgs_update, descent, identity, scale};
 use super::hermitian::{top_eigen, Workspace};
 use crate::uncertainty::blocks::{BlockKind, BlockStructure};
 use faer::linalg::solvers::Solve;
@@ -519,23 +520,9 @@ pub fn upper_bound_from(
     };
     loop {
         for _ in 0..opts.iters_per_stage {
-            let gnorm = cur.grad.iter().map(|g| g * g).sum::<f64>().sqrt();
-            if gnorm < 1e-12 {
+            let Some((p, slope, mut alpha)) = descent(&mut h, &cur.grad, 1e-12) else {
                 break;
-            }
-            let mut p: Vec<f64> = (0..np)
-                .map(|i| -(0..np).map(|k| h[i][k] * cur.grad[k]).sum::<f64>())
-                .collect();
-            let mut slope: f64 = p.iter().zip(&cur.grad).map(|(a, g)| a * g).sum();
-            if slope >= 0.0 {
-                // Not a descent direction: restart from steepest descent.
-                h = identity(np);
-                p = cur.grad.iter().map(|g| -g).collect();
-                slope = -gnorm * gnorm;
-            }
-            // Cap the step so that no single scale changes by more than a factor e³ at once.
-            let pmax = p.iter().fold(0.0_f64, |a, x| a.max(x.abs()));
-            let mut alpha: f64 = if pmax > 3.0 { 3.0 / pmax } else { 1.0 };
+            };
             let mut accepted = None;
             for _ in 0..30 {
                 let step: Vec<f64> = p.iter().map(|x| alpha * x).collect();
@@ -601,33 +588,9 @@ pub fn upper_bound_from(
             break;
         }
         t *= 4.0;
-        // The kink's curvature grows like t: shrink the inverse Hessian to match.
-        for row in h.iter_mut() {
-            for x in row.iter_mut() {
-                *x *= 0.25;
-            }
-        }
+        scale(&mut h, 0.25);
         // Same matrix, sharper surrogate: only the weights change, not the spectrum.
         cur = surrogate(b.as_ref(), s, t, &cur_sp)?;
     }
     Ok(finish(best, &h, t))
-}
-
-fn identity(n: usize) -> Vec<Vec<f64>> {
-    (0..n)
-        .map(|i| (0..n).map(|k| if i == k { 1.0 } else { 0.0 }).collect())
-        .collect()
-}
-
-/// BFGS update of the inverse Hessian H with step s and gradient change y (sᵀy > 0).
-fn bfgs_update(h: &mut [Vec<f64>], s: &[f64], y: &[f64], sy: f64) {
-    let n = s.len();
-    let hy: Vec<f64> = (0..n).map(|i| (0..n).map(|k| h[i][k] * y[k]).sum()).collect();
-    let yhy: f64 = y.iter().zip(&hy).map(|(a, b)| a * b).sum();
-    let rho = 1.0 / sy;
-    for i in 0..n {
-        for k in 0..n {
-            h[i][k] += -rho * (hy[i] * s[k] + s[i] * hy[k]) + (rho * rho * yhy + rho) * s[i] * s[k];
-        }
-    }
 }
