@@ -4,6 +4,9 @@ use faer::{c64, Mat, MatRef};
 use skyloop_robust::mu::{mu, mu_frequency, robust_performance, robust_stability, MuOptions};
 use skyloop_robust::uncertainty::{BlockKind, BlockStructure};
 
+mod common;
+use common::pseudo_random;
+
 fn sigma_min(x: MatRef<c64>) -> f64 {
     let s = x.singular_values().expect("svd");
     s.iter().copied().fold(f64::INFINITY, f64::min)
@@ -51,18 +54,6 @@ fn check_delta(m: MatRef<c64>, s: &BlockStructure, delta: MatRef<c64>, lower: f6
     );
     assert!(sigma_min(i_md.as_ref()) < 1e-8, "I - MΔ is not singular");
     assert!((sigma_max(delta) * lower - 1.0).abs() < 1e-8, "σ̄(Δ) is not 1/lower");
-}
-
-/// Deterministic pseudo-random complex matrix (xorshift), for property tests.
-fn pseudo_random(nr: usize, nc: usize, seed: u64) -> Mat<c64> {
-    let mut x = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
-    let mut next = || {
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
-        (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-    };
-    Mat::from_fn(nr, nc, |_, _| c64::new(next(), next()))
 }
 
 #[test]

@@ -6,17 +6,8 @@ use faer::{c64, Mat, MatRef};
 use skyloop_robust::mu::{mixed_upper_bound, mu, mu_frequency, upper_bound, MuOptions, UpperOptions};
 use skyloop_robust::uncertainty::BlockStructure;
 
-/// Test-only xorshift matrix with entries in [−0.5, 0.5] + j[−0.5, 0.5].
-fn pseudo_random(nr: usize, nc: usize, seed: u64) -> Mat<c64> {
-    let mut x = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
-    let mut next = || {
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
-        (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-    };
-    Mat::from_fn(nr, nc, |_, _| c64::new(next(), next()))
-}
+mod common;
+use common::pseudo_random;
 
 /// The complex-only bound (real blocks treated as complex), as `mu` reported before D–G scalings.
 fn complex_bound(m: MatRef<c64>, s: &BlockStructure) -> f64 {

@@ -122,7 +122,7 @@ fn mu_warm(
         let w: Vec<c64> = (0..m.ncols()).map(|_| r()).collect();
         starts.push((b, w));
     }
-    let (mut lb, mut lb_start) = lower_bound_vectors(m, s, &starts, opts.power_iters)?;
+    let (lb, lb_start) = lower_bound_vectors(m, s, &starts, opts.power_iters)?;
     let full = UpperOptions {
         rel_tol: opts.rel_tol,
         t_max: opts.t_max,
@@ -134,24 +134,7 @@ fn mu_warm(
     if ub0.value < ub.value {
         ub = ub0;
     }
-    if ub.value > lb.value * (1.0 + opts.rel_tol) {
-        let (again, again_start) = lower_bound_vectors(m, s, &[start_from(m, &ub)], opts.power_iters)?;
-        if again.value > lb.value {
-            lb = again;
-            lb_start = again_start;
-        }
-    }
-    let upper = with_real_blocks(m, s, opts, &ub, lb.value)?;
-    Ok(MuBounds {
-        upper,
-        // Both are computed independently in floating point; a lower bound above the upper one can
-        // only be rounding, so it is clipped (the Δ still proves the unclipped value to rounding).
-        lower: lb.value.min(upper),
-        d: ub.d,
-        delta: lb.delta,
-        lower_start: lb_start,
-        upper_curvature: ub.curvature,
-    })
+    finish(m, s, opts, ub, (lb, lb_start))
 }
 
 /// μ bounds from a neighbouring frequency's optimum: the lower bound first (the previous power-iteration
@@ -165,7 +148,7 @@ fn mu_neighbour(
     st: &(Vec<c64>, Vec<c64>),
     curvature: Option<&(Vec<f64>, f64)>,
 ) -> Result<MuBounds> {
-    let (mut lb, mut lb_start) = lower_bound_vectors(m, s, std::slice::from_ref(st), opts.power_iters)?;
+    let (lb, lb_start) = lower_bound_vectors(m, s, std::slice::from_ref(st), opts.power_iters)?;
     let up = UpperOptions {
         rel_tol: opts.rel_tol,
         t_max: opts.t_max,
@@ -173,6 +156,19 @@ fn mu_neighbour(
         t_start: 1024.0_f64.min(opts.t_max),
     };
     let ub = upper_bound_from(m, s, Some(d0), curvature, lb.value, &up)?;
+    finish(m, s, opts, ub, (lb, lb_start))
+}
+
+/// Completes μ bounds from an upper bound and a lower bound with its power-iteration vectors: when they
+/// are apart, one more power iteration starts from the upper bound's singular vectors; real blocks then
+/// get the D–G bound.
+fn finish(
+    m: MatRef<c64>,
+    s: &BlockStructure,
+    opts: &MuOptions,
+    ub: UpperBound,
+    (mut lb, mut lb_start): (LowerBound, (Vec<c64>, Vec<c64>)),
+) -> Result<MuBounds> {
     if ub.value > lb.value * (1.0 + opts.rel_tol) {
         let (again, again_start) = lower_bound_vectors(m, s, &[start_from(m, &ub)], opts.power_iters)?;
         if again.value > lb.value {
@@ -183,7 +179,8 @@ fn mu_neighbour(
     let upper = with_real_blocks(m, s, opts, &ub, lb.value)?;
     Ok(MuBounds {
         upper,
-        // As in mu_warm: a lower bound above the upper one can only be rounding.
+        // Both are computed independently in floating point; a lower bound above the upper one can
+        // only be rounding, so it is clipped (the Δ still proves the unclipped value to rounding).
         lower: lb.value.min(upper),
         d: ub.d,
         delta: lb.delta,
