@@ -93,35 +93,6 @@ impl Dense {
     }
 }
 
-/// The block-diagonal Q (Δ-shaped: M cols × M rows) aligned with the vectors a (M-row space) and
-/// w (M-column space); every block has σ̄ ≤ 1.
-fn build_q(s: &BlockStructure, a: &[c64], w: &[c64]) -> Mat<c64> {
-    let mut q = Mat::<c64>::zeros(s.m_cols(), s.m_rows());
-    for (j, blk) in s.blocks().iter().enumerate() {
-        let (rr, cr) = (s.row_range(j), s.col_range(j));
-        let (aj, wj) = (&a[rr.clone()], &w[cr.clone()]);
-        match blk {
-            BlockKind::Full { .. } => {
-                let (na, nw) = (norm(aj), norm(wj));
-                if na > 0.0 && nw > 0.0 {
-                    for (p, wp) in wj.iter().enumerate() {
-                        for (k, ak) in aj.iter().enumerate() {
-                            q[(cr.start + p, rr.start + k)] = wp * ak.conj() / (na * nw);
-                        }
-                    }
-                }
-            }
-            _ => {
-                let ph = phase(dot(aj, wj));
-                for p in 0..blk.rows() {
-                    q[(cr.start + p, rr.start + p)] = ph;
-                }
-            }
-        }
-    }
-    q
-}
-
 /// One power-iteration run from (b0, w0); returns the final a, w and b.
 fn power_iteration(
     m: MatRef<c64>,
@@ -210,9 +181,10 @@ fn eigenvalues(x: MatRef<c64>) -> Result<Vec<c64>> {
         .map_err(|e| LtiError::Numerical(format!("eigenvalues in the mu lower bound failed: {e:?}")))
 }
 
-/// Q of `build_q` as a sum of r outer products Q = U Vᴴ (U: M cols × r, V: M rows × r): a full
-/// block's Q_j is rank one and a δI_k block contributes k columns, so r is the number of full blocks
-/// plus the sizes of the scalar blocks, usually far below M's size.
+/// The block-diagonal Q (Δ-shaped: M cols × M rows) aligned with the vectors a (M-row space) and
+/// w (M-column space), every block with σ̄ ≤ 1, as a sum of r outer products Q = U Vᴴ (U: M cols × r,
+/// V: M rows × r): a full block's Q_j is rank one and a δI_k block contributes k columns, so r is the
+/// number of full blocks plus the sizes of the scalar blocks, usually far below M's size.
 fn low_rank_q(s: &BlockStructure, a: &[c64], w: &[c64]) -> (Mat<c64>, Mat<c64>) {
     // One (u, v) pair per column, each a sparse list of (index, value).
     type Sparse = Vec<(usize, c64)>;
@@ -251,14 +223,14 @@ fn low_rank_q(s: &BlockStructure, a: &[c64], w: &[c64]) -> (Mat<c64>, Mat<c64>) 
     (u, v)
 }
 
-/// The candidate bound of Q = build_q(a, w): for complex structures ρ(QM) and Δ = Q e^{−i∠λ}/|λ|.
+/// The candidate bound of Q = low_rank_q(a, w): for complex structures ρ(QM) and Δ = Q e^{−i∠λ}/|λ|.
 fn candidate(m: MatRef<c64>, s: &BlockStructure, a: &[c64], w: &[c64]) -> Result<LowerBound> {
-    let q = build_q(s, a, w);
+    let (u, v) = low_rank_q(s, a, w);
+    let q = &u * v.adjoint();
     if s.has_real() {
         return real_candidate(m, s, &q);
     }
     // The nonzero eigenvalues of QM = U (VᴴM) are those of the small VᴴMU.
-    let (u, v) = low_rank_q(s, a, w);
     let lam = if u.ncols() == 0 {
         Vec::new()
     } else {

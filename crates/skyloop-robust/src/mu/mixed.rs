@@ -100,10 +100,11 @@ struct Eval {
     grad: Vec<f64>,
 }
 
-/// H = BᴴB + j(ĜB − BᴴĜᴴ) with Ĝ placed at (column range, row range) of each real block.
-fn h_matrix(b: MatRef<c64>, s: &BlockStructure, g: &[Mat<c64>]) -> Mat<c64> {
-    let nc = b.ncols();
-    let mut gb = Mat::<c64>::zeros(nc, nc);
+/// G·X for the block-diagonal G (M cols × M rows) holding G_j at (column range, row range) of each
+/// real block and zero elsewhere.
+fn g_times(s: &BlockStructure, g: &[Mat<c64>], x: MatRef<c64>) -> Mat<c64> {
+    let nc = x.ncols();
+    let mut gx = Mat::<c64>::zeros(s.m_cols(), nc);
     for (j, blk) in s.blocks().iter().enumerate() {
         if !blk.is_real() {
             continue;
@@ -114,12 +115,19 @@ fn h_matrix(b: MatRef<c64>, s: &BlockStructure, g: &[Mat<c64>]) -> Mat<c64> {
                 let gpq = g[j][(p, q)];
                 if gpq != ZERO {
                     for c in 0..nc {
-                        gb[(cp, c)] += gpq * b[(rq, c)];
+                        gx[(cp, c)] += gpq * x[(rq, c)];
                     }
                 }
             }
         }
     }
+    gx
+}
+
+/// H = BᴴB + j(ĜB − BᴴĜᴴ) with Ĝ placed at (column range, row range) of each real block.
+fn h_matrix(b: MatRef<c64>, s: &BlockStructure, g: &[Mat<c64>]) -> Mat<c64> {
+    let nc = b.ncols();
+    let gb = g_times(s, g, b);
     let bhb = b.adjoint() * b;
     let jj = c64::new(0.0, 1.0);
     Mat::from_fn(nc, nc, |p, q| bhb[(p, q)] + jj * (gb[(p, q)] - gb[(q, p)].conj()))
@@ -452,21 +460,7 @@ fn certify(m: MatRef<c64>, s: &BlockStructure, x: &Point, norm: f64) -> Result<O
     let p_r = d_r.adjoint() * &d_r;
     let p_l = x.d.left.adjoint() * &x.d.left;
     let mpm = m.adjoint() * &p_l * m;
-    // G·M with G (nc×nr) holding G_j at (column range, row range).
-    let mut gm = Mat::<c64>::zeros(nc, nc);
-    for (j, blk) in s.blocks().iter().enumerate() {
-        if !blk.is_real() {
-            continue;
-        }
-        let (rr, cr) = (s.row_range(j), s.col_range(j));
-        for (p, cp) in cr.clone().enumerate() {
-            for (q, rq) in rr.clone().enumerate() {
-                for c in 0..nc {
-                    gm[(cp, c)] += g[j][(p, q)] * m[(rq, c)];
-                }
-            }
-        }
-    }
+    let gm = g_times(s, &g, m);
     let jj = c64::new(0.0, 1.0);
     let a = Mat::from_fn(nc, nc, |p, q| {
         mpm[(p, q)] + jj * (gm[(p, q)] - gm[(q, p)].conj()) - p_r[(p, q)] * beta2
