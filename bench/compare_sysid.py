@@ -69,7 +69,7 @@ try:
     import pyulog  # noqa: F401
     from pyulog import ULog
 
-    p = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data", "logs", "sample.ulg")
+    p = os.path.join(os.path.dirname(__file__), "..", "testdata", "logs", "sample.ulg")
     rows.append(("read sample.ulg (4 MB)", ours("read_sample_ulg_4mb"), best_of(lambda: ULog(p), 3), "pyulog"))
 except ImportError:
     rows.append(("read sample.ulg (4 MB)", ours("read_sample_ulg_4mb"), float("nan"), "pyulog not installed"))

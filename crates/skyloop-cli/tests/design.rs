@@ -1,5 +1,5 @@
 //! CLI golden tests of `skyloop design` on examples/bicopter.toml against the bicopter paper
-//! (../shared/seeds/000_72ec9ee75feda2b7.txt, Section IV), its output files, `skyloop reproduce
+//! ("Modeling, Identification, and Control of Non-minimum Phase Dynamics of Bi-copter UAVs", Section IV), its output files, `skyloop reproduce
 //! bicopter`, and exit status 2 on bad specs.
 
 use skyloop_lti::freqresp::{evalfr, logspace};

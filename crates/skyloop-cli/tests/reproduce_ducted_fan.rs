@@ -1,4 +1,4 @@
-//! CLI: `skyloop reproduce ducted-fan` (Pross, ../shared/seeds/002_ea256cf036d9f988.txt).
+//! CLI: `skyloop reproduce ducted-fan` (Pross, "H∞ and μ-synthesis of a ducted-fan VTOL micro-UAV").
 
 use std::process::Command;
 use std::time::Instant;

@@ -10,7 +10,7 @@ fn tmp(name: &str) -> PathBuf {
 }
 
 fn log_path(name: &str) -> String {
-    format!("{}/../../../shared/data/logs/{name}", env!("CARGO_MANIFEST_DIR"))
+    format!("{}/../../testdata/logs/{name}", env!("CARGO_MANIFEST_DIR"))
 }
 
 fn skyloop(args: &[&str]) -> std::process::Output {

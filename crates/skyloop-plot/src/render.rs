@@ -26,6 +26,21 @@ fn color(i: usize) -> RGBColor {
     PALETTE[i % PALETTE.len()]
 }
 
+/// The embedded DejaVu Sans (Bitstream Vera licence, `fonts/DejaVu-LICENSE.txt`): text is drawn with
+/// it on every machine, so no system font library (fontconfig, freetype) or C compiler is needed.
+static FONT: &[u8] = include_bytes!("../fonts/DejaVuSans.ttf");
+
+/// Registers the embedded font as plotters' "sans-serif" once per process.
+fn register_font() -> std::result::Result<(), String> {
+    static REGISTERED: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    let ok = *REGISTERED.get_or_init(|| plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).is_ok());
+    if ok {
+        Ok(())
+    } else {
+        Err("the embedded font could not be loaded".into())
+    }
+}
+
 /// Writes `fig` to `path`, choosing the backend from the extension.
 pub(crate) fn save(fig: &Figure, path: &Path) -> Result<()> {
     let name = path.display().to_string();
@@ -72,6 +87,7 @@ pub(crate) fn svg_string(fig: &Figure) -> Result<String> {
 }
 
 fn draw_figure<DB: DrawingBackend>(fig: &Figure, root: &DrawingArea<DB, Shift>) -> std::result::Result<(), String> {
+    register_font()?;
     root.fill(&WHITE).map_err(|e| e.to_string())?;
     let root = root.titled(&fig.title, ("sans-serif", 22)).map_err(|e| e.to_string())?;
     let areas = root.split_evenly((fig.panels.len(), 1));

@@ -1,5 +1,5 @@
 //! The design pipeline on the bicopter paper (examples/bicopter.toml; the paper is
-//! ../shared/seeds/000_72ec9ee75feda2b7.txt) and on bad specs. The CLI golden tests
+//! "Modeling, Identification, and Control of Non-minimum Phase Dynamics of Bi-copter UAVs") and on bad specs. The CLI golden tests
 //! (crates/skyloop-cli/tests/design.rs) check the printed margins; these check the library's
 //! internal consistency.
 

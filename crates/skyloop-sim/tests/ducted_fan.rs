@@ -1,4 +1,4 @@
-//! The ducted fan of Pross (../shared/seeds/002_ea256cf036d9f988.txt): its hover linearization at
+//! The ducted fan of Pross ("H∞ and μ-synthesis of a ducted-fan VTOL micro-UAV"): its hover linearization at
 //! yaw 45° against partial derivatives of eq. (3)–(4) worked out by hand, the actuator/body split
 //! of Section II-D, and the linear outputs measured on the nonlinear state.
 

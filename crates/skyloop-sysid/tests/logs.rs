@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use skyloop_sysid::logs::{blackbox, Log, LogFormat, OpenOptions};
 
 fn data(name: &str) -> PathBuf {
-    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/logs")).join(name)
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../testdata/logs")).join(name)
 }
 
 fn open(name: &str) -> Log {

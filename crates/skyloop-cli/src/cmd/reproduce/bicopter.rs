@@ -1,4 +1,4 @@
-//! Li, Qin, Xu & Zhang, bicopter roll-rate H∞ loop shaping (../shared/seeds/000_72ec9ee75feda2b7.txt,
+//! Li, Qin, Xu & Zhang, bicopter roll-rate H∞ loop shaping ("Modeling, Identification, and Control of Non-minimum Phase Dynamics of Bi-copter UAVs",
 //! Section IV): runs examples/bicopter.toml and sets every number the section prints beside ours.
 
 use super::Claims;

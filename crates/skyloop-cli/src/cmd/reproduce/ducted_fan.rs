@@ -1,4 +1,4 @@
-//! Pross, H∞ and μ-synthesis of a ducted-fan VTOL micro-UAV (../shared/seeds/002_ea256cf036d9f988.txt):
+//! Pross, H∞ and μ-synthesis of a ducted-fan VTOL micro-UAV ("H∞ and μ-synthesis of a ducted-fan VTOL micro-UAV"):
 //! the generalized plant of Fig. 2–3 (see `plant`), H∞ synthesis on G_nom (eq. (11); paper: γ ≈ 0.6),
 //! μ analysis of the H∞ loop against the structure (7) (robust stability and, by the main loop theorem
 //! with the augmented structure (13), robust performance, as Fig. 4b), μ-synthesis by DK-iteration

@@ -1,4 +1,4 @@
-//! Tai, Phang & Hoo (2018), SSI-PI for the multirotor inner loop (../shared/seeds/003_...txt):
+//! Tai, Phang & Hoo (2018), SSI-PI for the multirotor inner loop ("Steady-State Integral PI controller for the inner loop of multirotors"):
 //! eq. (32) characteristic polynomial, eq. (33) poles for Jm = J, Routh condition (35), and the
 //! nonlinear step responses with Jm = J and Jm = 0.5·J under a gust (Fig. 6–8), against a plain PI.
 
