@@ -1,16 +1,16 @@
 //! Printing results: exactly one JSON object on stdout with --json, readable tables otherwise.
 
-use skyloop_lti::Mat;
+use skyloop::lti::Mat;
 
 /// Prints one JSON value on stdout.
-pub fn print_json<T: serde::Serialize>(v: &T) -> Result<(), String> {
+pub fn print_json<T: serde::Serialize>(v: &T) -> skyloop::Result<()> {
     use std::io::Write;
-    let s = serde_json::to_string(v).map_err(|e| format!("cannot encode JSON: {e}"))?;
+    let s = serde_json::to_string(v)?;
     let mut out = std::io::stdout().lock();
     match writeln!(out, "{s}").and_then(|_| out.flush()) {
         // A reader that stopped early (`| head`) is not an error of ours.
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
-        Err(e) => Err(format!("cannot write to stdout: {e}")),
+        Err(e) => Err(skyloop::Error::Failed(format!("cannot write to stdout: {e}"))),
         Ok(()) => Ok(()),
     }
 }

@@ -2,8 +2,8 @@
 //! ("Modeling, Identification, and Control of Non-minimum Phase Dynamics of Bi-copter UAVs", Section IV), its output files, `skyloop reproduce
 //! bicopter`, and exit status 2 on bad specs.
 
-use skyloop_lti::freqresp::{evalfr, logspace};
-use skyloop_lti::{c64, StateSpace};
+use skyloop::lti::freqresp::{evalfr, logspace};
+use skyloop::lti::{c64, StateSpace};
 use std::f64::consts::PI;
 
 const BICOPTER: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/bicopter.toml");
@@ -18,7 +18,7 @@ fn tmp(name: &str) -> std::path::PathBuf {
 }
 
 fn load(path: &std::path::Path) -> StateSpace {
-    skyloop_lti::json::from_json_str(&std::fs::read_to_string(path).expect("read")).expect("lti json")
+    skyloop::lti::json::from_json_str(&std::fs::read_to_string(path).expect("read")).expect("lti json")
 }
 
 fn at(sys: &StateSpace, w: f64) -> c64 {

@@ -49,10 +49,10 @@ fn distillation_example_two_iterations() {
     let best = v["mu_peak"].as_f64().expect("mu_peak");
     assert!(best <= mu1 && best == mu1.min(mu2));
     // The controller is valid LTI JSON with 2 inputs and 2 outputs, and the same one is on disk.
-    let k = skyloop_lti::json::from_json_str(&v["controller"].to_string()).expect("controller JSON");
+    let k = skyloop::lti::json::from_json_str(&v["controller"].to_string()).expect("controller JSON");
     assert_eq!((k.ny(), k.nu()), (2, 2));
     let disk = std::fs::read_to_string(out_dir.join("controller.json")).expect("controller.json");
-    let kd = skyloop_lti::json::from_json_str(&disk).expect("controller.json parses");
+    let kd = skyloop::lti::json::from_json_str(&disk).expect("controller.json parses");
     assert_eq!(kd.nx(), k.nx());
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out_dir.join("musyn.json")).expect("musyn.json")).expect("json");

@@ -19,6 +19,15 @@ pub enum Block {
         /// Rows of cells, each as long as the header.
         rows: Vec<Vec<String>>,
     },
+    /// SVG text drawn elsewhere (a file a workflow already wrote), inlined as it is, with a caption.
+    Svg {
+        /// The `<svg>` document.
+        svg: String,
+        /// Text under the plot.
+        caption: String,
+    },
+    /// Preformatted text (a console account), escaped.
+    Pre(String),
     /// A figure rendered to SVG and inlined, with a caption.
     Figure {
         /// The plot.
@@ -107,6 +116,14 @@ impl Report {
                         let svg = figure.to_svg_string()?;
                         let _ = writeln!(h, "<figure>{svg}<figcaption>{}</figcaption></figure>", esc(caption));
                     }
+                    Block::Svg { svg, caption } => {
+                        // An XML prolog is not allowed inside HTML.
+                        let body = svg.find("<svg").map_or(svg.as_str(), |i| &svg[i..]);
+                        let _ = writeln!(h, "<figure>{body}<figcaption>{}</figcaption></figure>", esc(caption));
+                    }
+                    Block::Pre(t) => {
+                        let _ = writeln!(h, "<pre>{}</pre>", esc(t));
+                    }
                 }
             }
         }
@@ -140,6 +157,15 @@ impl Section {
         self
     }
 
+    /// Appends a table with the given header and rows.
+    pub fn table(&mut self, header: &[&str], rows: Vec<Vec<String>>) -> &mut Self {
+        self.blocks.push(Block::Table {
+            header: header.iter().map(|h| h.to_string()).collect(),
+            rows,
+        });
+        self
+    }
+
     /// Appends a figure with a caption.
     pub fn figure(&mut self, figure: Figure, caption: impl Into<String>) -> &mut Self {
         self.blocks.push(Block::Figure {
@@ -152,7 +178,8 @@ impl Section {
 
 const STYLE: &str = "body{font-family:sans-serif;max-width:1000px;margin:2em auto;color:#222}\
 table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #bbb;padding:4px 10px;text-align:left}\
-th{background:#f0f0f0}figure{margin:1em 0}figcaption{color:#555;font-size:90%}svg{max-width:100%;height:auto}";
+th{background:#f0f0f0}figure{margin:1em 0}figcaption{color:#555;font-size:90%}svg{max-width:100%;height:auto}pre{background:#f7f7f7;padding:8px;overflow-x:auto;font-size:85%}\
+.ok{color:#1a7f37}.no{color:#b00020;font-weight:bold}";
 
 /// Escapes text for HTML.
 fn esc(s: &str) -> String {

@@ -1,5 +1,4 @@
 //! skyloop-robust.
-pub mod design;
 pub mod hinfsyn;
 mod linutil;
 pub mod mixsyn;

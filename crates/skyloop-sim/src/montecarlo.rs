@@ -133,8 +133,13 @@ pub fn run_one(scn: &Scenario, mc: &MonteCarloSpec, i: usize) -> Result<Metrics>
     Ok(sim.run(scn.sim.duration_s, every, scn.sim.settle_band).1)
 }
 
-/// Runs the study in parallel (all rayon threads); `progress` shows an indicatif bar on stderr.
-pub fn run(scn: &Scenario, mc: &MonteCarloSpec, progress: bool) -> Result<(Vec<Metrics>, Summary)> {
+/// Runs the study in parallel (all rayon threads). `progress(done, total)` is called after each run,
+/// from whichever thread finished it, so a caller can draw a progress bar; this crate prints nothing.
+pub fn run(
+    scn: &Scenario,
+    mc: &MonteCarloSpec,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<(Vec<Metrics>, Summary)> {
     if mc.runs == 0 {
         return Err(SimError::Param("monte_carlo.runs must be at least 1".into()));
     }
@@ -143,20 +148,15 @@ pub fn run(scn: &Scenario, mc: &MonteCarloSpec, progress: bool) -> Result<(Vec<M
     check_min(mc.disturbance_sd, 0.0, "monte_carlo.disturbance_sd")?;
     // Fail fast on a bad scenario before spawning work.
     Simulation::new(scn, mc.seed)?;
-    let bar = if progress {
-        indicatif::ProgressBar::new(mc.runs as u64)
-    } else {
-        indicatif::ProgressBar::hidden()
-    };
+    let done = std::sync::atomic::AtomicUsize::new(0);
     let all: Result<Vec<Metrics>> = (0..mc.runs)
         .into_par_iter()
         .map(|i| {
             let r = run_one(scn, mc, i);
-            bar.inc(1);
+            progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1, mc.runs);
             r
         })
         .collect();
-    bar.finish_and_clear();
     let all = all?;
     let col = |f: &dyn Fn(&Metrics) -> f64| all.iter().map(f).collect::<Vec<f64>>();
     let settled: Vec<f64> = all.iter().filter_map(|m| m.settling_time_s).collect();

@@ -1,7 +1,7 @@
 //! `skyloop bode MODEL.. --out FILE [--margins]`: Bode plot of one or more models; with `--margins`
 //! the first model is taken as the loop transfer L and its crossover and margins are marked.
 
-use skyloop_plot::bode::{plot_bode, BodeData, BodeMarks};
+use skyloop::plot::bode::{plot_bode, BodeData, BodeMarks};
 
 use super::plot_args::{channel, PlotArgs};
 
@@ -16,12 +16,12 @@ pub struct Args {
 }
 
 /// Computes every model's Bode data on one grid and writes the plot.
-pub fn run(a: Args) -> Result<(), String> {
+pub fn run(a: Args) -> skyloop::Result<()> {
     let models = a.plot.load()?;
     let w = a.plot.grid(&models)?;
     let mut data = Vec::new();
     for (label, sys) in &models {
-        let b = skyloop_lti::freqresp::bode(sys, Some(&w)).map_err(|e| format!("{label}: {e}"))?;
+        let b = skyloop::lti::freqresp::bode(sys, Some(&w)).map_err(|e| format!("{label}: {e}"))?;
         for i in 0..sys.ny() {
             for j in 0..sys.nu() {
                 data.push(BodeData {
@@ -38,21 +38,17 @@ pub fn run(a: Args) -> Result<(), String> {
     } else {
         BodeMarks::default()
     };
-    plot_bode(&a.plot.out, &a.plot.title_or("Bode"), &data, &marks).map_err(|e| e.to_string())?;
+    plot_bode(&a.plot.out, &a.plot.title_or("Bode"), &data, &marks)?;
     eprintln!("wrote {}", a.plot.out.display());
     Ok(())
 }
 
 /// Crossover, gain margin and phase margin of a SISO loop, in the units the plot uses (Hz, dB, deg).
-fn loop_marks(label: &str, l: &skyloop_lti::StateSpace) -> Result<BodeMarks, String> {
+fn loop_marks(label: &str, l: &skyloop::lti::StateSpace) -> skyloop::Result<BodeMarks> {
     if l.ny() != 1 || l.nu() != 1 {
-        return Err(format!(
-            "--margins needs a SISO loop transfer, {label} is {}×{}",
-            l.ny(),
-            l.nu()
-        ));
+        return Err(format!("--margins needs a SISO loop transfer, {label} is {}×{}", l.ny(), l.nu()).into());
     }
-    let m = skyloop_lti::margins::margin(l).map_err(|e| format!("{label}: {e}"))?;
+    let m = skyloop::lti::margins::margin(l).map_err(|e| format!("{label}: {e}"))?;
     let hz = |w: f64| w / (2.0 * std::f64::consts::PI);
     let finite = |v: f64, w: f64| (v.is_finite() && w.is_finite()).then_some((v, hz(w)));
     Ok(BodeMarks {

@@ -1,7 +1,7 @@
 //! `skyloop c2d MODEL --dt T --method zoh|foh|tustin|matched [--prewarp-hz F]`: discretize a model.
 
-use crate::{input, output};
-use skyloop_lti::discretize::{c2d, Method};
+use crate::output;
+use skyloop::lti::discretize::{c2d, Method};
 
 /// Arguments of `skyloop c2d`.
 #[derive(clap::Args)]
@@ -23,8 +23,8 @@ pub struct Args {
 }
 
 /// Discretizes the model and prints it.
-pub fn run(a: Args) -> Result<(), String> {
-    let sys = input::load_model(&a.model)?;
+pub fn run(a: Args) -> skyloop::Result<()> {
+    let sys = skyloop::model::load_model(&a.model)?;
     let mut method: Method = a.method.parse().map_err(|e| format!("{e}"))?;
     if let Some(f) = a.prewarp_hz {
         match method {
@@ -36,9 +36,9 @@ pub fn run(a: Args) -> Result<(), String> {
             _ => return Err("--prewarp-hz applies to the tustin method only".into()),
         }
     }
-    let d = c2d(&sys, a.dt, method).map_err(|e| e.to_string())?;
+    let d = c2d(&sys, a.dt, method)?;
     if a.json {
-        return output::print_json(&skyloop_lti::json::LtiJson::from_ss(&d));
+        return output::print_json(&skyloop::lti::json::LtiJson::from_ss(&d));
     }
     println!(
         "{} states, {} outputs, {} inputs, dt = {} s",

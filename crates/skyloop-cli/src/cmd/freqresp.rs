@@ -23,13 +23,13 @@ pub struct Args {
 }
 
 /// Evaluates the model at the requested frequencies and prints them.
-pub fn run(a: Args) -> Result<(), String> {
-    let sys = input::load_model(&a.model)?;
+pub fn run(a: Args) -> skyloop::Result<()> {
+    let sys = skyloop::model::load_model(&a.model)?;
     let freq_hz = match &a.hz {
         Some(t) => {
             let f = input::parse_list(t, "--hz")?;
             if let Some(x) = f.iter().find(|&&x| x < 0.0) {
-                return Err(format!("--hz: frequencies must be >= 0, got {x}"));
+                return Err(format!("--hz: frequencies must be >= 0, got {x}").into());
             }
             f
         }
@@ -39,10 +39,9 @@ pub fn run(a: Args) -> Result<(), String> {
             if !ok {
                 return Err("--logspace-hz needs LO,HI,N with 0 < LO < HI and an integer N >= 2".into());
             }
-            skyloop_lti::freqresp::logspace(p[0].log10(), p[1].log10(), p[2] as usize)
+            skyloop::lti::freqresp::logspace(p[0].log10(), p[1].log10(), p[2] as usize)
         }
-        None => skyloop_lti::freqresp::default_grid(&sys, 50)
-            .map_err(|e| e.to_string())?
+        None => skyloop::lti::freqresp::default_grid(&sys, 50)?
             .into_iter()
             .map(|w| w / (2.0 * PI))
             .collect(),
@@ -52,14 +51,14 @@ pub fn run(a: Args) -> Result<(), String> {
         let mut best = f64::INFINITY;
         for _ in 0..n.max(1) {
             let t = std::time::Instant::now();
-            let g = skyloop_lti::freqresp::freqresp(&sys, &w).map_err(|e| e.to_string())?;
+            let g = skyloop::lti::freqresp::freqresp(&sys, &w)?;
             best = best.min(t.elapsed().as_secs_f64());
             std::hint::black_box(g);
         }
         eprintln!("bench_seconds {best:e}");
     }
-    let g = skyloop_lti::freqresp::freqresp(&sys, &w).map_err(|e| e.to_string())?;
-    let part = |f: fn(&skyloop_lti::c64) -> f64| -> Vec<Vec<Vec<f64>>> {
+    let g = skyloop::lti::freqresp::freqresp(&sys, &w)?;
+    let part = |f: fn(&skyloop::lti::c64) -> f64| -> Vec<Vec<Vec<f64>>> {
         g.iter()
             .map(|m| {
                 (0..m.nrows())

@@ -1,10 +1,10 @@
 //! `skyloop hinfsyn PLANT --nmeas NY --ncon NU`: H∞ output-feedback synthesis (MATLAB conventions).
 
-use crate::input::load_model;
 use crate::output::{matrix_table, print_json};
 use clap::Args as ClapArgs;
-use skyloop_lti::json::LtiJson;
-use skyloop_robust::hinfsyn::{hinfsyn_with, HinfOptions};
+use skyloop::lti::json::LtiJson;
+use skyloop::model::load_model;
+use skyloop::robust::hinfsyn::{hinfsyn_with, HinfOptions};
 
 /// Arguments of `skyloop hinfsyn`.
 #[derive(ClapArgs)]
@@ -35,7 +35,7 @@ pub struct Args {
 }
 
 /// Runs the synthesis and prints γ and the controller u = K·y.
-pub fn run(a: Args) -> Result<(), String> {
+pub fn run(a: Args) -> skyloop::Result<()> {
     let p = load_model(&a.plant)?;
     let opts = HinfOptions {
         gamma_range: (a.gamma_min, a.gamma_max.unwrap_or(f64::INFINITY)),

@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use skyloop_sysid::logs::{blackbox, detect, Log, LogFormat, OpenOptions};
+use skyloop::sysid::logs::{blackbox, detect, Log, LogFormat, OpenOptions};
 
 use crate::output::print_json;
 
@@ -29,7 +29,7 @@ enum Action {
 }
 
 /// Reads the log and prints its summary.
-pub fn run(a: Args) -> Result<(), String> {
+pub fn run(a: Args) -> skyloop::Result<()> {
     let Action::Info { file, session, json } = a.action;
     let log = Log::open(
         &file,
@@ -37,8 +37,7 @@ pub fn run(a: Args) -> Result<(), String> {
             session,
             ..Default::default()
         },
-    )
-    .map_err(|e| e.to_string())?;
+    )?;
     let sessions = if log.format == LogFormat::Blackbox {
         let bytes = std::fs::read(&file).map_err(|e| format!("cannot read {}: {e}", file.display()))?;
         debug_assert_eq!(detect(&bytes), LogFormat::Blackbox);

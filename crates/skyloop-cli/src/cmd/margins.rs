@@ -1,9 +1,9 @@
 //! `skyloop margins MODEL [--json]`: gain, phase, delay and disk margins of a SISO loop L = P·C,
 //! exact with delays, and closed-loop stability.
 
-use crate::{input, output};
+use crate::output;
 use serde_json::{json, Value};
-use skyloop_lti::margins::{allmargin, diskmargin, margin_from};
+use skyloop::lti::margins::{allmargin, diskmargin, margin_from};
 use std::f64::consts::PI;
 
 /// Arguments of `skyloop margins`.
@@ -29,11 +29,11 @@ fn hz(w: f64) -> f64 {
 }
 
 /// Computes every margin and prints them.
-pub fn run(a: Args) -> Result<(), String> {
-    let sys = input::load_model(&a.model)?;
-    let all = allmargin(&sys).map_err(|e| e.to_string())?;
+pub fn run(a: Args) -> skyloop::Result<()> {
+    let sys = skyloop::model::load_model(&a.model)?;
+    let all = allmargin(&sys)?;
     let m = margin_from(&all);
-    let dm = diskmargin(&sys).map_err(|e| e.to_string())?;
+    let dm = diskmargin(&sys)?;
     if a.json {
         return output::print_json(&json!({
             "gain_margin_db": fin(m.gm_db),

@@ -1,8 +1,8 @@
 //! `skyloop minreal MODEL`: removes uncontrollable and unobservable states.
 
-use crate::{input, output};
-use skyloop_lti::json::LtiJson;
-use skyloop_lti::minreal::minreal;
+use crate::output;
+use skyloop::lti::json::LtiJson;
+use skyloop::lti::minreal::minreal;
 
 /// Arguments of `skyloop minreal`.
 #[derive(clap::Args)]
@@ -18,9 +18,9 @@ pub struct Args {
 }
 
 /// Computes the minimal realization and prints it.
-pub fn run(a: Args) -> Result<(), String> {
-    let sys = input::load_model(&a.model)?;
-    let m = minreal(&sys, a.tol).map_err(|e| e.to_string())?;
+pub fn run(a: Args) -> skyloop::Result<()> {
+    let sys = skyloop::model::load_model(&a.model)?;
+    let m = minreal(&sys, a.tol)?;
     if a.json {
         return output::print_json(&LtiJson::from_ss(&m));
     }

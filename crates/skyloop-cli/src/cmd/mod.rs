@@ -79,8 +79,8 @@ pub enum Command {
     Musyn(musyn::Args),
 }
 
-/// Runs one subcommand; the error text is what the user sees.
-pub fn run(cmd: Command) -> Result<(), String> {
+/// Runs one subcommand; the error's text is what the user sees.
+pub fn run(cmd: Command) -> skyloop::Result<()> {
     match cmd {
         Command::Show(a) => show::run(a),
         Command::Step(a) => step::run(a),

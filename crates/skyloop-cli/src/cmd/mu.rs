@@ -2,8 +2,8 @@
 //! model's frequency response against a block structure.
 
 use crate::{input, output};
-use skyloop_robust::mu::{mu_system, robust_stability, MuOptions};
-use skyloop_robust::uncertainty::BlockStructure;
+use skyloop::robust::mu::{mu_system, robust_stability, MuOptions};
+use skyloop::robust::uncertainty::BlockStructure;
 
 /// Arguments of `skyloop mu`.
 #[derive(clap::Args)]
@@ -42,19 +42,18 @@ struct Peak {
 }
 
 /// Computes the bounds and prints them.
-pub fn run(a: Args) -> Result<(), String> {
+pub fn run(a: Args) -> skyloop::Result<()> {
     let blocks = BlockStructure::parse(&a.blocks).map_err(|e| format!("--blocks: {e}"))?;
-    let sys = input::load_model(&a.model)?;
+    let sys = skyloop::model::load_model(&a.model)?;
     let hz = match &a.hz {
         Some(t) => input::parse_list(t, "--hz")?,
-        None => skyloop_lti::freqresp::default_grid(&sys, 200)
-            .map_err(|e| e.to_string())?
+        None => skyloop::lti::freqresp::default_grid(&sys, 200)?
             .iter()
             .map(|w| w / std::f64::consts::TAU)
             .collect(),
     };
     let w: Vec<f64> = hz.iter().map(|f| f * std::f64::consts::TAU).collect();
-    let sw = mu_system(&sys, &w, &blocks, &MuOptions::default()).map_err(|e| e.to_string())?;
+    let sw = mu_system(&sys, &w, &blocks, &MuOptions::default())?;
     let rs = robust_stability(&sw);
     let to_hz = |w: f64| w / std::f64::consts::TAU;
     if a.json {

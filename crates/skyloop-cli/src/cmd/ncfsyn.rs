@@ -1,10 +1,10 @@
 //! `skyloop ncfsyn --plant P [--w1 W1] [--w2 W2]`: Glover–McFarlane H∞ loop shaping.
 
-use crate::input::load_model;
 use crate::output::print_json;
 use clap::Args as ClapArgs;
-use skyloop_lti::json::LtiJson;
-use skyloop_robust::ncfsyn::{ncfsyn, NcfOptions};
+use skyloop::lti::json::LtiJson;
+use skyloop::model::load_model;
+use skyloop::robust::ncfsyn::{ncfsyn, NcfOptions};
 
 /// Arguments of `skyloop ncfsyn`.
 #[derive(ClapArgs)]
@@ -30,7 +30,7 @@ pub struct Args {
 }
 
 /// Runs the loop-shaping design; the controller is C = −W1·K∞·W2 for u = C·(r − y).
-pub fn run(a: Args) -> Result<(), String> {
+pub fn run(a: Args) -> skyloop::Result<()> {
     let p = load_model(&a.plant)?;
     let w1 = a.w1.as_deref().map(load_model).transpose()?;
     let w2 = a.w2.as_deref().map(load_model).transpose()?;

@@ -1,8 +1,8 @@
 //! `skyloop norm MODEL [--json]`: H∞ norm with its peak frequency, and the H2 norm.
 
-use crate::{input, output};
+use crate::output;
 use serde_json::{json, Value};
-use skyloop_lti::norms::{h2_norm, hinf_norm, linf_norm};
+use skyloop::lti::norms::{h2_norm, hinf_norm, linf_norm};
 use std::f64::consts::PI;
 
 /// Arguments of `skyloop norm`.
@@ -27,26 +27,22 @@ fn fin(x: f64) -> Value {
 }
 
 /// Computes the norms and prints them.
-pub fn run(a: Args) -> Result<(), String> {
-    let sys = input::load_model(&a.model)?;
+pub fn run(a: Args) -> skyloop::Result<()> {
+    let sys = skyloop::model::load_model(&a.model)?;
     if let Some(n) = a.bench {
         let mut best = f64::INFINITY;
         for _ in 0..n.max(1) {
             let t = std::time::Instant::now();
-            let r = hinf_norm(&sys).map_err(|e| e.to_string())?;
+            let r = hinf_norm(&sys)?;
             best = best.min(t.elapsed().as_secs_f64());
             std::hint::black_box(r);
         }
         eprintln!("bench_seconds {best:e}");
     }
-    let (hinf, w) = hinf_norm(&sys).map_err(|e| e.to_string())?;
-    let h2 = h2_norm(&sys).map_err(|e| e.to_string())?;
+    let (hinf, w) = hinf_norm(&sys)?;
+    let h2 = h2_norm(&sys)?;
     // The peak gain of an unstable model (its L∞ norm) is still informative for a reader.
-    let (linf, wl) = if hinf.is_finite() {
-        (hinf, w)
-    } else {
-        linf_norm(&sys).map_err(|e| e.to_string())?
-    };
+    let (linf, wl) = if hinf.is_finite() { (hinf, w) } else { linf_norm(&sys)? };
     let hz = |w: f64| w / (2.0 * PI);
     if a.json {
         return output::print_json(&json!({

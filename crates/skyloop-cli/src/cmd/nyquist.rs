@@ -1,6 +1,6 @@
 //! `skyloop nyquist MODEL.. --out FILE`: Nyquist plot of SISO loop transfers.
 
-use skyloop_plot::nyquist::{plot_nyquist, NyquistData};
+use skyloop::plot::nyquist::{plot_nyquist, NyquistData};
 
 use super::plot_args::PlotArgs;
 
@@ -15,9 +15,9 @@ pub struct Args {
 }
 
 /// Computes each loop's response on one grid and writes the plot.
-pub fn run(a: Args) -> Result<(), String> {
+pub fn run(a: Args) -> skyloop::Result<()> {
     if !(a.radius > 0.0 && a.radius.is_finite()) {
-        return Err(format!("--radius must be positive, got {}", a.radius));
+        return Err(format!("--radius must be positive, got {}", a.radius).into());
     }
     let models = a.plot.load()?;
     let w = a.plot.grid(&models)?;
@@ -28,16 +28,17 @@ pub fn run(a: Args) -> Result<(), String> {
                 "{label}: a Nyquist plot needs a SISO loop, got {}×{}",
                 sys.ny(),
                 sys.nu()
-            ));
+            )
+            .into());
         }
-        let g = skyloop_lti::freqresp::freqresp(sys, &w).map_err(|e| format!("{label}: {e}"))?;
+        let g = skyloop::lti::freqresp::freqresp(sys, &w).map_err(|e| format!("{label}: {e}"))?;
         data.push(NyquistData {
             label: label.clone(),
             re: g.iter().map(|m| m[(0, 0)].re).collect(),
             im: g.iter().map(|m| m[(0, 0)].im).collect(),
         });
     }
-    plot_nyquist(&a.plot.out, &a.plot.title_or("Nyquist"), &data, Some(a.radius)).map_err(|e| e.to_string())?;
+    plot_nyquist(&a.plot.out, &a.plot.title_or("Nyquist"), &data, Some(a.radius))?;
     eprintln!("wrote {}", a.plot.out.display());
     Ok(())
 }

@@ -1,8 +1,6 @@
 //! Arguments and helpers shared by the plotting subcommands (`bode`, `nyquist`, `step`).
 
-use skyloop_lti::StateSpace;
-
-use crate::input;
+use skyloop::lti::StateSpace;
 
 /// What every plotting subcommand takes: models, an output file and a frequency range.
 #[derive(clap::Args)]
@@ -29,22 +27,22 @@ pub struct PlotArgs {
 
 impl PlotArgs {
     /// Loads every model, labelled by the text the user gave for it.
-    pub fn load(&self) -> Result<Vec<(String, StateSpace)>, String> {
+    pub fn load(&self) -> skyloop::Result<Vec<(String, StateSpace)>> {
         self.models
             .iter()
-            .map(|m| Ok((label(m), input::load_model(m)?)))
+            .map(|m| Ok((label(m), skyloop::model::load_model(m)?)))
             .collect()
     }
 
     /// One log-spaced grid (rad/s) covering every model, or the user's range.
-    pub fn grid(&self, models: &[(String, StateSpace)]) -> Result<Vec<f64>, String> {
+    pub fn grid(&self, models: &[(String, StateSpace)]) -> skyloop::Result<Vec<f64>> {
         if self.points < 2 {
             return Err("--points must be at least 2".into());
         }
         let two_pi = 2.0 * std::f64::consts::PI;
         let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
         for (_, m) in models {
-            let g = skyloop_lti::freqresp::default_grid(m, 2).map_err(|e| e.to_string())?;
+            let g = skyloop::lti::freqresp::default_grid(m, 2)?;
             lo = lo.min(g[0]);
             hi = hi.max(g[g.len() - 1]);
         }
@@ -59,9 +57,10 @@ impl PlotArgs {
                 "frequency range must satisfy 0 < hz-min < hz-max, got {} .. {} Hz",
                 lo / two_pi,
                 hi / two_pi
-            ));
+            )
+            .into());
         }
-        Ok(skyloop_lti::freqresp::logspace(lo.log10(), hi.log10(), self.points))
+        Ok(skyloop::lti::freqresp::logspace(lo.log10(), hi.log10(), self.points))
     }
 
     /// The title, or `default` when none was given.

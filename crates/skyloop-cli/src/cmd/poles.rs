@@ -1,7 +1,5 @@
 //! `skyloop poles MODEL`: eigenvalues of A.
 
-use crate::input;
-
 /// Arguments of `skyloop poles`.
 #[derive(clap::Args)]
 pub struct Args {
@@ -13,8 +11,8 @@ pub struct Args {
 }
 
 /// Computes and prints the poles.
-pub fn run(a: Args) -> Result<(), String> {
-    let sys = input::load_model(&a.model)?;
-    let p = skyloop_lti::analysis::poles(&sys).map_err(|e| e.to_string())?;
+pub fn run(a: Args) -> skyloop::Result<()> {
+    let sys = skyloop::model::load_model(&a.model)?;
+    let p = skyloop::lti::analysis::poles(&sys)?;
     super::roots_out::print_roots("poles", &p, sys.dt, a.json)
 }

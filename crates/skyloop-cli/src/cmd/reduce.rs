@@ -1,8 +1,8 @@
 //! `skyloop reduce MODEL --order K --method balanced|spa`: balanced model reduction.
 
-use crate::{input, output};
-use skyloop_lti::json::LtiJson;
-use skyloop_lti::reduce::{balred, Method};
+use crate::output;
+use skyloop::lti::json::LtiJson;
+use skyloop::lti::reduce::{balred, Method};
 
 /// Arguments of `skyloop reduce`.
 #[derive(clap::Args)]
@@ -32,14 +32,14 @@ struct ReduceJson {
 }
 
 /// Reduces the model and prints the Hankel singular values, the error bound and the reduced model.
-pub fn run(a: Args) -> Result<(), String> {
+pub fn run(a: Args) -> skyloop::Result<()> {
     let method: Method = a.method.parse().map_err(|e| format!("--method: {e}"))?;
-    let sys = input::load_model(&a.model)?;
-    let red = balred(&sys, a.order, method).map_err(|e| e.to_string())?;
+    let sys = skyloop::model::load_model(&a.model)?;
+    let red = balred(&sys, a.order, method)?;
     if let Some(path) = &a.plot {
         let kept = a.order.saturating_sub(red.n_unstable);
         let title = format!("Hankel singular values (stable part, {} unstable kept)", red.n_unstable);
-        skyloop_plot::hsv::plot_hsv(path, &title, &red.hsv, Some(kept)).map_err(|e| e.to_string())?;
+        skyloop::plot::hsv::plot_hsv(path, &title, &red.hsv, Some(kept))?;
         eprintln!("wrote {}", path.display());
     }
     if a.json {

@@ -1,10 +1,10 @@
 //! Printing a list of poles or zeros: `{"re":[..],"im":[..]}` or a table.
 
 use crate::output;
-use skyloop_lti::c64;
+use skyloop::lti::c64;
 
 /// Prints roots as JSON or as a table with natural frequency and damping.
-pub fn print_roots(what: &str, roots: &[c64], dt: f64, json: bool) -> Result<(), String> {
+pub fn print_roots(what: &str, roots: &[c64], dt: f64, json: bool) -> skyloop::Result<()> {
     if json {
         let v = serde_json::json!({
             "re": roots.iter().map(|z| z.re).collect::<Vec<_>>(),

@@ -1,6 +1,6 @@
 //! `skyloop show MODEL`: what a model is, as a table or LTI JSON.
 
-use crate::{input, output};
+use crate::output;
 
 /// Arguments of `skyloop show`.
 #[derive(clap::Args)]
@@ -13,10 +13,10 @@ pub struct Args {
 }
 
 /// Loads the model and prints it.
-pub fn run(a: Args) -> Result<(), String> {
-    let sys = input::load_model(&a.model)?;
+pub fn run(a: Args) -> skyloop::Result<()> {
+    let sys = skyloop::model::load_model(&a.model)?;
     if a.json {
-        output::print_json(&skyloop_lti::json::LtiJson::from_ss(&sys))
+        output::print_json(&skyloop::lti::json::LtiJson::from_ss(&sys))
     } else {
         println!(
             "{} states, {} outputs, {} inputs, {}",

@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use skyloop_sysid::signal::{self, ChirpSpec, MultisineSpec, PrbsSpec, Signal, Sweep};
+use skyloop::sysid::signal::{self, ChirpSpec, MultisineSpec, PrbsSpec, Signal, Sweep};
 
 /// Arguments of `skyloop signal`.
 #[derive(clap::Args)]
@@ -91,7 +91,7 @@ enum Kind {
 }
 
 /// Generates the signal and writes it.
-pub fn run(a: Args) -> Result<(), String> {
+pub fn run(a: Args) -> skyloop::Result<()> {
     let (sig, common): (Signal, Common) = match a.kind {
         Kind::Chirp {
             f0_hz,
@@ -106,7 +106,7 @@ pub fn run(a: Args) -> Result<(), String> {
             let sweep = match sweep.as_str() {
                 "exp" | "exponential" | "log" => Sweep::Exponential,
                 "linear" | "lin" => Sweep::Linear,
-                other => return Err(format!("unknown sweep '{other}' (exp or linear)")),
+                other => return Err(format!("unknown sweep '{other}' (exp or linear)").into()),
             };
             let spec = ChirpSpec {
                 f0_hz,
@@ -117,7 +117,7 @@ pub fn run(a: Args) -> Result<(), String> {
                 fade_s,
                 sweep,
             };
-            (signal::chirp(&spec, common.rate).map_err(|e| e.to_string())?, common)
+            (signal::chirp(&spec, common.rate)?, common)
         }
         Kind::Prbs {
             order,
@@ -132,7 +132,7 @@ pub fn run(a: Args) -> Result<(), String> {
                 periods,
                 amplitude,
             };
-            (signal::prbs(&spec, common.rate).map_err(|e| e.to_string())?, common)
+            (signal::prbs(&spec, common.rate)?, common)
         }
         Kind::Multisine {
             fmin_hz,
@@ -149,16 +149,13 @@ pub fn run(a: Args) -> Result<(), String> {
                 periods,
                 amplitude,
             };
-            (
-                signal::multisine(&spec, common.rate).map_err(|e| e.to_string())?,
-                common,
-            )
+            (signal::multisine(&spec, common.rate)?, common)
         }
     };
     let mut f =
         std::fs::File::create(&common.out).map_err(|e| format!("cannot create {}: {e}", common.out.display()))?;
     let t = sig.time_s();
-    signal::write_csv(&mut f, &["time_s", "value"], &[&t, &sig.values]).map_err(|e| e.to_string())?;
+    signal::write_csv(&mut f, &["time_s", "value"], &[&t, &sig.values])?;
     eprintln!(
         "wrote {} ({} samples at {} Hz, crest factor {:.2})",
         common.out.display(),

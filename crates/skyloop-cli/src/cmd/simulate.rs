@@ -2,8 +2,8 @@
 //! a trace plot; with --monte-carlo the scenario's [monte_carlo] study instead.
 
 use crate::output;
-use skyloop_sim::{sim, Sample, Scenario};
-use std::path::{Path, PathBuf};
+use skyloop::simulation::{load_scenario, monte_carlo_to, simulate_to};
+use std::path::PathBuf;
 
 /// Arguments of `skyloop simulate`.
 #[derive(clap::Args)]
@@ -21,73 +21,26 @@ pub struct Args {
     monte_carlo: bool,
 }
 
-/// Reads and parses a scenario file.
-pub fn load(path: &Path) -> Result<Scenario, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    Scenario::from_toml(&text).map_err(|e| format!("{}: {e}", path.display()))
-}
-
-/// Writes trajectory.csv and traces.svg for one run into `dir`, with file names prefixed by `stem`.
-pub fn write_run(dir: &Path, stem: &str, title: &str, trace: &[Sample], nu: usize) -> Result<(), String> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-    let csv = dir.join(format!("{stem}.csv"));
-    let mut f = std::io::BufWriter::new(
-        std::fs::File::create(&csv).map_err(|e| format!("cannot write {}: {e}", csv.display()))?,
-    );
-    sim::write_csv(&mut f, trace, nu).map_err(|e| format!("cannot write {}: {e}", csv.display()))?;
-    let t: Vec<f64> = trace.iter().map(|s| s.t).collect();
-    let tr = |label: &str, f: &dyn Fn(&Sample) -> f64| skyloop_plot::traces::Trace {
-        label: label.into(),
-        t: t.clone(),
-        y: trace.iter().map(f).collect(),
-    };
-    let panels = vec![
-        skyloop_plot::traces::TracePanel {
-            y_label: "tracked (ref dashed by name)".into(),
-            traces: vec![
-                tr("ref0", &|s| s.reference[0]),
-                tr("tracked0", &|s| s.tracked[0]),
-                tr("ref1", &|s| s.reference[1]),
-                tr("tracked1", &|s| s.tracked[1]),
-                tr("tracked2", &|s| s.tracked[2]),
-            ],
-            references: vec![],
-        },
-        skyloop_plot::traces::TracePanel {
-            y_label: "body rates [rad/s]".into(),
-            traces: vec![
-                tr("p", &|s| s.rates[0]),
-                tr("q", &|s| s.rates[1]),
-                tr("r", &|s| s.rates[2]),
-            ],
-            references: vec![],
-        },
-        skyloop_plot::traces::TracePanel {
-            y_label: "torque command [N·m]".into(),
-            traces: vec![
-                tr("Mx", &|s| s.torque[0]),
-                tr("My", &|s| s.torque[1]),
-                tr("Mz", &|s| s.torque[2]),
-            ],
-            references: vec![],
-        },
-    ];
-    let svg = dir.join(format!("{stem}.svg"));
-    skyloop_plot::traces::plot_traces(&svg, title, &panels).map_err(|e| format!("cannot plot {}: {e}", svg.display()))
-}
-
 /// Runs the scenario (or its Monte Carlo study) and writes the results.
-pub fn run(a: Args) -> Result<(), String> {
-    let scn = load(&a.scenario)?;
-    std::fs::create_dir_all(&a.out).map_err(|e| format!("cannot create {}: {e}", a.out.display()))?;
+pub fn run(a: Args) -> skyloop::Result<()> {
+    let scn = load_scenario(&a.scenario)?;
     if a.monte_carlo {
-        let mc = scn
-            .monte_carlo
-            .ok_or_else(|| format!("{} has no [monte_carlo] section", a.scenario.display()))?;
-        let (runs, summary) = skyloop_sim::montecarlo::run(&scn, &mc, !a.json).map_err(|e| e.to_string())?;
-        let path = a.out.join("monte_carlo.json");
-        let body = serde_json::json!({ "summary": summary, "runs": runs });
-        std::fs::write(&path, body.to_string()).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        if scn.monte_carlo.is_none() {
+            return Err(skyloop::Error::Spec(format!(
+                "{} has no [monte_carlo] section",
+                a.scenario.display()
+            )));
+        }
+        let bar = if a.json {
+            indicatif::ProgressBar::hidden()
+        } else {
+            indicatif::ProgressBar::new(0)
+        };
+        let (summary, path) = monte_carlo_to(&scn, &a.out, &|done, total| {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+        })?;
+        bar.finish_and_clear();
         if a.json {
             return output::print_json(&summary);
         }
@@ -116,17 +69,7 @@ pub fn run(a: Args) -> Result<(), String> {
         println!("wrote {}", path.display());
         return Ok(());
     }
-    let (trace, m) = skyloop_sim::simulate(&scn).map_err(|e| e.to_string())?;
-    let nu = scn
-        .vehicle
-        .resolve()
-        .and_then(|v| v.build())
-        .map_err(|e| e.to_string())?
-        .nu();
-    write_run(&a.out, "trajectory", &scn.name, &trace, nu)?;
-    let mpath = a.out.join("metrics.json");
-    let text = serde_json::to_string(&m).map_err(|e| format!("cannot encode JSON: {e}"))?;
-    std::fs::write(&mpath, &text).map_err(|e| format!("cannot write {}: {e}", mpath.display()))?;
+    let m = simulate_to(&scn, &a.out)?;
     if a.json {
         return output::print_json(&m);
     }

@@ -3,11 +3,11 @@
 //! that of T = L/(1 + L).
 
 use serde::Serialize;
-use skyloop_lti::StateSpace;
-use skyloop_plot::traces::{plot_step, Trace};
+use skyloop::lti::StateSpace;
+use skyloop::plot::traces::{plot_step, Trace};
 
 use super::plot_args::{channel, label};
-use crate::{input, output};
+use crate::output;
 
 /// Arguments of `skyloop step`.
 #[derive(clap::Args)]
@@ -40,23 +40,24 @@ struct StepJson {
 }
 
 /// Simulates every model on a shared final time and writes the plot and/or JSON.
-pub fn run(a: Args) -> Result<(), String> {
+pub fn run(a: Args) -> skyloop::Result<()> {
     if a.out.is_none() && !a.json {
         return Err("nothing to do: give --out FILE.svg|.png and/or --json".into());
     }
     let mut models: Vec<(String, StateSpace)> = Vec::new();
     for m in &a.models {
-        let mut sys = input::load_model(m)?;
+        let mut sys = skyloop::model::load_model(m)?;
         if a.closed_loop {
             if sys.ny() != 1 || sys.nu() != 1 {
                 return Err(format!(
                     "--closed-loop needs a SISO loop transfer, {m} is {}×{}",
                     sys.ny(),
                     sys.nu()
-                ));
+                )
+                .into());
             }
-            let unity = StateSpace::gain(skyloop_lti::Mat::identity(1, 1), sys.dt).map_err(|e| e.to_string())?;
-            sys = skyloop_lti::interconnect::feedback(&sys, &unity, -1.0).map_err(|e| format!("{m}: {e}"))?;
+            let unity = StateSpace::gain(skyloop::lti::Mat::identity(1, 1), sys.dt)?;
+            sys = skyloop::lti::interconnect::feedback(&sys, &unity, -1.0).map_err(|e| format!("{m}: {e}"))?;
         }
         models.push((m.clone(), sys));
     }
@@ -66,7 +67,7 @@ pub fn run(a: Args) -> Result<(), String> {
         None => {
             let mut t: f64 = 0.0;
             for (m, sys) in &models {
-                let g = skyloop_lti::timeresp::auto_grid(sys, None).map_err(|e| format!("{m}: {e}"))?;
+                let g = skyloop::lti::timeresp::auto_grid(sys, None).map_err(|e| format!("{m}: {e}"))?;
                 t = t.max(g[g.len() - 1]);
             }
             t
@@ -75,8 +76,8 @@ pub fn run(a: Args) -> Result<(), String> {
     let mut results = Vec::new();
     let mut traces = Vec::new();
     for (m, sys) in &models {
-        let grid = skyloop_lti::timeresp::auto_grid(sys, Some(tfinal)).map_err(|e| format!("{m}: {e}"))?;
-        let r = skyloop_lti::timeresp::step(sys, Some(&grid)).map_err(|e| format!("{m}: {e}"))?;
+        let grid = skyloop::lti::timeresp::auto_grid(sys, Some(tfinal)).map_err(|e| format!("{m}: {e}"))?;
+        let r = skyloop::lti::timeresp::step(sys, Some(&grid)).map_err(|e| format!("{m}: {e}"))?;
         for (i, row) in r.y.iter().enumerate() {
             for (j, y) in row.iter().enumerate() {
                 traces.push(Trace {
@@ -93,7 +94,7 @@ pub fn run(a: Args) -> Result<(), String> {
         });
     }
     if let Some(out) = &a.out {
-        plot_step(out, &a.title, &traces).map_err(|e| e.to_string())?;
+        plot_step(out, &a.title, &traces)?;
         eprintln!("wrote {}", out.display());
     }
     if a.json {

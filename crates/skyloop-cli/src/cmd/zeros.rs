@@ -1,7 +1,5 @@
 //! `skyloop zeros MODEL`: transmission zeros (system pencil).
 
-use crate::input;
-
 /// Arguments of `skyloop zeros`.
 #[derive(clap::Args)]
 pub struct Args {
@@ -13,8 +11,8 @@ pub struct Args {
 }
 
 /// Computes and prints the transmission zeros.
-pub fn run(a: Args) -> Result<(), String> {
-    let sys = input::load_model(&a.model)?;
-    let z = skyloop_lti::analysis::zeros(&sys).map_err(|e| e.to_string())?;
+pub fn run(a: Args) -> skyloop::Result<()> {
+    let sys = skyloop::model::load_model(&a.model)?;
+    let z = skyloop::lti::analysis::zeros(&sys)?;
     super::roots_out::print_roots("zeros", &z, sys.dt, a.json)
 }

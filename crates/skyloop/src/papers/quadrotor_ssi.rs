@@ -2,14 +2,15 @@
 //! eq. (32) characteristic polynomial, eq. (33) poles for Jm = J, Routh condition (35), and the
 //! nonlinear step responses with Jm = J and Jm = 0.5·J under a gust (Fig. 6–8), against a plain PI.
 
-use super::Claims;
+use super::Reproduction;
+use crate::error::Result;
 use skyloop_plot::traces::{plot_traces, Trace, TracePanel};
 use skyloop_sim::analysis::{self, SsiLoop};
 use skyloop_sim::flight::RateLaw;
 use skyloop_sim::{disturbance::DisturbanceSpec, Sample, Scenario};
 use std::path::Path;
 
-const SCENARIO: &str = include_str!("../../../../../examples/quadrotor-ssi.toml");
+const SCENARIO: &str = include_str!("../../../../examples/quadrotor-ssi.toml");
 
 /// Polynomial coefficients (descending, monic) from roots.
 fn poly_from_roots(r: &[num_complex::Complex64]) -> Vec<f64> {
@@ -49,22 +50,20 @@ fn overshoot(trace: &[Sample], t0: f64, t1: f64, target: f64) -> f64 {
 }
 
 /// Runs the reproduction, writing traces and plots to `out`.
-pub fn run(out: &Path) -> Result<(), String> {
+pub fn run(out: &Path) -> Result<Reproduction> {
     let scn = Scenario::from_toml(SCENARIO).map_err(|e| format!("embedded scenario: {e}"))?;
     let RateLaw::SsiPi { kp, ki, .. } = scn.controller.rate[0].clone() else {
         return Err("embedded scenario must use ssi_pi on roll".into());
     };
-    let vehicle = scn
-        .vehicle
-        .resolve()
-        .and_then(|v| v.build())
-        .map_err(|e| e.to_string())?;
+    let vehicle = scn.vehicle.resolve().and_then(|v| v.build())?;
     let j = vehicle.inertia()[0];
-    let mut claims = Claims::default();
-    println!("SSI-PI quadrotor (Tai, Phang & Hoo 2018): J = {j} kg·m², Kp = {kp}, Ki = {ki}, attitude gain 1");
+    let mut rep = Reproduction::new("quadrotor-ssi");
+    rep.note(format!(
+        "SSI-PI quadrotor (Tai, Phang & Hoo 2018): J = {j} kg·m², Kp = {kp}, Ki = {ki}, attitude gain 1"
+    ));
 
-    println!("\nLinear: roll axis of the linearized quadrotor (motors residualized), SSI-PI loop closed");
-    let roll = analysis::quad_roll_axis(&vehicle).map_err(|e| e.to_string())?;
+    rep.note("\nLinear: roll axis of the linearized quadrotor (motors residualized), SSI-PI loop closed");
+    let roll = analysis::quad_roll_axis(&vehicle)?;
     for frac in [1.0, 0.5] {
         let c = SsiLoop {
             kp,
@@ -72,8 +71,8 @@ pub fn run(out: &Path) -> Result<(), String> {
             jm: frac * j,
             k_att: 1.0,
         };
-        let cl = analysis::ssi_closed_loop(&roll, "roll_rad", "p_rad_s", "mx_n_m", c).map_err(|e| e.to_string())?;
-        let poles = analysis::eigenvalues(&cl.a).map_err(|e| e.to_string())?;
+        let cl = analysis::ssi_closed_loop(&roll, "roll_rad", "p_rad_s", "mx_n_m", c)?;
+        let poles = analysis::eigenvalues(&cl.a)?;
         let got = poly_from_roots(&poles);
         let want = analysis::eq32_charpoly(j, c);
         let rel = got
@@ -81,20 +80,20 @@ pub fn run(out: &Path) -> Result<(), String> {
             .zip(want.iter())
             .map(|(g, w)| (g - w).abs() / w.abs())
             .fold(0.0, f64::max);
-        println!(
+        rep.note(format!(
             "  Jm = {frac}·J: closed-loop char. poly {:?}",
             got.iter().map(|v| format!("{v:.6}")).collect::<Vec<_>>()
-        );
-        println!(
+        ));
+        rep.note(format!(
             "               eq. (32)               {:?}",
             want.iter().map(|v| format!("{v:.6}")).collect::<Vec<_>>()
-        );
-        claims.check(
+        ));
+        rep.check(
             rel < 1e-6,
             format!("eq. (32) coefficients match (Jm = {frac}·J), max rel. error {rel:.1e}"),
         );
         let pstr: Vec<String> = poles.iter().map(|p| format!("{:.4}{:+.4}j", p.re, p.im)).collect();
-        println!("               poles {}", pstr.join(", "));
+        rep.note(format!("               poles {}", pstr.join(", ")));
         if frac == 1.0 {
             let a = kp / j;
             let disc = a * a - 4.0 * a;
@@ -112,19 +111,19 @@ pub fn run(out: &Path) -> Result<(), String> {
                         .fold(f64::INFINITY, f64::min)
                 })
                 .fold(0.0, f64::max);
-            println!(
+            rep.note(format!(
                 "               eq. (33) roots: −Ki = {}, s² + (Kp/J)s + Kp/J → {:?}",
                 -ki,
                 &r[..r.len().min(2)]
-            );
-            claims.check(
+            ));
+            rep.check(
                 worst < 1e-6 * ki,
                 format!("poles equal eq. (33)'s factorization (max distance {worst:.1e})"),
             );
         }
         let max_re = poles.iter().fold(f64::NEG_INFINITY, |m, p| m.max(p.re));
         let routh = analysis::routh_eq35(j, c);
-        claims.check(
+        rep.check(
             routh == (max_re < 0.0),
             format!("Routh (35) says stable = {routh}, eigenvalues: max Re = {max_re:.4}"),
         );
@@ -140,9 +139,8 @@ pub fn run(out: &Path) -> Result<(), String> {
                 jm: frac * j,
                 k_att: 1.0,
             };
-            let cl = analysis::ssi_closed_loop(&roll, "roll_rad", "p_rad_s", "mx_n_m", c).map_err(|e| e.to_string())?;
-            let max_re = analysis::eigenvalues(&cl.a)
-                .map_err(|e| e.to_string())?
+            let cl = analysis::ssi_closed_loop(&roll, "roll_rad", "p_rad_s", "mx_n_m", c)?;
+            let max_re = analysis::eigenvalues(&cl.a)?
                 .iter()
                 .fold(f64::NEG_INFINITY, |m, p| m.max(p.re));
             if max_re.abs() > 1e-9 {
@@ -151,12 +149,12 @@ pub fn run(out: &Path) -> Result<(), String> {
             }
         }
     }
-    claims.check(
+    rep.check(
         agree == total,
         format!("Routh (35) agrees with eigenvalues on {agree}/{total} (Kp, Ki, Jm) cases"),
     );
 
-    println!("\nNonlinear 6-DOF simulation (RK4 1 kHz, motors, gyro noise): roll step 0.2 rad at 1 s, gust torque");
+    rep.note("\nNonlinear 6-DOF simulation (RK4 1 kHz, motors, gyro noise): roll step 0.2 rad at 1 s, gust torque");
     let t_gust = scn
         .disturbance
         .iter()
@@ -179,48 +177,52 @@ pub fn run(out: &Path) -> Result<(), String> {
         ("pi", "PI (same Kp, Ki·Kp)", with_law(&scn, |i| pi(&scn, i))),
     ];
     let mut results = Vec::new();
-    println!(
+    rep.note(format!(
         "  {:<28} {:>12} {:>14} {:>14} {:>9}",
         "controller", "overshoot %", "gust err rad", "final err rad", "crashed"
-    );
+    ));
     for (stem, label, s) in &runs {
-        let (trace, m) = skyloop_sim::simulate(s).map_err(|e| e.to_string())?;
+        let (trace, m) = skyloop_sim::simulate(s)?;
         let os = 100.0 * overshoot(&trace, 1.0, t_gust, 0.2);
         let ge = roll_err(&trace, t_gust);
         let fe = trace
             .last()
             .map_or(f64::INFINITY, |s| (s.reference[0] - s.euler[0]).abs());
-        println!("  {label:<28} {os:>12.2} {ge:>14.5} {fe:>14.5} {:>9}", m.crashed);
-        super::super::simulate::write_run(out, stem, label, &trace, vehicle.nu())?;
+        rep.note(format!(
+            "  {label:<28} {os:>12.2} {ge:>14.5} {fe:>14.5} {:>9}",
+            m.crashed
+        ));
+        crate::simulation::write_run(out, stem, label, &trace, vehicle.nu())?;
+        rep.artifact(&out.join(format!("{stem}.csv")));
         results.push((label.to_string(), trace, os, ge, fe, m.crashed));
     }
     let (ideal, half, pi_r) = (&results[0], &results[1], &results[2]);
-    claims.check(!ideal.5 && !half.5, "no crash with Jm = J or Jm = 0.5·J".into());
-    claims.check(
+    rep.check(!ideal.5 && !half.5, "no crash with Jm = J or Jm = 0.5·J".into());
+    rep.check(
         ideal.3 < 0.05,
         format!(
             "Jm = J: angle error under the gust bounded by 0.05 rad ({:.4})",
             ideal.3
         ),
     );
-    claims.check(
+    rep.check(
         half.3 < 0.05,
         format!(
             "Jm = 0.5·J: angle error under the gust bounded by 0.05 rad ({:.4})",
             half.3
         ),
     );
-    claims.check(
+    rep.check(
         ideal.4 < 0.005 && half.4 < 0.005,
         "constant disturbance eliminated: final error < 0.005 rad".into(),
     );
-    claims.check(
+    rep.check(
         half.3 >= ideal.3,
         "Jm = 0.5·J is not as good as the ideal case (larger gust error)".into(),
     );
     // The attitude loop's slow pole (≈ −1 s⁻¹) hides the inner loops' difference; compare the rate loop:
     // SSI-PI (Jm = J) has the real poles −Ki, −Kp/J, the PI the pair of J·s² + Kp·s + Kp·Ki.
-    println!("\n  rate loop, 1 rad/s roll-rate step (rate mode, no gust):");
+    rep.note("\n  rate loop, 1 rad/s roll-rate step (rate mode, no gust):");
     let mut rate_os = Vec::new();
     for (label, law) in [("SSI-PI, Jm = J", 0usize), ("PI", 1usize)] {
         let mut s = if law == 0 {
@@ -238,15 +240,15 @@ pub fn run(out: &Path) -> Result<(), String> {
             rate_rad_s: Some([p, 0.0, 0.0]),
         };
         s.reference = vec![step(0.0, 0.0), step(0.5, 1.0), step(0.9, 0.0)];
-        let (trace, _) = skyloop_sim::simulate(&s).map_err(|e| e.to_string())?;
+        let (trace, _) = skyloop_sim::simulate(&s)?;
         let os = trace
             .iter()
             .filter(|x| x.t >= 0.5 && x.t < 0.9)
             .fold(0.0f64, |m, x| m.max(x.rates[0] - 1.0));
-        println!("    {label:<16} overshoot {:.2} %", 100.0 * os);
+        rep.note(format!("    {label:<16} overshoot {:.2} %", 100.0 * os));
         rate_os.push(os);
     }
-    claims.check(
+    rep.check(
         rate_os[0] < rate_os[1],
         format!(
             "SSI-PI rate step overshoots less than PI ({:.2} % vs {:.2} %)",
@@ -283,8 +285,18 @@ pub fn run(out: &Path) -> Result<(), String> {
     };
     let path = out.join("fig6_8_roll.svg");
     plot_traces(&path, "SSI-PI quadrotor: roll step and gust", &[step, fig8]).map_err(|e| format!("plot: {e}"))?;
-    println!("\nwrote {} and per-run CSV/SVG in {}", path.display(), out.display());
-    claims.finish()
+    rep.note(format!(
+        "\nwrote {} and per-run CSV/SVG in {}",
+        path.display(),
+        out.display()
+    ));
+    rep.artifact(&path);
+    super::write_report(
+        &mut rep,
+        "SSI-PI quadrotor (Tai, Phang & Hoo 2018): claims reproduced",
+        out,
+    )?;
+    Ok(rep)
 }
 
 fn ssi(scn: &Scenario, axis: usize, frac: f64) -> RateLaw {

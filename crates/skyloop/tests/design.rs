@@ -3,8 +3,8 @@
 //! (crates/skyloop-cli/tests/design.rs) check the printed margins; these check the library's
 //! internal consistency.
 
-use skyloop_robust::design::analysis::{closeness, shaped_gamma};
-use skyloop_robust::design::{design, DesignSpec};
+use skyloop::design::loop_metrics::{closeness, shaped_gamma};
+use skyloop::design::{design, DesignSpec};
 use std::path::Path;
 
 const BICOPTER: &str = include_str!("../../../examples/bicopter.toml");

@@ -18,7 +18,8 @@
 
 pub mod plant;
 
-use super::Claims;
+use super::Reproduction;
+use crate::error::Result;
 use plant::{Design, Plants, NCON, NMEAS};
 use skyloop_lti::interconnect::{lft_lower, lft_upper};
 use skyloop_lti::reduce::{balred, Method};
@@ -52,25 +53,24 @@ pub struct MuReport {
     pub np: f64,
 }
 
-fn structure() -> Result<BlockStructure, String> {
+fn structure() -> Result<BlockStructure> {
     // Structure (7): Δ_α ∈ C^{4×4}, δ_ω ∈ C, Δ_x ∈ C^{9×9}.
-    BlockStructure::parse("f4x4,c1x1,f9x9").map_err(|e| e.to_string())
+    Ok(BlockStructure::parse("f4x4,c1x1,f9x9")?)
 }
 
 /// μ analysis of lft(G, K): robust stability over the uncertainty channels, robust performance with the
 /// performance block appended, nominal performance.
-pub fn analyse(p: &Plants, k: &StateSpace, w: &[f64]) -> Result<MuReport, String> {
-    let n = lft_lower(&p.g, k).map_err(|e| e.to_string())?;
+pub fn analyse(p: &Plants, k: &StateSpace, w: &[f64]) -> Result<MuReport> {
+    let n = lft_lower(&p.g, k)?;
     let nu = p.n_unc;
     let s = structure()?;
     let opts = mu_options();
     let n_rs = plant::sub(&n, 0..nu, 0..nu)?;
-    let rs = mu_system(&n_rs, w, &s, &opts).map_err(|e| e.to_string())?;
-    let ev = skyloop_lti::freqresp::FreqEvaluator::new(&n).map_err(|e| e.to_string())?;
-    let rp = robust_performance(|x| ev.eval(skyloop_lti::c64::new(0.0, x)), w, &s, p.n_e, p.n_w, &opts)
-        .map_err(|e| e.to_string())?;
+    let rs = mu_system(&n_rs, w, &s, &opts)?;
+    let ev = skyloop_lti::freqresp::FreqEvaluator::new(&n)?;
+    let rp = robust_performance(|x| ev.eval(skyloop_lti::c64::new(0.0, x)), w, &s, p.n_e, p.n_w, &opts)?;
     let n_np = balanced(&plant::sub(&n, nu..nu + p.n_e, nu..nu + p.n_w)?)?;
-    let (np, _) = skyloop_lti::norms::hinf_norm(&n_np).map_err(|e| e.to_string())?;
+    let (np, _) = skyloop_lti::norms::hinf_norm(&n_np)?;
     Ok(MuReport { rs, rp, np })
 }
 
@@ -85,9 +85,9 @@ fn mu_options() -> MuOptions {
 }
 
 /// Peak robust-performance μ (upper bound) of lft(G, K) on `w`.
-fn rp_peak(p: &Plants, k: &StateSpace, w: &[f64]) -> Result<f64, String> {
-    let n = lft_lower(&p.g, k).map_err(|e| e.to_string())?;
-    let ev = skyloop_lti::freqresp::FreqEvaluator::new(&n).map_err(|e| e.to_string())?;
+fn rp_peak(p: &Plants, k: &StateSpace, w: &[f64]) -> Result<f64> {
+    let n = lft_lower(&p.g, k)?;
+    let ev = skyloop_lti::freqresp::FreqEvaluator::new(&n)?;
     let rp = robust_performance(
         |x| ev.eval(skyloop_lti::c64::new(0.0, x)),
         w,
@@ -95,8 +95,7 @@ fn rp_peak(p: &Plants, k: &StateSpace, w: &[f64]) -> Result<f64, String> {
         p.n_e,
         p.n_w,
         &mu_options(),
-    )
-    .map_err(|e| e.to_string())?;
+    )?;
     Ok(rp.peak.upper)
 }
 
@@ -114,7 +113,7 @@ pub struct Reduction {
 /// G_nom is stable and whose robust-performance μ peak is at most `1 + rise` times `rp_full`, by
 /// bisection over the order (assuming that a larger order never does worse, which need not hold: the
 /// result is the smallest order the bisection found, not a global minimum).
-pub fn reduce_controller(p: &Plants, k: &StateSpace, w: &[f64], rp_full: f64, rise: f64) -> Result<Reduction, String> {
+pub fn reduce_controller(p: &Plants, k: &StateSpace, w: &[f64], rp_full: f64, rise: f64) -> Result<Reduction> {
     let kb = balanced(k)?;
     let mut tried = Vec::new();
     let mut best = (k.clone(), rp_full);
@@ -154,24 +153,24 @@ pub fn reduce_controller(p: &Plants, k: &StateSpace, w: &[f64], rp_full: f64, ri
 }
 
 /// `sys` with its outputs scaled by `k`.
-fn scaled(sys: &StateSpace, k: f64) -> Result<StateSpace, String> {
+fn scaled(sys: &StateSpace, k: f64) -> Result<StateSpace> {
     let c = faer::Mat::from_fn(sys.c.nrows(), sys.c.ncols(), |i, j| k * sys.c[(i, j)]);
     let d = faer::Mat::from_fn(sys.d.nrows(), sys.d.ncols(), |i, j| k * sys.d[(i, j)]);
-    StateSpace::new(sys.a.clone(), sys.b.clone(), c, d, sys.dt).map_err(|e| e.to_string())
+    Ok(StateSpace::new(sys.a.clone(), sys.b.clone(), c, d, sys.dt)?)
 }
 
 /// `sys` with the outputs in `rows` set to zero.
-fn zero_outputs(sys: &StateSpace, rows: std::ops::Range<usize>) -> Result<StateSpace, String> {
+fn zero_outputs(sys: &StateSpace, rows: std::ops::Range<usize>) -> Result<StateSpace> {
     let keep = |i: usize| if rows.contains(&i) { 0.0 } else { 1.0 };
     let c = faer::Mat::from_fn(sys.c.nrows(), sys.c.ncols(), |i, j| keep(i) * sys.c[(i, j)]);
     let d = faer::Mat::from_fn(sys.d.nrows(), sys.d.ncols(), |i, j| keep(i) * sys.d[(i, j)]);
-    StateSpace::new(sys.a.clone(), sys.b.clone(), c, d, sys.dt).map_err(|e| e.to_string())
+    Ok(StateSpace::new(sys.a.clone(), sys.b.clone(), c, d, sys.dt)?)
 }
 
 /// The actuator channels of a structured Δ(s) (its first 5 inputs and outputs: Δ_α, δ_ω) as the
 /// input-multiplicative factor I + diag(u_scale)·Δ_act(s)·diag(ε/u_scale) on physical command
 /// deviations (rad ×4, rad/s), the map z = ε·a/u_scale → v → a + u_scale·v of `plant::build`.
-pub fn actuator_factor(p: &Plants, delta: &StateSpace) -> Result<StateSpace, String> {
+pub fn actuator_factor(p: &Plants, delta: &StateSpace) -> Result<StateSpace> {
     let da = plant::sub(delta, 0..5, 0..5)?;
     let (ea, ew) = p.eps_in;
     let eps = [ea, ea, ea, ea, ew];
@@ -180,33 +179,28 @@ pub fn actuator_factor(p: &Plants, delta: &StateSpace) -> Result<StateSpace, Str
     let d = faer::Mat::from_fn(5, 5, |i, j| {
         f64::from(u8::from(i == j)) + p.u_scale[i] * da.d[(i, j)] * eps[j] / p.u_scale[j]
     });
-    StateSpace::new(da.a.clone(), b, c, d, 0.0).map_err(|e| e.to_string())
+    Ok(StateSpace::new(da.a.clone(), b, c, d, 0.0)?)
 }
 
 /// Largest real part of the poles of `sys`.
-fn spectral_abscissa(sys: &StateSpace) -> Result<f64, String> {
-    let ev = skyloop_lti::analysis::poles(sys).map_err(|e| e.to_string())?;
+fn spectral_abscissa(sys: &StateSpace) -> Result<f64> {
+    let ev = skyloop_lti::analysis::poles(sys)?;
     Ok(ev.iter().fold(f64::NEG_INFINITY, |m, z| m.max(z.re)))
 }
 
 /// A linear x-step (r_x → x) of lft(G_pos, K), with the uncertainty channels closed by `delta`
 /// (None: open, the nominal loop): the loop's spectral abscissa and x(t) (m) for a `STEP_M` step.
-pub fn linear_x_step(
-    p: &Plants,
-    k: &StateSpace,
-    delta: Option<&StateSpace>,
-    t_s: &[f64],
-) -> Result<(f64, Vec<f64>), String> {
-    let n = lft_lower(&p.g_pos, k).map_err(|e| e.to_string())?;
+pub fn linear_x_step(p: &Plants, k: &StateSpace, delta: Option<&StateSpace>, t_s: &[f64]) -> Result<(f64, Vec<f64>)> {
+    let n = lft_lower(&p.g_pos, k)?;
     // w = [d (5), r (3), n (12)]: r_x is w's sixth input; x is the first output after e.
     let (r_x, x_out) = (5, p.n_e);
     let cl = match delta {
-        Some(dl) => lft_upper(&n, dl).map_err(|e| e.to_string())?,
+        Some(dl) => lft_upper(&n, dl)?,
         None => plant::sub(&n, p.n_unc..n.ny(), p.n_unc..n.nu())?,
     };
     let ab = spectral_abscissa(&cl)?;
     let siso = balanced(&plant::sub(&cl, x_out..x_out + 1, r_x..r_x + 1)?)?;
-    let y = skyloop_lti::timeresp::step(&siso, Some(t_s)).map_err(|e| e.to_string())?;
+    let y = skyloop_lti::timeresp::step(&siso, Some(t_s))?;
     Ok((ab, y.y[0][0].iter().map(|v| STEP_M * v).collect()))
 }
 
@@ -238,14 +232,14 @@ pub fn linear_step_stats(t_s: &[f64], x: &[f64], t_ref_s: f64) -> (Option<f64>, 
 
 /// The model after diagonal state balancing: the loop's states range from metres to Padé states of a
 /// 10 ms delay, and unbalanced, its slow poles look like integrators to the norm computation.
-fn balanced(sys: &StateSpace) -> Result<StateSpace, String> {
-    sys.balance_states().map_err(|e| e.to_string())
+fn balanced(sys: &StateSpace) -> Result<StateSpace> {
+    Ok(sys.balance_states()?)
 }
 
 /// Damping ratio and natural frequency (rad/s) of the least-damped oscillatory pole of lft(G_nom, K).
-pub fn least_damped(p: &Plants, k: &StateSpace) -> Result<(f64, f64), String> {
-    let cl = lft_lower(&p.g_nom, k).map_err(|e| e.to_string())?;
-    let poles = skyloop_lti::analysis::poles(&cl).map_err(|e| e.to_string())?;
+pub fn least_damped(p: &Plants, k: &StateSpace) -> Result<(f64, f64)> {
+    let cl = lft_lower(&p.g_nom, k)?;
+    let poles = skyloop_lti::analysis::poles(&cl)?;
     Ok(poles
         .iter()
         .filter(|z| z.im.abs() > 1e-6 * z.norm().max(1.0))
@@ -254,9 +248,9 @@ pub fn least_damped(p: &Plants, k: &StateSpace) -> Result<(f64, f64), String> {
 }
 
 /// Largest real part of the closed-loop poles of lft(G_nom, K).
-pub fn closed_loop_abscissa(p: &Plants, k: &StateSpace) -> Result<f64, String> {
-    let cl = lft_lower(&p.g_nom, k).map_err(|e| e.to_string())?;
-    let ev = skyloop_lti::analysis::poles(&cl).map_err(|e| e.to_string())?;
+pub fn closed_loop_abscissa(p: &Plants, k: &StateSpace) -> Result<f64> {
+    let cl = lft_lower(&p.g_nom, k)?;
+    let ev = skyloop_lti::analysis::poles(&cl)?;
     Ok(ev.iter().fold(f64::NEG_INFINITY, |m, z| m.max(z.re)))
 }
 
@@ -336,7 +330,7 @@ pub fn step_stats(run: &LoopRun, t_ref_s: f64) -> StepStats {
 }
 
 /// Runs the x-step of Fig. 5–6 with runtime controller `k_rt` (continuous) on `actual`.
-pub fn x_step(p: &Plants, k_rt: &StateSpace, actual: &Vehicle, d: &Design, duration_s: f64) -> Result<LoopRun, String> {
+pub fn x_step(p: &Plants, k_rt: &StateSpace, actual: &Vehicle, d: &Design, duration_s: f64) -> Result<LoopRun> {
     let (x_init, _) = actual.trim_hover(10.0, d.yaw_rad);
     run_loop(p, k_rt, actual, d, duration_s, [STEP_M, 0.0, 0.0], &x_init)
 }
@@ -351,9 +345,9 @@ pub fn run_loop(
     duration_s: f64,
     r: [f64; 3],
     x_init: &skyloop_sim::rigid::State,
-) -> Result<LoopRun, String> {
+) -> Result<LoopRun> {
     // Balanced first: the μ controller's D-scale states make I − A·dt/2 look singular unbalanced.
-    let kd = skyloop_sim::discrete::discretize(&balanced(k_rt)?, 1.0 / CONTROL_HZ).map_err(|e| e.to_string())?;
+    let kd = skyloop_sim::discrete::discretize(&balanced(k_rt)?, 1.0 / CONTROL_HZ)?;
     let (x0, u0) = p.vehicle.trim_hover(10.0, d.yaw_rad);
     let spec = LtiLoopSpec {
         physics_hz: PHYSICS_HZ,
@@ -365,13 +359,13 @@ pub fn run_loop(
         log_every: 5,
         crash_tilt_rad: 1.2,
     };
-    simulate_lti_loop(actual, &x0, &u0, x_init, &spec).map_err(|e| e.to_string())
+    Ok(simulate_lti_loop(actual, &x0, &u0, x_init, &spec)?)
 }
 
 /// Hover recovery: from 0.3 m off in x and y, 0.2 m low, tilted `tilt_rad` in roll and pitch and
 /// yawed 0.1 rad, back to the hover point; returns the largest final deviation (m or rad) and
 /// whether the run crashed.
-pub fn hover_recovery(p: &Plants, k_rt: &StateSpace, d: &Design, tilt_rad: f64) -> Result<(f64, bool), String> {
+pub fn hover_recovery(p: &Plants, k_rt: &StateSpace, d: &Design, tilt_rad: f64) -> Result<(f64, bool)> {
     use skyloop_sim::rigid::{POS, QUAT};
     let (x0, _) = p.vehicle.trim_hover(10.0, d.yaw_rad);
     let mut xi = x0;
@@ -386,7 +380,7 @@ pub fn hover_recovery(p: &Plants, k_rt: &StateSpace, d: &Design, tilt_rad: f64) 
     Ok((dev, run.crashed))
 }
 
-fn write_csv(path: &Path, run: &LoopRun) -> Result<(), String> {
+fn write_csv(path: &Path, run: &LoopRun) -> Result<()> {
     let mut f = std::io::BufWriter::new(
         std::fs::File::create(path).map_err(|e| format!("cannot write {}: {e}", path.display()))?,
     );
@@ -425,16 +419,16 @@ fn cpu_seconds() -> Option<f64> {
 }
 
 /// Runs the reproduction, writing traces and plots to `out`; `quick` uses a coarser μ grid.
-pub fn run(out: &Path, quick: bool) -> Result<(), String> {
+pub fn run(out: &Path, quick: bool) -> Result<Reproduction> {
     std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
     let t_start = Instant::now();
-    let mut claims = Claims::default();
+    let mut rep = Reproduction::new("ducted-fan");
     let d = Design::default();
     let params = skyloop_sim::presets::ducted_fan_pross();
     let p = plant::build(params, &d)?;
     let (ea, ew) = p.eps_in;
-    println!("Ducted-fan VTOL (Pross): H∞ and μ analysis, 50 cm x-step in the 6-DOF model");
-    println!(
+    rep.note("Ducted-fan VTOL (Pross): H∞ and μ analysis, 50 cm x-step in the 6-DOF model");
+    rep.note(format!(
         "  plant: hover at yaw {:.0}°, {}-order Padé of T_m = {} s, F_u (T_α = {} s, T_ω = {} s), F_r (T = {} s)",
         d.yaw_rad.to_degrees(),
         d.pade_order,
@@ -442,52 +436,57 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
         d.t_alpha_s,
         d.t_omega_s,
         d.t_ref_s
-    );
-    println!(
+    ));
+    rep.note(format!(
         "  eq. (10): ε_α = {:.0} %, ε_ω = {:.0} %; linearization error {:.0} % → {:.0} %",
         100.0 * ea,
         100.0 * ew,
         100.0 * d.lin_err.1,
         100.0 * d.lin_err.0
-    );
-    println!(
+    ));
+    rep.note(format!(
         "  G: {} states, {} inputs [v 14 | w 20 | u 5], {} outputs [z 14 | e 17 | y_m 12]; G_nom: {} states",
         p.g.nx(),
         p.g.nu(),
         p.g.ny(),
         p.g_nom.nx()
-    );
+    ));
 
-    println!("\nH∞ synthesis on G_nom (eq. (11)):");
+    rep.note("\nH∞ synthesis on G_nom (eq. (11)):");
     let t = Instant::now();
     let hinf = skyloop_robust::hinfsyn::hinfsyn(&p.g_nom, NMEAS, NCON).map_err(|e| format!("hinfsyn: {e}"))?;
-    println!(
+    rep.note(format!(
         "  γ = {:.4} (bisection lower bound {:.4}), ‖lft(G_nom, K∞)‖∞ = {:.4}, controller order {}, {:.2} s",
         hinf.gamma,
         hinf.gamma_lower,
         hinf.closed_loop_norm,
         hinf.controller.nx(),
         t.elapsed().as_secs_f64()
-    );
-    println!("  paper: γ ≈ 0.6 with its (unprinted) weights of Fig. 4a");
+    ));
+    rep.note("  paper: γ ≈ 0.6 with its (unprinted) weights of Fig. 4a");
+    rep.measure("hinf_gamma", hinf.gamma);
     let abscissa = closed_loop_abscissa(&p, &hinf.controller)?;
     let (zeta, wn) = least_damped(&p, &hinf.controller)?;
-    println!(
+    rep.note(format!(
         "  least-damped closed-loop pole: ζ = {zeta:.3} at {wn:.2} rad/s (gyroscopic nutation Jr·ω0/Jx ≈ {:.2} rad/s)",
         p.params.jr_kg_m2 * p.vehicle.trim_hover(10.0, d.yaw_rad).1[4] / p.params.body.inertia_kg_m2[0]
-    );
-    claims.check(
+    ));
+    rep.check(
         abscissa < 0.0,
         format!("K∞ stabilizes the linear plant (max Re pole {abscissa:.3e})"),
     );
 
     let npts = if quick { 30 } else { 80 };
     let w = skyloop_lti::freqresp::logspace(-2.0, 3.0, npts);
-    println!("\nμ analysis of the H∞ loop (Fig. 4b), {npts} frequencies 0.01–1000 rad/s:");
+    rep.note(format!(
+        "\nμ analysis of the H∞ loop (Fig. 4b), {npts} frequencies 0.01–1000 rad/s:"
+    ));
     let t = Instant::now();
     let mh = analyse(&p, &hinf.controller, &w)?;
     let rsm = robust_stability(&mh.rs);
-    println!(
+    rep.measure("hinf_rs_mu_peak", mh.rs.peak.upper);
+    rep.measure("hinf_rp_mu_peak", mh.rp.peak.upper);
+    rep.note(format!(
         "  robust stability μ peak {:.3} at {:.2} rad/s (margin {:.3}); robust performance μ peak {:.3} at {:.2} rad/s; nominal performance {:.3}; {:.2} s",
         mh.rs.peak.upper,
         mh.rs.peak.w_rad_s,
@@ -496,12 +495,12 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
         mh.rp.peak.w_rad_s,
         mh.np,
         t.elapsed().as_secs_f64()
-    );
-    claims.check(
+    ));
+    rep.check(
         mh.rs.upper.iter().zip(&mh.rs.lower).all(|(u, l)| u + 1e-9 >= *l),
         "μ upper bound ≥ lower bound at every frequency".into(),
     );
-    claims.check(
+    rep.check(
         (mh.np - hinf.closed_loop_norm).abs() <= 1e-3 * hinf.closed_loop_norm,
         format!(
             "nominal performance of lft(G, K∞) equals hinfsyn's closed-loop norm ({:.4} vs {:.4})",
@@ -525,10 +524,10 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
         },
     ];
 
-    println!(
+    rep.note(format!(
         "\nμ-synthesis by DK-iteration (skyloop_robust::musyn) on G with the structure (13), {} iterations at most:",
         if quick { 2 } else { 4 }
-    );
+    ));
     let t = Instant::now();
     let mopts = MusynOptions {
         max_iter: if quick { 2 } else { 4 },
@@ -542,31 +541,33 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
     };
     let ms = musyn(&p.g, &structure()?, NMEAS, NCON, &mopts).map_err(|e| format!("musyn: {e}"))?;
     for (i, it) in ms.iterations.iter().enumerate() {
-        println!(
+        rep.note(format!(
             "  iteration {}: γ = {:.4}, robust-performance μ peak {:.4}{}",
             i + 1,
             it.gamma,
             it.mu_peak,
             if i == ms.best { " (best)" } else { "" }
-        );
+        ));
     }
     let k_mu = ms.controller.clone();
-    println!(
+    rep.measure("musyn_first_gamma", ms.iterations[0].gamma);
+    rep.measure("k_mu_order", k_mu.nx() as f64);
+    rep.note(format!(
         "  K_μ: {} states, {:.1} s; paper: 3 iterations, RP μ below the H∞ design's (Fig. 4b)",
         k_mu.nx(),
         t.elapsed().as_secs_f64()
-    );
+    ));
     let mm = analyse(&p, &k_mu, &w)?;
-    println!(
+    rep.note(format!(
         "  K_μ: robust stability μ peak {:.3} at {:.2} rad/s; robust performance μ peak {:.3} at {:.2} rad/s; nominal performance {:.3}",
         mm.rs.peak.upper, mm.rs.peak.w_rad_s, mm.rp.peak.upper, mm.rp.peak.w_rad_s, mm.np
-    );
+    ));
     let abs_mu = closed_loop_abscissa(&p, &k_mu)?;
-    claims.check(
+    rep.check(
         abs_mu < 0.0,
         format!("K_μ stabilizes the linear plant (max Re pole {abs_mu:.3e})"),
     );
-    claims.check(
+    rep.check(
         mm.rp.peak.upper < mh.rp.peak.upper,
         format!(
             "robust-performance μ of K_μ below K∞'s ({:.3} < {:.3}), as Fig. 4b",
@@ -575,7 +576,7 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
     );
     // The D-steps must pay off: the best iterate beats the first (D = I) K-step, and does so within
     // the paper's 3 iterations.
-    claims.check(
+    rep.check(
         ms.best > 0 && ms.best < 3 && ms.iterations[ms.best].mu_peak < ms.iterations[0].mu_peak,
         format!(
             "D-scaling improves on the unscaled K-step; best RP μ at iteration {} (paper: converged in 3); stop: {}",
@@ -584,24 +585,25 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
         ),
     );
 
-    println!("\nReduction of K_μ (balanced truncation, unstable part kept; bisection on the order): smallest order with a stable loop and RP μ peak within +2 %:");
+    rep.note("\nReduction of K_μ (balanced truncation, unstable part kept; bisection on the order): smallest order with a stable loop and RP μ peak within +2 %:");
     let t = Instant::now();
     let Reduction {
         k: k_red,
         rp: rp_red,
         tried,
     } = reduce_controller(&p, &k_mu, &w, mm.rp.peak.upper, 0.02)?;
-    println!(
+    rep.note(format!(
         "  tried: {}",
         tried
             .iter()
             .map(|(n, r)| format!("{n} states → {r}"))
             .collect::<Vec<_>>()
             .join("; ")
-    );
+    ));
     let mr = analyse(&p, &k_red, &w)?;
+    rep.measure("k_mu_reduced_order", k_red.nx() as f64);
     let abs_red = closed_loop_abscissa(&p, &k_red)?;
-    println!(
+    rep.note(format!(
         "  K_μ reduced: {} → {} states; RP μ peak {:.4} → {:.4} ({:+.2} %); robust stability μ peak {:.3} (margin {:.3}); {:.1} s",
         k_mu.nx(),
         k_red.nx(),
@@ -611,8 +613,8 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
         mr.rs.peak.upper,
         robust_stability(&mr.rs).lower,
         t.elapsed().as_secs_f64()
-    );
-    claims.check(
+    ));
+    rep.check(
         abs_red < 0.0 && k_red.nx() < k_mu.nx() && rp_red <= 1.02 * mm.rp.peak.upper,
         format!(
             "reduced K_μ ({} states) keeps the loop stable (max Re {abs_red:.2e}) and the RP μ within 2 % ({:.4} vs {:.4}); used below",
@@ -633,28 +635,25 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
     skyloop_plot::mu::plot_mu(&mu_path, "Ducted fan: μ of the H∞ and μ loops", &curves)
         .map_err(|e| format!("plot: {e}"))?;
 
-    println!(
+    rep.note(format!(
         "\nNonlinear 6-DOF x-step of {STEP_M} m (RK4 {PHYSICS_HZ} Hz, controller Tustin at {CONTROL_HZ} Hz, exact {} s measurement delay, actuator limits):",
         d.t_m_s
-    );
+    ));
     let k_rt = plant::runtime_controller(&p, &hinf.controller)?;
     let (dev, crashed) = hover_recovery(&p, &k_rt, &d, 0.1)?;
-    claims.check(
+    rep.check(
         !crashed && dev < 0.02,
         format!(
             "K∞ stabilizes the nonlinear hover: back from a 0.3 m / 0.1 rad upset to within {dev:.4} (m, rad) in 60 s"
         ),
     );
     let (dev15, crashed15) = hover_recovery(&p, &k_rt, &d, 0.15)?;
-    println!(
+    rep.note(format!(
         "  (from a 0.15 rad tilt: final deviation {dev15:.3}, crashed {crashed15}; the flaps saturate at {:.2} rad)",
         p.params.flap_max_rad
-    );
+    ));
     let pert = |sign: f64| VehicleSpec::DuctedFan(perturbed(&p.params, &d, sign)).build();
-    let (lo, hi) = (
-        pert(-1.0).map_err(|e| e.to_string())?,
-        pert(1.0).map_err(|e| e.to_string())?,
-    );
+    let (lo, hi) = (pert(-1.0)?, pert(1.0)?);
     let duration = 40.0;
     let mut rows = Vec::new();
     let mut runs = Vec::new();
@@ -669,17 +668,18 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
     ] {
         let run = x_step(&p, k, veh, &d, duration)?;
         write_csv(&out.join(format!("{stem}.csv")), &run)?;
+        rep.artifact(&out.join(format!("{stem}.csv")));
         let st = step_stats(&run, d.t_ref_s);
         rows.push((label.to_string(), st));
         runs.push((label.to_string(), run));
     }
     let hdr = |c: [&str; 9]| {
-        println!(
+        format!(
             "  {:<26} {:>7} {:>10} {:>10} {:>11} {:>9} {:>9} {:>9} {:>8}",
             c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8]
         )
     };
-    hdr([
+    rep.note(hdr([
         "run",
         "t90 s",
         "settle 2%",
@@ -689,10 +689,10 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
         "y,z m",
         "tilt rad",
         "crashed",
-    ]);
-    hdr(["paper (Fig. 5–6)", "-", "≈ 20", "-", "-", "-", "-", "-", "no"]);
+    ]));
+    rep.note(hdr(["paper (Fig. 5–6)", "-", "≈ 20", "-", "-", "-", "-", "-", "no"]));
     let print_row = |label: &str, st: &StepStats| {
-        println!(
+        format!(
             "  {label:<26} {:>7} {:>10} {:>9.2}% {:>11.4} {:>9.4} {:>9.4} {:>9.4} {:>8}",
             st.t90_s.map_or("never".into(), |t| format!("{t:.1}")),
             st.settling_s.map_or("never".into(), |t| format!("{t:.1}")),
@@ -702,21 +702,21 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
             st.cross_m,
             st.tilt_rad,
             st.crashed
-        );
+        )
     };
     for (label, st) in &rows {
-        print_row(label, st);
+        rep.note(print_row(label, st));
     }
-    claims.check(
+    rep.check(
         !rows[0].1.crashed && rows[0].1.settling_s.is_some_and(|t| t < duration - 5.0),
         "H∞ nominal: the nonlinear x-step settles within the run".into(),
     );
     let settles = |st: &StepStats| !st.crashed && st.settling_s.is_some_and(|t| t < duration - 5.0);
-    claims.check(
+    rep.check(
         settles(&rows[3].1),
         "μ nominal: the nonlinear x-step settles within the run".into(),
     );
-    claims.check(
+    rep.check(
         settles(&rows[4].1) && settles(&rows[5].1),
         "μ perturbed: the nonlinear x-step stays stable and settles at both corners".into(),
     );
@@ -727,20 +727,22 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
     let dm = degrade(&rows[3].1, &rows[4].1).max(degrade(&rows[3].1, &rows[5].1));
     let h_crash = rows[1].1.crashed || rows[2].1.crashed;
     let reproduced = h_crash || dh > dm;
-    println!(
-        "  [{}] nonlinear parametric corners (eq. (10), inside the weights): the H∞ step degrades more than the μ one \
+    rep.check(
+        reproduced,
+        format!(
+            "nonlinear parametric corners (eq. (10), inside the weights): the H∞ step degrades more than the μ one \
          (worst tracking-error growth H∞ {:+.4} m, μ {:+.4} m{}); these corners barely excite either loop, so Fig. 6 \
          is checked below with the worst-case Δ in the linear loop (the Δ is not injected into the nonlinear model)",
-        if reproduced { "ok" } else { "not reproduced" },
-        dh,
-        dm,
-        if h_crash { "; H∞ perturbed crashed" } else { "" }
+            dh,
+            dm,
+            if h_crash { "; H∞ perturbed crashed" } else { "" }
+        ),
     );
 
-    println!(
+    rep.note(format!(
         "\nFig. 6 by the worst-case perturbation: K∞'s destabilizing Δ from its robust-stability μ sweep, realized \
          as a stable real-rational Δ(s) (skyloop_robust::uncertainty::worst), one Δ for both loops F_u(Δ, F_l(G, K)):"
-    );
+    ));
     let rsm_mu = robust_stability(&mr.rs);
     let real = realize_perturbation_detailed(rsm.delta.as_ref(), &structure()?, rsm.w_rad_s)
         .map_err(|e| format!("worst-case Δ: {e}"))?;
@@ -760,9 +762,9 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
             format!("σ̄({name}) = {s:.4}")
         })
         .collect();
-    println!("  K∞'s destabilizing Δ by block: {}", block_sizes.join(", "));
-    let (norm_wc, _) = skyloop_lti::norms::hinf_norm(&real.sys).map_err(|e| e.to_string())?;
-    println!(
+    rep.note(format!("  K∞'s destabilizing Δ by block: {}", block_sizes.join(", ")));
+    let (norm_wc, _) = skyloop_lti::norms::hinf_norm(&real.sys)?;
+    rep.note(format!(
         "  Δ_wc at {:.3} rad/s: σ̄ = {:.4} (K∞'s margin bounds [{:.4}, {:.4}]), ‖Δ_wc(s)‖∞ = {:.4}, {} states, \
          rank-one truncation dropped {:.1e} of a block",
         rsm.w_rad_s,
@@ -772,13 +774,11 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
         norm_wc,
         real.sys.nx(),
         real.dropped_rel
-    );
-    let n_h = lft_lower(&p.g, &hinf.controller).map_err(|e| e.to_string())?;
-    let ab_at = |k: f64| -> Result<f64, String> {
-        spectral_abscissa(&lft_upper(&n_h, &scaled(&real.sys, k)?).map_err(|e| e.to_string())?)
-    };
+    ));
+    let n_h = lft_lower(&p.g, &hinf.controller)?;
+    let ab_at = |k: f64| -> Result<f64> { spectral_abscissa(&lft_upper(&n_h, &scaled(&real.sys, k)?)?) };
     let (ab_lo, ab_hi) = (ab_at(0.98)?, ab_at(1.02)?);
-    claims.check(
+    rep.check(
         (norm_wc - size_wc).abs() <= 1e-6 * size_wc && ab_lo < 0.0 && ab_hi > 0.0,
         format!(
             "Δ_wc(s) is K∞'s margin: ‖Δ_wc‖∞ = σ̄ = {size_wc:.4}, the K∞ loop with 0.98·Δ_wc is stable (max Re pole \
@@ -786,12 +786,13 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
         ),
     );
     let size = 0.5 * (size_wc + rsm_mu.lower);
-    println!(
+    rep.measure("fig6_delta_percent", 100.0 * size);
+    rep.note(format!(
         "  applied Δ = Δ_wc scaled to ‖Δ‖∞ = {size:.4}: {:.0} % of the modelled uncertainty, midway between K∞'s \
          destabilizing size {size_wc:.4} and the reduced K_μ's guaranteed margin {:.4}",
         100.0 * size,
         rsm_mu.lower
-    );
+    ));
     let d_app = scaled(&real.sys, size / size_wc)?;
     let t_lin: Vec<f64> = (0..=4000).map(|i| i as f64 * 0.01).collect();
     let mut lin = Vec::new();
@@ -801,18 +802,19 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
         let sn = linear_step_stats(&t_lin, &x_n, d.t_ref_s);
         let sp = linear_step_stats(&t_lin, &x_p, d.t_ref_s);
         for (what, ab, st) in [("nominal", ab_n, sn), ("worst-case Δ", ab_p, sp)] {
-            println!(
+            rep.note(format!(
                 "  {label:<3} {what:<13} max Re pole {ab:+.3e}; settle 2 % {:>6}; overshoot {:6.2} %; |r_f−x| {:9.4} m; max|x| {:9.3} m",
                 st.0.map_or("never".into(), |t| format!("{t:.1} s")),
                 st.1,
                 st.2,
                 st.3
-            );
+            ));
         }
         lin.push((label, ab_n, x_n, sn, ab_p, x_p, sp));
     }
     {
         let path = out.join("fig6_worst_case_linear.csv");
+        rep.artifact(&path);
         let mut f = std::io::BufWriter::new(
             std::fs::File::create(&path).map_err(|e| format!("cannot write {}: {e}", path.display()))?,
         );
@@ -830,7 +832,7 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
     let mu_ok = m.4 < 0.0 && m.6 .0.is_some();
     let h_unstable = h.4 >= 0.0;
     let h_degraded = h.6 .2 - h.3 .2 > 0.1 * STEP_M;
-    claims.check(
+    rep.check(
         mu_ok && (h_unstable || h_degraded),
         format!(
             "Fig. 6 (worst-case Δ at {:.0} % of the modelled uncertainty): the μ loop stays stable (max Re {:.2e}) and {}; \
@@ -857,36 +859,39 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
     // and is applied to the command deviations the controller sends. Δ_x (linearization error) has no
     // counterpart in the nonlinear model, which is the truth model, so it is left out there.
     let d_act = zero_outputs(&d_app, 5..d_app.ny())?;
-    println!(
+    rep.note(format!(
         "  nonlinear 6-DOF x-step with the actuator part of the applied Δ (Δ_α, δ_ω as input-multiplicative \
          factors; Δ_x left out: the nonlinear model is the truth); the linear loops with this part alone: max Re pole \
          H∞ {:+.3e}, μ {:+.3e}",
         linear_x_step(&p, &hinf.controller, Some(&d_act), &t_lin[..2])?.0,
         linear_x_step(&p, &k_red, Some(&d_act), &t_lin[..2])?.0
-    );
+    ));
     let factor = actuator_factor(&p, &d_app)?;
     let mut nl_wc = Vec::new();
     for (stem, label, k) in [
         ("hinf_worst_case_actuator", "H∞, worst-case Δ_act", &k_rt),
         ("mu_worst_case_actuator", "μ, worst-case Δ_act", &k_rt_mu),
     ] {
-        let kp = skyloop_lti::interconnect::series(k, &factor).map_err(|e| e.to_string())?;
+        let kp = skyloop_lti::interconnect::series(k, &factor)?;
         let run = x_step(&p, &kp, &p.vehicle, &d, duration)?;
         write_csv(&out.join(format!("{stem}.csv")), &run)?;
+        rep.artifact(&out.join(format!("{stem}.csv")));
         let st = step_stats(&run, d.t_ref_s);
-        print_row(label, &st);
+        rep.note(print_row(label, &st));
         nl_wc.push(st);
         runs.push((label.to_string(), run));
     }
-    println!(
-        "  [{}] nonlinear, actuator part of the worst-case Δ: μ step {} (reported, not enforced: the Δ_x part that \
+    rep.check(
+        settles(&nl_wc[1]),
+        format!(
+            "nonlinear, actuator part of the worst-case Δ: μ step {} (the Δ_x part that \
          destabilizes the linear H∞ loop is not in the nonlinear model)",
-        if settles(&nl_wc[1]) { "ok" } else { "not reproduced" },
-        if settles(&nl_wc[1]) {
-            "stable and settles"
-        } else {
-            "does not settle"
-        }
+            if settles(&nl_wc[1]) {
+                "stable and settles"
+            } else {
+                "does not settle"
+            }
+        ),
     );
     // Diverging traces are drawn up to where they leave ±3 steps, so the others stay readable.
     let clip = |x: &[f64]| -> (Vec<f64>, Vec<f64>) {
@@ -961,13 +966,16 @@ pub fn run(out: &Path, quick: bool) -> Result<(), String> {
     ];
     let fig = out.join("fig5_6_x_step.svg");
     plot_traces(&fig, "Ducted fan: 50 cm x-step", &panels).map_err(|e| format!("plot: {e}"))?;
-    println!(
+    rep.note(format!(
         "\nwrote {}, {} and CSV traces in {} (wall {:.1} s, cpu {})",
         mu_path.display(),
         fig.display(),
         out.display(),
         t_start.elapsed().as_secs_f64(),
         cpu_seconds().map_or("n/a".into(), |c| format!("{c:.1} s"))
-    );
-    claims.finish()
+    ));
+    rep.artifact(&mu_path);
+    rep.artifact(&fig);
+    super::write_report(&mut rep, "Ducted-fan VTOL (Pross): claims reproduced", out)?;
+    Ok(rep)
 }

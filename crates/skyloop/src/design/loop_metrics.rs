@@ -3,7 +3,6 @@
 //! W1·K∞·W2 (after reduction), the RHP-zero and delay limits on the crossover, and how closely one
 //! controller follows another over a band.
 
-use crate::linutil::max_real_eig;
 use serde::Serialize;
 use skyloop_lti::error::Result;
 use skyloop_lti::freqresp::{dynamics_range, logspace, FreqEvaluator, Workspace};
@@ -69,7 +68,7 @@ pub fn closed_loop_stable(p: &StateSpace, c: &StateSpace) -> Result<bool> {
     let l = series(c, p)?;
     let one = StateSpace::gain(Mat::identity(l.ny(), l.ny()), l.dt)?;
     let cl = feedback(&l, &one, -1.0)?;
-    Ok(max_real_eig(cl.a.as_ref())? < 0.0)
+    Ok(skyloop_lti::analysis::poles(&cl)?.iter().all(|p| p.re < 0.0))
 }
 
 /// SISO frequency responses evaluated one point at a time.

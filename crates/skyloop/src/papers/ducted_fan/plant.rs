@@ -17,6 +17,7 @@
 //! measurement noise n on every measurement so that D21 has full row rank (the Riccati solution needs
 //! it); both are standard regularity terms the paper leaves implicit.
 
+use crate::error::Result;
 use faer::Mat;
 use skyloop_lti::interconnect::{append, lft_lower};
 use skyloop_lti::StateSpace;
@@ -140,39 +141,43 @@ pub const NMEAS: usize = 12;
 pub const NCON: usize = 5;
 
 /// n copies of a SISO model on the diagonal.
-fn repeat(g: &StateSpace, n: usize) -> Result<StateSpace, String> {
+fn repeat(g: &StateSpace, n: usize) -> Result<StateSpace> {
     let mut acc = g.clone();
     for _ in 1..n {
-        acc = append(&acc, g).map_err(|e| e.to_string())?;
+        acc = append(&acc, g)?;
     }
     Ok(acc)
 }
 
-fn append_all(parts: &[StateSpace]) -> Result<StateSpace, String> {
+fn append_all(parts: &[StateSpace]) -> Result<StateSpace> {
     let mut acc = parts[0].clone();
     for p in &parts[1..] {
-        acc = append(&acc, p).map_err(|e| e.to_string())?;
+        acc = append(&acc, p)?;
     }
     Ok(acc)
 }
 
 /// First-order low pass 1/(T s + 1).
-fn lowpass1(t: f64) -> Result<StateSpace, String> {
-    StateSpace::from_rows(&[vec![-1.0 / t]], &[vec![1.0]], &[vec![1.0 / t]], &[vec![0.0]], 0.0)
-        .map_err(|e| e.to_string())
+fn lowpass1(t: f64) -> Result<StateSpace> {
+    Ok(StateSpace::from_rows(
+        &[vec![-1.0 / t]],
+        &[vec![1.0]],
+        &[vec![1.0 / t]],
+        &[vec![0.0]],
+        0.0,
+    )?)
 }
 
 /// Critically damped 1/(T²s² + 2Ts + 1) of eq. (9b).
-fn lowpass2(t: f64) -> Result<StateSpace, String> {
+fn lowpass2(t: f64) -> Result<StateSpace> {
     let w = 1.0 / t;
-    StateSpace::from_rows(
+    Ok(StateSpace::from_rows(
         &[vec![0.0, 1.0], vec![-w * w, -2.0 * w]],
         &[vec![0.0], vec![1.0]],
         &[vec![w * w, 0.0]],
         &[vec![0.0]],
         0.0,
-    )
-    .map_err(|e| e.to_string())
+    )?)
 }
 
 /// A signal source in a static interconnection: an external input or an output of component c.
@@ -219,7 +224,7 @@ impl Wiring {
         self.ext_out.push(terms);
     }
 
-    pub(super) fn build(&self) -> Result<StateSpace, String> {
+    pub(super) fn build(&self) -> Result<StateSpace> {
         let all = append_all(&self.comps)?;
         let mut in_off = vec![0];
         let mut out_off = vec![0];
@@ -230,7 +235,7 @@ impl Wiring {
         let (nu_all, ny_all) = (all.nu(), all.ny());
         let n_out = self.ext_out.len();
         let mut s = Mat::<f64>::zeros(n_out + nu_all, self.n_ext_in + ny_all);
-        let col = |sig: Sig| -> Result<usize, String> {
+        let col = |sig: Sig| -> Result<usize> {
             match sig {
                 Sig::Ext(i) if i < self.n_ext_in => Ok(i),
                 Sig::Out(c, i) if c < self.comps.len() && i < self.comps[c].ny() => Ok(self.n_ext_in + out_off[c] + i),
@@ -249,27 +254,27 @@ impl Wiring {
                 }
             }
         }
-        let s = StateSpace::gain(s, 0.0).map_err(|e| e.to_string())?;
-        lft_lower(&s, &all).map_err(|e| e.to_string())
+        let s = StateSpace::gain(s, 0.0)?;
+        Ok(lft_lower(&s, &all)?)
     }
 }
 
 /// The linearization-error weight: first order from `lin_err.1` at DC to `lin_err.0` at high
 /// frequency, geometric midpoint at `lin_err.2` rad/s.
-pub fn lin_err_weight(d: &Design) -> Result<StateSpace, String> {
+pub fn lin_err_weight(d: &Design) -> Result<StateSpace> {
     let (hf, dc, wmid) = d.lin_err;
-    makeweight_mag(dc, wmid, (dc * hf).sqrt(), hf).map_err(|e| e.to_string())
+    Ok(makeweight_mag(dc, wmid, (dc * hf).sqrt(), hf)?)
 }
 
 /// Builds G and G_nom for the nominal vehicle `spec` and the design `d`.
-pub fn build(params: DuctedFanParams, d: &Design) -> Result<Plants, String> {
-    let vehicle = VehicleSpec::DuctedFan(params).build().map_err(|e| e.to_string())?;
+pub fn build(params: DuctedFanParams, d: &Design) -> Result<Plants> {
+    let vehicle = VehicleSpec::DuctedFan(params).build()?;
     let (x0, u0) = vehicle.trim_hover(10.0, d.yaw_rad);
-    let lin = linearize(&vehicle, &x0, &u0).map_err(|e| e.to_string())?;
+    let lin = linearize(&vehicle, &x0, &u0)?;
     let (aux, _) = vehicle.names();
     let act_states: Vec<&str> = aux.iter().map(|s| s.as_str()).collect();
     let drive = ["alpha1_rad", "alpha2_rad", "alpha3_rad", "alpha4_rad", "omega_rad_s"];
-    let (ga, body) = actuator_split(&lin, &act_states, &drive).map_err(|e| e.to_string())?;
+    let (ga, body) = actuator_split(&lin, &act_states, &drive)?;
     let amax = params.flap_max_rad;
     let wscale = if d.omega_scale_rad_s > 0.0 {
         d.omega_scale_rad_s
@@ -302,22 +307,19 @@ pub fn build(params: DuctedFanParams, d: &Design) -> Result<Plants, String> {
             |i, j| if i < 9 && j >= 9 { b.b[(i + 3, j - 9)] } else { 0.0 },
         ),
         0.0,
-    )
-    .map_err(|e| e.to_string())?;
+    )?;
 
-    let f_u = append(&repeat(&lowpass1(d.t_alpha_s)?, 4)?, &lowpass1(d.t_omega_s)?).map_err(|e| e.to_string())?;
+    let f_u = append(&repeat(&lowpass1(d.t_alpha_s)?, 4)?, &lowpass1(d.t_omega_s)?)?;
     let f_r = repeat(&lowpass2(d.t_ref_s)?, 3)?;
-    let delay = StateSpace::gain(Mat::identity(12, 12), 0.0)
-        .map_err(|e| e.to_string())?
-        .with_delays(vec![0.0; 12], vec![d.t_m_s; 12])
-        .map_err(|e| e.to_string())?
+    let delay = StateSpace::gain(Mat::identity(12, 12), 0.0)?
+        .with_delays(vec![0.0; 12], vec![d.t_m_s; 12])?
         .pade(d.pade_order);
     let w_x = repeat(&lin_err_weight(d)?, 9)?;
-    let wp = |k: usize| makeweight_mag(d.w_pos[k].0, d.w_pos[k].1, 1.0, d.w_pos[k].2).map_err(|e| e.to_string());
+    let wp = |k: usize| makeweight_mag(d.w_pos[k].0, d.w_pos[k].1, 1.0, d.w_pos[k].2);
     let w_p = append_all(&[wp(0)?, wp(0)?, wp(1)?])?;
 
     let ks = d.perf_scale;
-    let plant = |with_unc: bool, with_pos: bool| -> Result<StateSpace, String> {
+    let plant = |with_unc: bool, with_pos: bool| -> Result<StateSpace> {
         let n_unc = if with_unc { 14 } else { 0 };
         let (d0, r0, n0, u_0) = (n_unc, n_unc + 5, n_unc + 8, n_unc + 20);
         let mut wr = Wiring::new(n_unc + 25);
@@ -413,9 +415,9 @@ pub fn build(params: DuctedFanParams, d: &Design) -> Result<Plants, String> {
 /// The runtime controller: inputs [r (3), measured linearization outputs (12): position, velocity,
 /// ξ, body rates], outputs actuator-command deviations in physical units (rad ×4, rad/s), i.e.
 /// diag(u_scale)·F_u·K applied to [F_r·r − P; Ṗ; Θ; Ω].
-pub fn runtime_controller(p: &Plants, k: &StateSpace) -> Result<StateSpace, String> {
+pub fn runtime_controller(p: &Plants, k: &StateSpace) -> Result<StateSpace> {
     if k.nu() != NMEAS || k.ny() != NCON {
-        return Err(format!("controller is {}×{}, expected {NCON}×{NMEAS}", k.ny(), k.nu()));
+        return Err(format!("controller is {}×{}, expected {NCON}×{NMEAS}", k.ny(), k.nu()).into());
     }
     let mut wr = Wiring::new(15);
     let cfr = wr.add(p.f_r.clone());
@@ -437,11 +439,11 @@ pub fn runtime_controller(p: &Plants, k: &StateSpace) -> Result<StateSpace, Stri
 }
 
 /// Row/column selection of a static-free helper: the block of `g` from inputs `ins` to outputs `outs`.
-pub fn sub(g: &StateSpace, outs: std::ops::Range<usize>, ins: std::ops::Range<usize>) -> Result<StateSpace, String> {
+pub fn sub(g: &StateSpace, outs: std::ops::Range<usize>, ins: std::ops::Range<usize>) -> Result<StateSpace> {
     let c = Mat::from_fn(outs.len(), g.nx(), |i, j| g.c[(outs.start + i, j)]);
     let b = Mat::from_fn(g.nx(), ins.len(), |i, j| g.b[(i, ins.start + j)]);
     let dd = Mat::from_fn(outs.len(), ins.len(), |i, j| g.d[(outs.start + i, ins.start + j)]);
-    StateSpace::new(g.a.clone(), b, c, dd, g.dt).map_err(|e| e.to_string())
+    Ok(StateSpace::new(g.a.clone(), b, c, dd, g.dt)?)
 }
 
 #[cfg(test)]

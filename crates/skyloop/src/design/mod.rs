@@ -1,20 +1,19 @@
 //! The design pipeline of a SISO loop, as in the bicopter paper's Section IV: synthesis (Glover–
 //! McFarlane loop shaping, mixed sensitivity, or a given controller) → gain boost → controller
 //! reduction → Tustin discretization, with γ and margins reported after every step. No plots here;
-//! the CLI draws them from [`DesignResult`].
+//! [`report`] draws them from [`DesignResult`].
 //!
 //! Conventions: C is for negative feedback u = C·(r − y), L = P·C. For ncfsyn, γ after each step is
 //! the 4-block norm of the shaped loop (Ps = W2·P·W1, K = −W1⁻¹·C·W2⁻¹), the number MATLAB's
 //! `ncfsyn` and the paper report; `ncf_margin` is b(P, C) of the unweighted loop. Margins are read
 //! with the plant's exact delays, γ and b(P, C) with its Padé approximant.
 
-pub mod analysis;
-pub mod spec;
+pub mod loop_metrics;
+pub mod report;
 
-use crate::mixsyn::mixsyn;
-use crate::ncfsyn::{ncfsyn, NcfOptions};
-use analysis::{closeness, closeness_warped, crossover_limits, four_block_norms, loop_gain_at, loop_margins};
-use analysis::{Closeness, CrossoverLimits, LoopMargins};
+pub use crate::spec::design::{DesignSpec, SynthesisMethod};
+use loop_metrics::{closeness, closeness_warped, crossover_limits, four_block_norms, loop_gain_at, loop_margins};
+use loop_metrics::{Closeness, CrossoverLimits, LoopMargins};
 use rayon::prelude::*;
 use serde::Serialize;
 use skyloop_lti::discretize::{c2d, Method as C2dMethod};
@@ -22,7 +21,8 @@ use skyloop_lti::error::Result;
 use skyloop_lti::reduce::balred;
 use skyloop_lti::sos::{to_sos, Sos};
 use skyloop_lti::{LtiError, StateSpace};
-pub use spec::{DesignSpec, SynthesisMethod};
+use skyloop_robust::mixsyn::mixsyn;
+use skyloop_robust::ncfsyn::{ncfsyn, NcfOptions};
 use std::f64::consts::PI;
 
 /// What one design step produced, as numbers.
@@ -35,7 +35,7 @@ pub struct StageSummary {
     /// ncfsyn: 4-block norm of the shaped loop; mixsyn: the synthesis γ (synthesis step only).
     pub gamma: Option<f64>,
     /// b(P, C) of the unweighted loop (MATLAB ncfmargin, here on the frequency grid of
-    /// [`analysis::four_block_norms`]), 0 when unstable.
+    /// [`loop_metrics::four_block_norms`]), 0 when unstable.
     pub ncf_margin: f64,
     /// Classic and disk margins of L = P·C.
     pub margins: LoopMargins,
@@ -304,7 +304,7 @@ pub fn design(spec: &DesignSpec) -> Result<DesignResult> {
 
     // Analysis of every step; the steps are independent, so they run in parallel. The synthesis
     // step's γ is ncfsyn's exact one; after boost and reduction C is no longer W1·K∞·W2 with the
-    // synthesized K∞, so γ is the 4-block norm on a grid (see analysis::shaped_gamma).
+    // synthesized K∞, so γ is the 4-block norm on a grid (see loop_metrics::shaped_gamma).
     let mut steps: Vec<(&str, &StateSpace, Option<f64>, bool)> = vec![("synthesis", &synthesized, synth_gamma, false)];
     if spec.boost.is_some() {
         steps.push(("boost", &full, None, is_ncf));

@@ -4,7 +4,7 @@
 //! step; no plots). Target < 20 ms.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use skyloop_robust::design::{design, DesignSpec};
+use skyloop::design::{design, DesignSpec};
 use std::path::Path;
 
 const BICOPTER: &str = include_str!("../../../examples/bicopter.toml");

@@ -1,0 +1,102 @@
+//! Simulation workflows: a scenario file → the nonlinear 6-DOF run's trajectory CSV, trace plot and
+//! metrics, or its Monte Carlo study.
+
+use crate::error::{Error, Result};
+use skyloop_sim::montecarlo::Summary;
+use skyloop_sim::{sim, Metrics, Sample, Scenario};
+use std::path::{Path, PathBuf};
+
+/// Reads and parses a scenario file.
+///
+/// # Errors
+/// An unreadable file, or TOML that is not a valid scenario (the message names the file).
+pub fn load_scenario(path: &Path) -> Result<Scenario> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::read(path, e))?;
+    Scenario::from_toml(&text).map_err(|e| Error::Spec(format!("{}: {e}", path.display())))
+}
+
+/// Writes trajectory.csv and traces.svg for one run into `dir`, with file names prefixed by `stem`.
+///
+/// # Errors
+/// A file that cannot be written.
+pub fn write_run(dir: &Path, stem: &str, title: &str, trace: &[Sample], nu: usize) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::create(dir, e))?;
+    let csv = dir.join(format!("{stem}.csv"));
+    let mut f = std::io::BufWriter::new(std::fs::File::create(&csv).map_err(|e| Error::write(&csv, e))?);
+    sim::write_csv(&mut f, trace, nu).map_err(|e| Error::write(&csv, e))?;
+    let t: Vec<f64> = trace.iter().map(|s| s.t).collect();
+    let tr = |label: &str, f: &dyn Fn(&Sample) -> f64| skyloop_plot::traces::Trace {
+        label: label.into(),
+        t: t.clone(),
+        y: trace.iter().map(f).collect(),
+    };
+    let panels = vec![
+        skyloop_plot::traces::TracePanel {
+            y_label: "tracked (ref dashed by name)".into(),
+            traces: vec![
+                tr("ref0", &|s| s.reference[0]),
+                tr("tracked0", &|s| s.tracked[0]),
+                tr("ref1", &|s| s.reference[1]),
+                tr("tracked1", &|s| s.tracked[1]),
+                tr("tracked2", &|s| s.tracked[2]),
+            ],
+            references: vec![],
+        },
+        skyloop_plot::traces::TracePanel {
+            y_label: "body rates [rad/s]".into(),
+            traces: vec![
+                tr("p", &|s| s.rates[0]),
+                tr("q", &|s| s.rates[1]),
+                tr("r", &|s| s.rates[2]),
+            ],
+            references: vec![],
+        },
+        skyloop_plot::traces::TracePanel {
+            y_label: "torque command [N·m]".into(),
+            traces: vec![
+                tr("Mx", &|s| s.torque[0]),
+                tr("My", &|s| s.torque[1]),
+                tr("Mz", &|s| s.torque[2]),
+            ],
+            references: vec![],
+        },
+    ];
+    let svg = dir.join(format!("{stem}.svg"));
+    Ok(skyloop_plot::traces::plot_traces(&svg, title, &panels)?)
+}
+
+/// Runs `scn` once and writes `trajectory.csv`, `trajectory.svg` and `metrics.json` into `out`.
+///
+/// # Errors
+/// The simulation failing (an invalid vehicle or controller) or a file that cannot be written.
+pub fn simulate_to(scn: &Scenario, out: &Path) -> Result<Metrics> {
+    std::fs::create_dir_all(out).map_err(|e| Error::create(out, e))?;
+    let (trace, m) = skyloop_sim::simulate(scn)?;
+    let nu = scn.vehicle.resolve().and_then(|v| v.build())?.nu();
+    write_run(out, "trajectory", &scn.name, &trace, nu)?;
+    let mpath = out.join("metrics.json");
+    std::fs::write(&mpath, serde_json::to_string(&m)?).map_err(|e| Error::write(&mpath, e))?;
+    Ok(m)
+}
+
+/// Runs the scenario's `[monte_carlo]` study in parallel and writes `monte_carlo.json` (summary and
+/// every run's metrics) into `out`; `progress` is called with (runs done, runs in all).
+///
+/// # Errors
+/// A scenario without `[monte_carlo]`, a failed run, or a file that cannot be written.
+pub fn monte_carlo_to(
+    scn: &Scenario,
+    out: &Path,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<(Summary, PathBuf)> {
+    std::fs::create_dir_all(out).map_err(|e| Error::create(out, e))?;
+    let mc = scn
+        .monte_carlo
+        .as_ref()
+        .ok_or_else(|| Error::Spec(format!("scenario '{}' has no [monte_carlo] section", scn.name)))?;
+    let (runs, summary) = skyloop_sim::montecarlo::run(scn, mc, progress)?;
+    let path = out.join("monte_carlo.json");
+    let body = serde_json::json!({ "summary": summary, "runs": runs });
+    std::fs::write(&path, body.to_string()).map_err(|e| Error::write(&path, e))?;
+    Ok((summary, path))
+}
