@@ -100,22 +100,6 @@ fn simulate_bad_input_exits_2() {
     }
 }
 
-#[test]
-fn reproduce_quadrotor_ssi_passes_and_unknown_name_fails() {
-    let out = tmp("repro");
-    let o = skyloop()
-        .args(["reproduce", "quadrotor-ssi", "--out"])
-        .arg(&out)
-        .output()
-        .expect("runs");
-    let text = String::from_utf8_lossy(&o.stdout);
-    assert!(o.status.success(), "{text}\n{}", String::from_utf8_lossy(&o.stderr));
-    assert!(text.contains("all claims reproduced"));
-    assert!(out.join("fig6_8_roll.svg").is_file());
-    let o = skyloop().args(["reproduce", "no-such-paper"]).output().expect("runs");
-    assert_eq!(o.status.code(), Some(2));
-}
-
 const HINF_EQ12: &str = "24.02*(s+54.01)*(s+0.2474)*(s^2+139.3*s+26240)/(s*(s^2+24.14*s+8544)*(s^2+232.4*s+70410))";
 
 /// The exported header, compiled with the system C compiler, reproduces scipy's Tustin discretization
@@ -213,4 +197,18 @@ fn export_bad_input_exits_2() {
             String::from_utf8_lossy(&o.stderr)
         );
     }
+}
+
+#[test]
+fn reproduce_bad_invocations_exit_2() {
+    let o = skyloop().args(["reproduce", "ducted-fans"]).output().expect("runs");
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("ducted-fan"));
+    // An output directory that cannot be created.
+    let o = skyloop()
+        .args(["reproduce", "ducted-fan", "--quick", "--out", "/proc/skyloop-no/such"])
+        .output()
+        .expect("runs");
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("cannot create"));
 }

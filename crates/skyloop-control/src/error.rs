@@ -26,8 +26,7 @@ impl core::fmt::Display for ControlError {
     }
 }
 
-#[cfg(feature = "std")]
-impl std::error::Error for ControlError {}
+impl core::error::Error for ControlError {}
 
 /// Result of building a controller.
 pub type Result<T> = core::result::Result<T, ControlError>;

@@ -1,5 +1,6 @@
-//! Runtime controllers for flight computers: no allocation, no std.
-#![cfg_attr(not(feature = "std"), no_std)]
+//! Runtime controllers for flight computers: no allocation, no std (`core` and `libm` only), so the
+//! same code builds for microcontrollers, WebAssembly and the host.
+#![no_std]
 
 pub mod error;
 pub mod pid;
