@@ -138,7 +138,10 @@ fn table_output_and_reproduce() {
     let (code, stdout, err) = skyloop(&["reproduce", "bicopter", "--out", &out.to_string_lossy()]);
     assert_eq!(code, 0, "{stdout}\n{err}");
     let last = stdout.lines().last().unwrap_or_default();
-    assert!(last.starts_with("all ") && last.ends_with(" claims reproduced"), "{stdout}");
+    assert!(
+        last.starts_with("all ") && last.ends_with(" claims reproduced"),
+        "{stdout}"
+    );
     assert!(!stdout.contains("[not reproduced]"), "{stdout}");
 }
 

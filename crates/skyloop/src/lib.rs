@@ -13,10 +13,12 @@
 //! ```
 //! use skyloop::prelude::*;
 //!
-//! // The bicopter paper's roll-rate plant, eq. (8): first-order servo with a 32 ms delay, and the
-//! // non-minimum-phase roll dynamics.
-//! let p = parse_model("0.0887*exp(-0.032*s)/(0.0256*s+1) * (42^2 - s^2)/s")?;
-//! assert_eq!(p.nx(), 2);
+//! // The bicopter paper's roll-rate plant, eq. (8): a first-order servo with a 32 ms delay, the
+//! // non-minimum-phase roll dynamics and the gyro filter.
+//! let p = parse_model(
+//!     "0.0887*exp(-0.032*s)/(0.0256*s+1) * (42^2-s^2)/s * 2.221e5/(s^2+666.4*s+2.221e5)",
+//! )?;
+//! assert_eq!(p.nx(), 4);
 //! assert!((p.input_delay[0] - 0.032).abs() < 1e-15);
 //! # Ok::<(), skyloop::Error>(())
 //! ```
@@ -27,7 +29,9 @@
 //! ```
 //! use skyloop::prelude::*;
 //!
-//! let p = parse_model("0.0887*exp(-0.032*s)/(0.0256*s+1) * (42^2 - s^2)/s")?;
+//! let p = parse_model(
+//!     "0.0887*exp(-0.032*s)/(0.0256*s+1) * (42^2-s^2)/s * 2.221e5/(s^2+666.4*s+2.221e5)",
+//! )?;
 //! let c = parse_model(
 //!     "24.02*(s+54.01)*(s+0.2474)*(s^2+139.3*s+2.624e4) / (s*(s^2+24.14*s+8544)*(s^2+232.4*s+7.041e4))",
 //! )?;

@@ -31,7 +31,12 @@ fn bicopter_section_iv_reproduces_every_printed_number() {
     assert_eq!(g.paper, Some(1.748));
     assert!((g.ours.expect("ours") - 1.748).abs() <= 5e-4);
     assert_eq!(r.summary_line(), format!("all {} claims reproduced", r.claims.len()));
-    for f in ["bicopter_summary.json", "report.html", "design/loop.svg", "design/controller_reduced.json"] {
+    for f in [
+        "bicopter_summary.json",
+        "report.html",
+        "design/loop.svg",
+        "design/controller_reduced.json",
+    ] {
         assert!(out.join(f).is_file(), "missing {f}");
     }
     let html = std::fs::read_to_string(out.join("report.html")).expect("report");
@@ -60,7 +65,10 @@ fn ducted_fan_hinf_mu_analysis_dk_iteration_and_steps() {
     assert!(gamma > 0.0 && gamma.is_finite());
     assert!(held(&r, "K∞ stabilizes the linear plant"));
     assert!(held(&r, "μ upper bound ≥ lower bound at every frequency"));
-    assert!(held(&r, "nominal performance of lft(G, K∞) equals hinfsyn's closed-loop norm"));
+    assert!(held(
+        &r,
+        "nominal performance of lft(G, K∞) equals hinfsyn's closed-loop norm"
+    ));
     assert!(held(&r, "H∞ nominal: the nonlinear x-step settles"));
     // RP adds a block to RS's structure, so its μ can only be larger (Packard & Doyle 1993).
     let (rs, rp) = (value(&r, "hinf_rs_mu_peak"), value(&r, "hinf_rp_mu_peak"));
@@ -139,7 +147,10 @@ fn summary_line_counts_claims_and_says_all_only_when_all_held() {
     r.check(true, "b".into());
     assert_eq!(r.summary_line(), "all 2 claims reproduced");
     r.number("c", 2.0, 2.5, 0.1);
-    assert_eq!(r.summary_line(), "2 of 3 claims reproduced, 1 not reproduced (see above)");
+    assert_eq!(
+        r.summary_line(),
+        "2 of 3 claims reproduced, 1 not reproduced (see above)"
+    );
     let lines = r.lines();
     assert!(lines[2].starts_with("  [not reproduced] c"), "{lines:?}");
     assert!(!lines.iter().any(|l| l.contains("all ")));

@@ -334,7 +334,39 @@ pub(crate) fn limits(o: &Options, lowest: f64, dt: f64) -> Result<(f64, f64)> {
     Ok((lo, hi))
 }
 
-/// Estimates the frequency response with the chosen method.
+/// Estimates the frequency response with the chosen method (frequencies in Hz, complex response
+/// with coherence and confidence per point).
+///
+/// # Errors
+/// Signals of different lengths or too short for the method, a non-positive sample interval, or a
+/// frequency range outside [0, Nyquist].
+///
+/// # Examples
+/// A first-order lag y[k] = 0.9·y[k−1] + 0.1·u[k−1] (unit DC gain) driven by white noise:
+/// ```
+/// use skyloop_sysid::spectral::{estimate, IoData, Method, Options};
+///
+/// let mut seed = 12345u64;
+/// let u: Vec<f64> = (0..20_000)
+///     .map(|_| {
+///         seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+///         (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+///     })
+///     .collect();
+/// let mut y = vec![0.0; u.len()];
+/// for k in 1..u.len() {
+///     y[k] = 0.9 * y[k - 1] + 0.1 * u[k - 1];
+/// }
+/// let io = IoData { u: &u, y: &y, r: None, dt_s: 0.001 };
+/// let opts = Options { method: Method::Welch, fmax_hz: Some(5.0), ..Options::default() };
+/// let frf = estimate(&io, &opts)?;
+/// // Near DC the lag passes the input unchanged.
+/// let i = frf.freq_hz.iter().position(|&f| f > 0.0).expect("a positive frequency");
+/// assert!(frf.freq_hz[i] < 1.0);
+/// assert!((frf.mag()[i] - 1.0).abs() < 0.05, "{}", frf.mag()[i]);
+/// assert!(frf.coherence[i] > 0.99);
+/// # Ok::<(), skyloop_sysid::SysidError>(())
+/// ```
 pub fn estimate(d: &IoData, o: &Options) -> Result<Frf> {
     match o.method {
         Method::Etfe => etfe::etfe(d, o),
