@@ -160,20 +160,8 @@ impl Figure {
         }
     }
 
-    /// Writes the figure to `path`; the format follows the extension (`.svg` or `.png`).
-    pub fn save(&self, path: &std::path::Path) -> Result<()> {
-        self.check()?;
-        crate::render::save(self, path)
-    }
-
-    /// Renders the figure as an SVG document in memory (for embedding in HTML reports).
-    pub fn to_svg_string(&self) -> Result<String> {
-        self.check()?;
-        crate::render::svg_string(self)
-    }
-
     /// Rejects figures that cannot be drawn: no panels, series of unequal length, no finite data.
-    fn check(&self) -> Result<()> {
+    pub(crate) fn check(&self) -> Result<()> {
         if self.panels.is_empty() {
             return Err(PlotError::Data("a figure needs at least one panel".into()));
         }

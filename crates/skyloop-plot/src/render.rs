@@ -41,6 +41,22 @@ fn register_font() -> std::result::Result<(), String> {
     }
 }
 
+// Rendering lives here, beside the backends; `figure` holds only data, so the two modules do not
+// depend on each other in a circle.
+impl Figure {
+    /// Writes the figure to `path`; the format follows the extension (`.svg` or `.png`).
+    pub fn save(&self, path: &std::path::Path) -> Result<()> {
+        self.check()?;
+        save(self, path)
+    }
+
+    /// Renders the figure as an SVG document in memory (for embedding in HTML reports).
+    pub fn to_svg_string(&self) -> Result<String> {
+        self.check()?;
+        svg_string(self)
+    }
+}
+
 /// Writes `fig` to `path`, choosing the backend from the extension.
 pub(crate) fn save(fig: &Figure, path: &Path) -> Result<()> {
     let name = path.display().to_string();

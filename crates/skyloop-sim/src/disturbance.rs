@@ -2,7 +2,7 @@
 //! off-centre payload.
 
 use crate::error::{check_min, check_pos, Result, SimError};
-use crate::math::{self, V3};
+use crate::geometry::{self, V3};
 use crate::rigid::{quat, External, State, G};
 use rand::rngs::SmallRng;
 use rand_distr::{Distribution, StandardNormal};
@@ -212,7 +212,7 @@ impl Disturbances {
             match s {
                 DisturbanceSpec::Torque { torque_n_m, t_on_s } => {
                     if t >= t_on_s {
-                        e.torque_body = math::add(e.torque_body, torque_n_m);
+                        e.torque_body = geometry::add(e.torque_body, torque_n_m);
                     }
                 }
                 DisturbanceSpec::TorqueGust {
@@ -235,7 +235,7 @@ impl Disturbances {
                     } else {
                         0.0
                     };
-                    e.torque_body = math::add(e.torque_body, math::scale(peak_n_m, k));
+                    e.torque_body = geometry::add(e.torque_body, geometry::scale(peak_n_m, k));
                 }
                 DisturbanceSpec::Gust1Cos {
                     velocity_m_s,
@@ -245,11 +245,11 @@ impl Disturbances {
                     let tau = t - t_on_s;
                     if (0.0..=duration_s).contains(&tau) {
                         let k = 0.5 * (1.0 - (2.0 * std::f64::consts::PI * tau / duration_s).cos());
-                        e.wind_world = math::add(e.wind_world, math::scale(velocity_m_s, k));
+                        e.wind_world = geometry::add(e.wind_world, geometry::scale(velocity_m_s, k));
                     }
                 }
                 DisturbanceSpec::Dryden { .. } => {
-                    e.wind_world = math::add(e.wind_world, self.dryden);
+                    e.wind_world = geometry::add(e.wind_world, self.dryden);
                 }
                 DisturbanceSpec::Pendulum {
                     mass_kg,
@@ -266,14 +266,14 @@ impl Disturbances {
                     let (sa, sb) = (a.sin(), b.sin());
                     let dir = [sb, -sa, (1.0 - sa * sa - sb * sb).max(0.0).sqrt()];
                     let tension = mass_kg * (G * dir[2] + length_m * (ad * ad + bd * bd));
-                    let f = math::scale(dir, tension);
-                    e.force_world = math::add(e.force_world, f);
-                    let fb = math::rotate_inv(q, f);
-                    e.torque_body = math::add(e.torque_body, math::cross(attach_m, fb));
+                    let f = geometry::scale(dir, tension);
+                    e.force_world = geometry::add(e.force_world, f);
+                    let fb = geometry::rotate_inv(q, f);
+                    e.torque_body = geometry::add(e.torque_body, geometry::cross(attach_m, fb));
                 }
                 DisturbanceSpec::Payload { mass_kg, position_m } => {
-                    let w = math::rotate_inv(q, [0.0, 0.0, mass_kg * G]);
-                    e.torque_body = math::add(e.torque_body, math::cross(position_m, w));
+                    let w = geometry::rotate_inv(q, [0.0, 0.0, mass_kg * G]);
+                    e.torque_body = geometry::add(e.torque_body, geometry::cross(position_m, w));
                 }
             }
         }

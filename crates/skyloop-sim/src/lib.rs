@@ -1,15 +1,15 @@
 //! skyloop-sim.
-pub mod analysis;
-pub mod discrete;
+pub mod cascade;
 pub mod disturbance;
 pub mod error;
-pub mod flight;
+pub mod geometry;
+pub mod linear_models;
 pub mod linearize;
 pub mod lti_loop;
-pub mod math;
 pub mod montecarlo;
 pub mod presets;
 pub mod rigid;
+pub mod runtime_controller;
 pub mod scenario;
 pub mod sensors;
 pub mod sim;

@@ -7,7 +7,7 @@
 //! (the bicopter servo's eq. (6) delay) are kept as exact `input_delay`.
 
 use crate::error::{Result, SimError};
-use crate::math;
+use crate::geometry;
 use crate::rigid::{External, Input, State, AUX, MAXS, POS, QUAT, RATE, VEL};
 use crate::vehicle::Vehicle;
 use faer::Mat;
@@ -50,7 +50,7 @@ fn expand(v: &Vehicle, x0: &State, r: &[f64]) -> State {
     x[POS..POS + 3].copy_from_slice(&r[0..3]);
     x[VEL..VEL + 3].copy_from_slice(&r[3..6]);
     let q0 = [x0[QUAT], x0[QUAT + 1], x0[QUAT + 2], x0[QUAT + 3]];
-    let q = math::qmul(q0, math::qexp([r[6], r[7], r[8]]));
+    let q = geometry::qmul(q0, geometry::qexp([r[6], r[7], r[8]]));
     x[QUAT..QUAT + 4].copy_from_slice(&q);
     x[RATE..n].copy_from_slice(&r[9..n - 1]);
     x
@@ -63,7 +63,7 @@ fn reduced_fy(v: &Vehicle, x0: &State, r: &[f64], u: &Input, f: &mut [f64], y: &
     v.derivative(&x, u, &External::default(), &mut dx);
     let w = v.rates(&x, u);
     let xi = [r[6], r[7], r[8]];
-    let xid = math::add(w, math::scale(math::cross(xi, w), 0.5));
+    let xid = geometry::add(w, geometry::scale(geometry::cross(xi, w), 0.5));
     f[0..6].copy_from_slice(&dx[0..6]);
     f[6..9].copy_from_slice(&xid);
     f[9..n - 1].copy_from_slice(&dx[RATE..n]);
@@ -85,7 +85,7 @@ pub fn output_deviation(v: &Vehicle, x0: &State, x: &State, u: &Input) -> Vec<f6
     let q0 = [x0[QUAT], x0[QUAT + 1], x0[QUAT + 2], x0[QUAT + 3]];
     let q = [x[QUAT], x[QUAT + 1], x[QUAT + 2], x[QUAT + 3]];
     let q0_inv = [q0[0], -q0[1], -q0[2], -q0[3]];
-    y[6..9].copy_from_slice(&math::qlog(math::qmul(q0_inv, q)));
+    y[6..9].copy_from_slice(&geometry::qlog(geometry::qmul(q0_inv, q)));
     let w = v.rates(x, u);
     let w0 = v.rates(x0, u);
     for i in 0..3 {

@@ -8,8 +8,8 @@
 //! conditioned on the clamped command (Hanus) when its D matrix is invertible.
 
 use crate::error::{Result, SimError};
+use crate::geometry::{self, V3};
 use crate::linearize::output_deviation;
-use crate::math::{self, V3};
 use crate::rigid::{External, Input, State, MAXS, MAXU, POS, QUAT};
 use crate::vehicle::Vehicle;
 use skyloop_control::SsController;
@@ -207,7 +207,7 @@ pub fn simulate_lti_loop(
                 trace.push(LoopSample {
                     t,
                     y,
-                    euler: math::to_euler(q),
+                    euler: geometry::to_euler(q),
                     u: u[..nu].to_vec(),
                     reference: r_now.clone(),
                 });
@@ -217,9 +217,9 @@ pub fn simulate_lti_loop(
             break;
         }
         rk4(&deriv, &mut x, &u, h, n);
-        let q = math::qnormalize([x[QUAT], x[QUAT + 1], x[QUAT + 2], x[QUAT + 3]]);
+        let q = geometry::qnormalize([x[QUAT], x[QUAT + 1], x[QUAT + 2], x[QUAT + 3]]);
         x[QUAT..QUAT + 4].copy_from_slice(&q);
-        let eu = math::to_euler(q);
+        let eu = geometry::to_euler(q);
         if x[..n].iter().any(|v| !v.is_finite())
             || eu[0].abs() > spec.crash_tilt_rad
             || eu[1].abs() > spec.crash_tilt_rad

@@ -3,32 +3,13 @@
 
 use crate::disturbance::DisturbanceSpec;
 use crate::error::{check_min, Result, SimError};
+pub use crate::scenario::MonteCarloSpec;
 use crate::scenario::Scenario;
 use crate::sim::{log_every, Metrics, Simulation};
 use rand::rngs::SmallRng;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 use rayon::prelude::*;
-
-/// Monte Carlo settings as written in a scenario.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct MonteCarloSpec {
-    /// Number of runs.
-    pub runs: usize,
-    /// Base seed; run i uses seed + i.
-    #[serde(default)]
-    pub seed: u64,
-    /// Relative standard deviation of the mass.
-    #[serde(default)]
-    pub mass_sd: f64,
-    /// Relative standard deviation of each principal inertia.
-    #[serde(default)]
-    pub inertia_sd: f64,
-    /// Relative standard deviation of disturbance magnitudes.
-    #[serde(default)]
-    pub disturbance_sd: f64,
-}
 
 /// Statistics of one metric over the runs.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]

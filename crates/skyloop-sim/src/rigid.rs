@@ -4,7 +4,7 @@
 //! bicopter stores its roll angular momentum there instead, see `vehicle::bicopter`), then vehicle
 //! actuator states, then disturbance states (pendulum).
 
-use crate::math::{self, Quat, V3};
+use crate::geometry::{self, Quat, V3};
 
 /// Capacity of the state vector.
 pub const MAXS: usize = 32;
@@ -54,7 +54,7 @@ pub fn air_velocity_body(x: &State, wind_world: V3) -> V3 {
         x[VEL + 1] - wind_world[1],
         x[VEL + 2] - wind_world[2],
     ];
-    math::rotate_inv(quat(x), v)
+    geometry::rotate_inv(quat(x), v)
 }
 
 /// Writes translational and attitude derivatives, and body-rate derivatives by Euler's equation
@@ -63,17 +63,17 @@ pub fn air_velocity_body(x: &State, wind_world: V3) -> V3 {
 #[allow(clippy::too_many_arguments)]
 pub fn rigid_derivative(mass: f64, j: V3, x: &State, w: V3, f_body: V3, m_body: V3, ext: &External, dx: &mut State) {
     let q = quat(x);
-    let f_world = math::add(math::rotate(q, f_body), ext.force_world);
+    let f_world = geometry::add(geometry::rotate(q, f_body), ext.force_world);
     dx[POS] = x[VEL];
     dx[POS + 1] = x[VEL + 1];
     dx[POS + 2] = x[VEL + 2];
     dx[VEL] = f_world[0] / mass;
     dx[VEL + 1] = f_world[1] / mass;
     dx[VEL + 2] = f_world[2] / mass + G;
-    let qd = math::qdot(q, w);
+    let qd = geometry::qdot(q, w);
     dx[QUAT..QUAT + 4].copy_from_slice(&qd);
     let jw = [j[0] * w[0], j[1] * w[1], j[2] * w[2]];
-    let gyro = math::cross(w, jw);
+    let gyro = geometry::cross(w, jw);
     for i in 0..3 {
         dx[RATE + i] = (m_body[i] + ext.torque_body[i] - gyro[i]) / j[i];
     }
@@ -95,7 +95,7 @@ pub struct Body {
 impl Body {
     /// Adds a point mass m at body position r (m): mass and the diagonal of m(|r|²I − r rᵀ).
     pub fn add_point_mass(&mut self, m: f64, r: V3) {
-        let r2 = math::dot(r, r);
+        let r2 = geometry::dot(r, r);
         self.mass_kg += m;
         for i in 0..3 {
             self.inertia_kg_m2[i] += m * (r2 - r[i] * r[i]);

@@ -1,11 +1,10 @@
 //! Scenario files (TOML): vehicle, simulation settings, controller, gyro, reference steps, disturbances
 //! and an optional Monte Carlo section. See `examples/*.toml` for commented files.
 
+use crate::cascade::{ControllerSpec, Mode};
 use crate::disturbance::DisturbanceSpec;
 use crate::error::{check_pos, Result, SimError};
-use crate::flight::{ControllerSpec, Mode};
-use crate::math::V3;
-use crate::montecarlo::MonteCarloSpec;
+use crate::geometry::V3;
 use crate::sensors::GyroSpec;
 use crate::vehicle::VehicleSpec;
 
@@ -37,7 +36,7 @@ impl VehicleEntry {
                 mass_kg,
                 inertia_kg_m2,
             } => {
-                let mut v = VehicleSpec::preset(preset)?;
+                let mut v = crate::presets::vehicle(preset)?;
                 if let Some(m) = mass_kg {
                     v.body_mut().mass_kg = *m;
                 }
@@ -182,4 +181,24 @@ impl Scenario {
         }
         Ok(())
     }
+}
+
+/// Monte Carlo settings as written in a scenario.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MonteCarloSpec {
+    /// Number of runs.
+    pub runs: usize,
+    /// Base seed; run i uses seed + i.
+    #[serde(default)]
+    pub seed: u64,
+    /// Relative standard deviation of the mass.
+    #[serde(default)]
+    pub mass_sd: f64,
+    /// Relative standard deviation of each principal inertia.
+    #[serde(default)]
+    pub inertia_sd: f64,
+    /// Relative standard deviation of disturbance magnitudes.
+    #[serde(default)]
+    pub disturbance_sd: f64,
 }

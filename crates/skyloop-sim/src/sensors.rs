@@ -2,7 +2,7 @@
 //! filter of eq. (7)) and a pure delay, sampled at the rate-loop frequency.
 
 use crate::error::{check_min, Result, SimError};
-use crate::math::V3;
+use crate::geometry::V3;
 use rand::rngs::SmallRng;
 use rand_distr::{Distribution, Normal};
 use skyloop_control::{Biquad, SosController};

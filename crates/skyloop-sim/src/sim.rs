@@ -1,10 +1,10 @@
 //! The closed-loop simulation: RK4 at a fixed physics rate, controllers at their own rates with
 //! zero-order hold, actuator limits, slew rates and pure delays. The step loop does not allocate.
 
+use crate::cascade::{Cascade, Mode};
 use crate::disturbance::{DisturbanceSpec, Disturbances};
 use crate::error::{Result, SimError};
-use crate::flight::{Cascade, Mode};
-use crate::math::{self, V3};
+use crate::geometry::{self, V3};
 use crate::rigid::{Input, State, MAXS, MAXU, POS, QUAT, VEL};
 use crate::scenario::Scenario;
 use crate::sensors::Gyro;
@@ -230,7 +230,7 @@ impl Simulation {
         // at a fraction of the physics rate.
         let outer = self.k % self.div_pos == 0 || self.k % self.div_att == 0;
         let euler = if outer {
-            math::to_euler([self.x[QUAT], self.x[QUAT + 1], self.x[QUAT + 2], self.x[QUAT + 3]])
+            geometry::to_euler([self.x[QUAT], self.x[QUAT + 1], self.x[QUAT + 2], self.x[QUAT + 3]])
         } else {
             [0.0; 3]
         };
@@ -244,7 +244,7 @@ impl Simulation {
             let dtp = self.div_pos as f64 * self.dt;
             match self.mode {
                 Mode::Position => {
-                    let sp = math::add(self.origin, self.ref_now);
+                    let sp = geometry::add(self.origin, self.ref_now);
                     self.cascade.position_step(pos, vel, sp, euler, self.yaw0, dtp, true);
                 }
                 _ => self
@@ -320,12 +320,12 @@ impl Simulation {
         for i in 0..n {
             self.x[i] = x[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
         }
-        let q = math::qnormalize([self.x[QUAT], self.x[QUAT + 1], self.x[QUAT + 2], self.x[QUAT + 3]]);
+        let q = geometry::qnormalize([self.x[QUAT], self.x[QUAT + 1], self.x[QUAT + 2], self.x[QUAT + 3]]);
         self.x[QUAT..QUAT + 4].copy_from_slice(&q);
         self.k += 1;
         self.t = self.k as f64 * h;
         let finite = self.x[..n].iter().all(|v| v.is_finite());
-        if !finite || math::tilt_exceeds(q, self.crash_tilt) || (self.ground && self.x[POS + 2] > 0.0) {
+        if !finite || geometry::tilt_exceeds(q, self.crash_tilt) || (self.ground && self.x[POS + 2] > 0.0) {
             self.crashed = true;
         }
     }
@@ -333,12 +333,12 @@ impl Simulation {
     /// The current log sample.
     pub fn sample(&self) -> Sample {
         let q = [self.x[QUAT], self.x[QUAT + 1], self.x[QUAT + 2], self.x[QUAT + 3]];
-        let euler = math::to_euler(q);
+        let euler = geometry::to_euler(q);
         let rates = self.vehicle.rates(&self.x, &self.u);
         let pos = [self.x[POS], self.x[POS + 1], self.x[POS + 2]];
         let tracked = match self.mode {
             Mode::Attitude => euler,
-            Mode::Position => math::sub(pos, self.origin),
+            Mode::Position => geometry::sub(pos, self.origin),
             Mode::Rate => rates,
         };
         Sample {
@@ -389,7 +389,7 @@ pub fn metrics(trace: &[Sample], refs: &[(f64, V3)], band_abs: f64, sat: u64, ct
     let (mut t_last, mut step) = (0.0, 0.0f64);
     let mut prev = [0.0; 3];
     for (t, v) in refs {
-        let d = math::sub(*v, prev).iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let d = geometry::sub(*v, prev).iter().fold(0.0f64, |m, x| m.max(x.abs()));
         if d > 0.0 {
             t_last = *t;
             step = d;
@@ -399,11 +399,11 @@ pub fn metrics(trace: &[Sample], refs: &[(f64, V3)], band_abs: f64, sat: u64, ct
     let band = band_abs.max(0.02 * step);
     let mut last_out: Option<f64> = None;
     for s in trace {
-        let e = math::sub(s.reference, s.tracked);
+        let e = geometry::sub(s.reference, s.tracked);
         let inf = e.iter().fold(0.0f64, |m, x| m.max(x.abs()));
         let inf = if inf.is_finite() { inf } else { f64::INFINITY };
         max_abs = max_abs.max(inf);
-        sum2 += math::dot(e, e);
+        sum2 += geometry::dot(e, e);
         if s.t >= t_last && inf > band {
             last_out = Some(s.t);
         }

@@ -37,7 +37,7 @@ fn bicopter_hinf_holds_roll_step_with_pendulum() {
 fn allocation_signs_match_the_models() {
     use skyloop_sim::rigid::{External, AUX, MAXS, RATE};
     for name in skyloop_sim::presets::NAMES {
-        let v = skyloop_sim::VehicleSpec::preset(name).expect("p").build().expect("v");
+        let v = skyloop_sim::presets::vehicle(name).expect("p").build().expect("v");
         let (x0, _) = v.trim_hover(5.0, 0.0);
         for axis in 0..3 {
             let mut tq = [0.0; 3];

@@ -4,7 +4,7 @@
 
 use skyloop_lti::freqresp::evalfr;
 use skyloop_lti::{c64, interconnect};
-use skyloop_sim::analysis::actuator_split;
+use skyloop_sim::linear_models::actuator_split;
 use skyloop_sim::linearize::{linearize, output_deviation};
 use skyloop_sim::rigid::{AUX, G, MAXS, QUAT, RATE, VEL};
 use skyloop_sim::vehicle::{DuctedFanParams, Vehicle};
@@ -135,9 +135,9 @@ fn linear_model_predicts_the_nonlinear_derivative() {
         x[RATE + 1] += -0.5 * scale;
         x[AUX] += 0.9 * scale;
         x[AUX + 8] += 40.0 * scale;
-        let q = skyloop_sim::math::qmul(
+        let q = skyloop_sim::geometry::qmul(
             [x0[QUAT], x0[QUAT + 1], x0[QUAT + 2], x0[QUAT + 3]],
-            skyloop_sim::math::qexp([0.3 * scale, -0.6 * scale, 0.2 * scale]),
+            skyloop_sim::geometry::qexp([0.3 * scale, -0.6 * scale, 0.2 * scale]),
         );
         x[QUAT..QUAT + 4].copy_from_slice(&q);
         let dxi = output_deviation(&v, &x0, &x, &u0);

@@ -1,14 +1,17 @@
 //! Linearization checks against the papers' closed forms.
 
 use num_complex::Complex64 as C;
-use skyloop_sim::analysis::{self, SsiLoop};
+use skyloop_sim::linear_models::{self, SsiLoop};
 use skyloop_sim::rigid::{External, MAXS};
 use skyloop_sim::{linearize, VehicleSpec};
 
 #[test]
 fn trim_points_are_equilibria() {
     for name in skyloop_sim::presets::NAMES {
-        let v = VehicleSpec::preset(name).expect("preset").build().expect("valid");
+        let v = skyloop_sim::presets::vehicle(name)
+            .expect("preset")
+            .build()
+            .expect("valid");
         let (x, u) = v.trim_hover(5.0, 0.3);
         let mut dx = [0.0; MAXS];
         v.derivative(&x, &u, &External::default(), &mut dx);
@@ -21,7 +24,7 @@ fn trim_points_are_equilibria() {
 /// G_p,cmd(jω) / G_δ,cmd(jω) of the linearized nonlinear model (collective servo command).
 #[test]
 fn bicopter_linearization_reproduces_eq5() {
-    let spec = VehicleSpec::preset("bicopter-li").expect("preset");
+    let spec = skyloop_sim::presets::vehicle("bicopter-li").expect("preset");
     let VehicleSpec::Bicopter(p) = spec else {
         panic!("bicopter")
     };
@@ -65,11 +68,11 @@ fn charpoly3(a: &faer::Mat<f64>) -> [f64; 4] {
 /// Jm = J the factorization (s + Ki)(s² + (Kp/J)s + Kp/J) of eq. (33).
 #[test]
 fn ssi_pi_closed_loop_has_eq32_and_eq33() {
-    let v = VehicleSpec::preset("quadrotor-ssi")
+    let v = skyloop_sim::presets::vehicle("quadrotor-ssi")
         .expect("preset")
         .build()
         .expect("valid");
-    let roll = analysis::quad_roll_axis(&v).expect("roll axis");
+    let roll = linear_models::quad_roll_axis(&v).expect("roll axis");
     let j = v.inertia()[0];
     // the residualized roll axis is θ̇ = p, J·ṗ = Mx (eq. (24))
     assert!((roll.ss.b[(1, 0)] - 1.0 / j).abs() < 1e-6 / j, "{}", roll.ss.b[(1, 0)]);
@@ -80,9 +83,9 @@ fn ssi_pi_closed_loop_has_eq32_and_eq33() {
             jm: frac * j,
             k_att: 1.0,
         };
-        let cl = analysis::ssi_closed_loop(&roll, "roll_rad", "p_rad_s", "mx_n_m", c).expect("loop");
+        let cl = linear_models::ssi_closed_loop(&roll, "roll_rad", "p_rad_s", "mx_n_m", c).expect("loop");
         let got = charpoly3(&cl.a);
-        let want = analysis::eq32_charpoly(j, c);
+        let want = linear_models::eq32_charpoly(j, c);
         for i in 0..4 {
             assert!(
                 (got[i] - want[i]).abs() <= 1e-6 * want[i].abs(),
@@ -96,7 +99,7 @@ fn ssi_pi_closed_loop_has_eq32_and_eq33() {
             for i in 0..4 {
                 assert!((got[i] - eq33[i]).abs() <= 1e-6 * eq33[i].abs());
             }
-            let poles = analysis::eigenvalues(&cl.a).expect("eig");
+            let poles = linear_models::eigenvalues(&cl.a).expect("eig");
             assert!(
                 poles.iter().any(|p| (p - C::new(-ki, 0.0)).norm() < 1e-6 * ki),
                 "{poles:?}"
@@ -108,11 +111,11 @@ fn ssi_pi_closed_loop_has_eq32_and_eq33() {
 /// Routh condition (35) against the closed-loop eigenvalues over a grid of gains and Jm/J.
 #[test]
 fn routh_condition_eq35_matches_eigenvalues() {
-    let v = VehicleSpec::preset("quadrotor-ssi")
+    let v = skyloop_sim::presets::vehicle("quadrotor-ssi")
         .expect("preset")
         .build()
         .expect("valid");
-    let roll = analysis::quad_roll_axis(&v).expect("roll axis");
+    let roll = linear_models::quad_roll_axis(&v).expect("roll axis");
     let j = v.inertia()[0];
     let (mut stable, mut unstable) = (0, 0);
     for kp in [0.0005, 0.002, 0.01, 0.1] {
@@ -124,10 +127,10 @@ fn routh_condition_eq35_matches_eigenvalues() {
                     jm: frac * j,
                     k_att: 1.0,
                 };
-                let cl = analysis::ssi_closed_loop(&roll, "roll_rad", "p_rad_s", "mx_n_m", c).expect("loop");
-                let poles = analysis::eigenvalues(&cl.a).expect("eig");
+                let cl = linear_models::ssi_closed_loop(&roll, "roll_rad", "p_rad_s", "mx_n_m", c).expect("loop");
+                let poles = linear_models::eigenvalues(&cl.a).expect("eig");
                 let max_re = poles.iter().fold(f64::NEG_INFINITY, |m, p| m.max(p.re));
-                let routh = analysis::routh_eq35(j, c);
+                let routh = linear_models::routh_eq35(j, c);
                 // stay away from the boundary where the sign of max Re is numerically ambiguous
                 if max_re.abs() > 1e-7 {
                     assert_eq!(max_re < 0.0, routh, "Kp {kp} Ki {ki} Jm/J {frac}: max Re {max_re}");

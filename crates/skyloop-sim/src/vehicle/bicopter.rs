@@ -9,7 +9,7 @@
 //! Terms of order Im·δ̇·(q, r) (gyroscopic coupling of the tilting rotors) are neglected.
 
 use crate::error::{check_min, check_pos, Result};
-use crate::math::{self, V3};
+use crate::geometry::{self, V3};
 use crate::rigid::{self, Body, External, Input, State, AUX, RATE};
 
 /// Bicopter parameters (SI units). `body.inertia_kg_m2[0]` is ignored: roll inertia is Ib + Im.
@@ -106,12 +106,12 @@ impl Bicopter {
         let (s2, c2) = d2.sin_cos();
         let f1 = [0.0, t1 * s1, -t1 * c1];
         let f2 = [0.0, t2 * s2, -t2 * c2];
-        let m = math::add(
-            math::cross([p.arm_m, 0.0, -p.h_m], f1),
-            math::cross([-p.arm_m, 0.0, -p.h_m], f2),
+        let m = geometry::add(
+            geometry::cross([p.arm_m, 0.0, -p.h_m], f1),
+            geometry::cross([-p.arm_m, 0.0, -p.h_m], f2),
         );
         let va = rigid::air_velocity_body(x, ext.wind_world);
-        let f = math::add(math::add(f1, f2), p.body.drag(va));
+        let f = geometry::add(geometry::add(f1, f2), p.body.drag(va));
         let w = self.rates(x, u);
         let j = self.inertia();
         rigid::rigid_derivative(p.body.mass_kg, j, x, w, f, m, ext, dx);

@@ -16,7 +16,7 @@
 //!   body axes); the thrust uses ω·|ω| so a reversed propeller pushes the other way.
 
 use crate::error::{check_min, check_pos, Result};
-use crate::math::{self, V3};
+use crate::geometry::{self, V3};
 use crate::rigid::{self, Body, External, Input, State, AUX, RATE};
 use std::f64::consts::PI;
 
@@ -109,19 +109,19 @@ impl DuctedFan {
         let qs = p.q_s(omega);
         let mut f = [0.0, 0.0, -p.kt * omega * omega.abs()];
         let w = [x[RATE], x[RATE + 1], x[RATE + 2]];
-        let mut m = math::scale(math::cross(Z, w), p.jr_kg_m2 * omega);
+        let mut m = geometry::scale(geometry::cross(Z, w), p.jr_kg_m2 * omega);
         for (i, n) in NORMALS.iter().enumerate() {
             let a = x[AUX + i];
-            let fd = math::scale(Z, qs * (p.cd * a * a + p.c0));
-            let fl = math::scale(*n, qs * p.cl * a);
-            let ff = math::add(fd, fl);
-            f = math::add(f, ff);
-            let t = math::cross(*n, Z);
-            let lever = math::add(math::scale(t, p.a_m / 3.0), math::scale(Z, p.d_m));
-            m = math::add(m, math::cross(lever, ff));
+            let fd = geometry::scale(Z, qs * (p.cd * a * a + p.c0));
+            let fl = geometry::scale(*n, qs * p.cl * a);
+            let ff = geometry::add(fd, fl);
+            f = geometry::add(f, ff);
+            let t = geometry::cross(*n, Z);
+            let lever = geometry::add(geometry::scale(t, p.a_m / 3.0), geometry::scale(Z, p.d_m));
+            m = geometry::add(m, geometry::cross(lever, ff));
         }
         let va = rigid::air_velocity_body(x, ext.wind_world);
-        f = math::add(f, p.body.drag(va));
+        f = geometry::add(f, p.body.drag(va));
         rigid::rigid_derivative(p.body.mass_kg, p.body.inertia_kg_m2, x, w, f, m, ext, dx);
         let wn = p.flap_wn_rad_s;
         for i in 0..4 {

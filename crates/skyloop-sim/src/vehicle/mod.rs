@@ -9,7 +9,7 @@ pub use ducted_fan::{DuctedFan, DuctedFanParams};
 pub use quadrotor::{QuadParams, Quadrotor};
 
 use crate::error::Result;
-use crate::math::V3;
+use crate::geometry::V3;
 use crate::rigid::{Body, External, Input, State, RATE};
 
 /// Vehicle parameters as written in a scenario file (`kind = "quadrotor" | "bicopter" | "ducted_fan"`).
@@ -61,11 +61,6 @@ impl VehicleSpec {
             VehicleSpec::Bicopter(p) => &mut p.body,
             VehicleSpec::DuctedFan(p) => &mut p.body,
         }
-    }
-
-    /// A named parameter set: "quadrotor-ssi", "bicopter-li" or "ducted-fan-pross" (see `presets`).
-    pub fn preset(name: &str) -> Result<Self> {
-        crate::presets::vehicle(name)
     }
 }
 
@@ -170,7 +165,7 @@ impl Vehicle {
         let mut x = [0.0; crate::rigid::MAXS];
         let mut u = [0.0; crate::rigid::MAXU];
         x[2] = -altitude_m;
-        let q = crate::math::from_euler(0.0, 0.0, yaw_rad);
+        let q = crate::geometry::from_euler(0.0, 0.0, yaw_rad);
         x[crate::rigid::QUAT..crate::rigid::QUAT + 4].copy_from_slice(&q);
         match self {
             Vehicle::Quadrotor(v) => v.trim(&mut x, &mut u),

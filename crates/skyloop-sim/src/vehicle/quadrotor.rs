@@ -3,7 +3,7 @@
 //! (eq. (15)), rotor moments (eq. (14)). Rotors: 1 front-right, 2 front-left, 3 rear-left, 4 rear-right.
 
 use crate::error::{check_min, check_pos, Result};
-use crate::math::V3;
+use crate::geometry::V3;
 use crate::rigid::{self, Body, External, Input, State, AUX, RATE};
 
 /// Quadrotor parameters (SI units).

@@ -155,6 +155,6 @@ pub fn controller_header(
     if !(u_min <= u_max) {
         return Err(Error::Input(format!("--u-min {u_min} must not exceed --u-max {u_max}")));
     }
-    let d = skyloop_sim::discrete::discretize(sys, dt_s)?;
+    let d = skyloop_sim::runtime_controller::discretize(sys, dt_s)?;
     Ok((header(&d, name, ty, u_min, u_max, source), d))
 }

@@ -5,8 +5,8 @@
 use super::Reproduction;
 use crate::error::Result;
 use skyloop_plot::traces::{plot_traces, Trace, TracePanel};
-use skyloop_sim::analysis::{self, SsiLoop};
-use skyloop_sim::flight::RateLaw;
+use skyloop_sim::cascade::RateLaw;
+use skyloop_sim::linear_models::{self, SsiLoop};
 use skyloop_sim::{disturbance::DisturbanceSpec, Sample, Scenario};
 use std::path::Path;
 
@@ -63,7 +63,7 @@ pub fn run(out: &Path) -> Result<Reproduction> {
     ));
 
     rep.note("\nLinear: roll axis of the linearized quadrotor (motors residualized), SSI-PI loop closed");
-    let roll = analysis::quad_roll_axis(&vehicle)?;
+    let roll = linear_models::quad_roll_axis(&vehicle)?;
     for frac in [1.0, 0.5] {
         let c = SsiLoop {
             kp,
@@ -71,10 +71,10 @@ pub fn run(out: &Path) -> Result<Reproduction> {
             jm: frac * j,
             k_att: 1.0,
         };
-        let cl = analysis::ssi_closed_loop(&roll, "roll_rad", "p_rad_s", "mx_n_m", c)?;
-        let poles = analysis::eigenvalues(&cl.a)?;
+        let cl = linear_models::ssi_closed_loop(&roll, "roll_rad", "p_rad_s", "mx_n_m", c)?;
+        let poles = linear_models::eigenvalues(&cl.a)?;
         let got = poly_from_roots(&poles);
-        let want = analysis::eq32_charpoly(j, c);
+        let want = linear_models::eq32_charpoly(j, c);
         let rel = got
             .iter()
             .zip(want.iter())
@@ -122,7 +122,7 @@ pub fn run(out: &Path) -> Result<Reproduction> {
             );
         }
         let max_re = poles.iter().fold(f64::NEG_INFINITY, |m, p| m.max(p.re));
-        let routh = analysis::routh_eq35(j, c);
+        let routh = linear_models::routh_eq35(j, c);
         rep.check(
             routh == (max_re < 0.0),
             format!("Routh (35) says stable = {routh}, eigenvalues: max Re = {max_re:.4}"),
@@ -139,13 +139,13 @@ pub fn run(out: &Path) -> Result<Reproduction> {
                 jm: frac * j,
                 k_att: 1.0,
             };
-            let cl = analysis::ssi_closed_loop(&roll, "roll_rad", "p_rad_s", "mx_n_m", c)?;
-            let max_re = analysis::eigenvalues(&cl.a)?
+            let cl = linear_models::ssi_closed_loop(&roll, "roll_rad", "p_rad_s", "mx_n_m", c)?;
+            let max_re = linear_models::eigenvalues(&cl.a)?
                 .iter()
                 .fold(f64::NEG_INFINITY, |m, p| m.max(p.re));
             if max_re.abs() > 1e-9 {
                 total += 1;
-                agree += (analysis::routh_eq35(j, c) == (max_re < 0.0)) as usize;
+                agree += (linear_models::routh_eq35(j, c) == (max_re < 0.0)) as usize;
             }
         }
     }
@@ -230,7 +230,7 @@ pub fn run(out: &Path) -> Result<Reproduction> {
         } else {
             with_law(&scn, |i| pi(&scn, i))
         };
-        s.controller.mode = skyloop_sim::flight::Mode::Rate;
+        s.controller.mode = skyloop_sim::cascade::Mode::Rate;
         s.disturbance.clear();
         s.sim.duration_s = 2.0;
         let step = |t_s: f64, p: f64| skyloop_sim::scenario::RefStep {

@@ -347,7 +347,7 @@ pub fn run_loop(
     x_init: &skyloop_sim::rigid::State,
 ) -> Result<LoopRun> {
     // Balanced first: the μ controller's D-scale states make I − A·dt/2 look singular unbalanced.
-    let kd = skyloop_sim::discrete::discretize(&balanced(k_rt)?, 1.0 / CONTROL_HZ)?;
+    let kd = skyloop_sim::runtime_controller::discretize(&balanced(k_rt)?, 1.0 / CONTROL_HZ)?;
     let (x0, u0) = p.vehicle.trim_hover(10.0, d.yaw_rad);
     let spec = LtiLoopSpec {
         physics_hz: PHYSICS_HZ,
@@ -372,7 +372,7 @@ pub fn hover_recovery(p: &Plants, k_rt: &StateSpace, d: &Design, tilt_rad: f64) 
     xi[POS] += 0.3;
     xi[POS + 1] -= 0.3;
     xi[POS + 2] += 0.2;
-    let q = skyloop_sim::math::from_euler(tilt_rad, -tilt_rad, d.yaw_rad + 0.1);
+    let q = skyloop_sim::geometry::from_euler(tilt_rad, -tilt_rad, d.yaw_rad + 0.1);
     xi[QUAT..QUAT + 4].copy_from_slice(&q);
     let run = run_loop(p, k_rt, &p.vehicle, d, 60.0, [0.0; 3], &xi)?;
     let last = run.trace.last().ok_or("empty trace")?;

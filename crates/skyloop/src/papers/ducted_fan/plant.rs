@@ -22,7 +22,7 @@ use faer::Mat;
 use skyloop_lti::interconnect::{append, lft_lower};
 use skyloop_lti::StateSpace;
 use skyloop_robust::uncertainty::weights::makeweight_mag;
-use skyloop_sim::analysis::actuator_split;
+use skyloop_sim::linear_models::actuator_split;
 use skyloop_sim::linearize::linearize;
 use skyloop_sim::vehicle::{DuctedFanParams, Vehicle, VehicleSpec};
 

@@ -6,27 +6,13 @@
 //! a discrete LTI controller (e.g. the bicopter's H∞ design, in the forward path as in its Fig. 13).
 
 use crate::error::{check_min, check_pos, Result, SimError};
-use crate::math::V3;
+use crate::geometry::V3;
 use crate::rigid::G;
+use crate::runtime_controller::DiscreteSiso;
 use skyloop_control::{AntiWindup, Pid, PidGains, SsController, SsiPi, SsiPiGains};
 
 /// Largest discrete LTI rate controller the simulator runs.
 pub const LTI_MAX_ORDER: usize = 24;
-
-/// A discrete SISO controller given by its matrices (row-major), sample time `dt_s`.
-#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct DiscreteSiso {
-    /// A (n×n).
-    pub a: Vec<Vec<f64>>,
-    /// B (n×1).
-    pub b: Vec<Vec<f64>>,
-    /// C (1×n).
-    pub c: Vec<Vec<f64>>,
-    /// D (1×1).
-    pub d: Vec<Vec<f64>>,
-    /// Sample time (s).
-    pub dt: f64,
-}
 
 /// One axis' rate law as written in a scenario (`kind = "pid" | "ssi_pi" | "lti"`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -244,9 +230,9 @@ fn build_rate(law: &RateLaw, j_axis: f64, dt: f64, lim: f64) -> Result<RateCtl> 
             } else {
                 skyloop_lti::expr::parse_model(model)?
             };
-            let d = crate::discrete::discretize(&sys, dt)?;
+            let d = crate::runtime_controller::discretize(&sys, dt)?;
             let law = RateLaw::Lti {
-                controller: crate::discrete::to_discrete_siso(&d)?,
+                controller: crate::runtime_controller::to_discrete_siso(&d)?,
                 output_scale: *output_scale,
                 hanus: *hanus,
             };

@@ -2,10 +2,24 @@
 //! state-space form and into cascaded second-order sections of skyloop-control.
 
 use crate::error::{Result, SimError};
-use crate::flight::DiscreteSiso;
 use skyloop_control::{Biquad, SosController, SsController};
 use skyloop_lti::discretize::{c2d, Method};
 use skyloop_lti::StateSpace;
+
+/// A discrete SISO controller given by its matrices (row-major), sample time `dt_s`.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct DiscreteSiso {
+    /// A (n×n).
+    pub a: Vec<Vec<f64>>,
+    /// B (n×1).
+    pub b: Vec<Vec<f64>>,
+    /// C (1×n).
+    pub c: Vec<Vec<f64>>,
+    /// D (1×1).
+    pub d: Vec<Vec<f64>>,
+    /// Sample time (s).
+    pub dt: f64,
+}
 
 /// The controller as a discrete model at `dt_s`: continuous ones by Tustin (no prewarp, as the bicopter
 /// paper's Step 5), discrete ones must already have that sample time. Delays are not allowed.
