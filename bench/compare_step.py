@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Step response of a 20-state SISO system on 1000 points: skyloop vs python-control 0.10.2.
 
-Writes the system to bench/step20.json (python-control rss, fixed seed), times
+The system is the committed bench/step20.json (made once by python-control rss with seed 7; this
+script reads it and never rewrites a tracked file), times
 control.step_response on it, runs the criterion bench `cargo bench -p skyloop-lti --bench step`
 (which reads the same file) and prints both times and the ratio. Target: skyloop >= 10x faster.
 Run from the repository root: python3 bench/compare_step.py [--no-cargo]
@@ -18,12 +19,16 @@ import numpy as np
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 SYS_PATH = os.path.join(ROOT, "bench", "step20.json")
 
-np.random.seed(7)
-s = control.rss(20, 1, 1)
-t = np.linspace(0.0, 10.0, 1000)
-with open(SYS_PATH, "w") as f:
-    json.dump({"a": s.A.tolist(), "b": s.B.tolist(), "c": s.C.tolist(), "d": s.D.tolist(), "dt": 0.0,
-               "t_final_s": 10.0, "n_points": 1000}, f)
+if not os.path.exists(SYS_PATH):
+    np.random.seed(7)
+    g = control.rss(20, 1, 1)
+    with open(SYS_PATH, "w") as f:
+        json.dump({"a": g.A.tolist(), "b": g.B.tolist(), "c": g.C.tolist(), "d": g.D.tolist(), "dt": 0.0,
+                   "t_final_s": 10.0, "n_points": 1000}, f)
+with open(SYS_PATH) as f:
+    j = json.load(f)
+s = control.ss(np.array(j["a"]), np.array(j["b"]), np.array(j["c"]), np.array(j["d"]))
+t = np.linspace(0.0, j["t_final_s"], j["n_points"])
 
 reps = 50
 py_s = min(timeit.repeat(lambda: control.step_response(s, T=t), number=reps, repeat=3)) / reps

@@ -429,6 +429,21 @@ pub fn metrics(trace: &[Sample], refs: &[(f64, V3)], band_abs: f64, sat: u64, ct
 }
 
 /// Builds and runs a scenario (seed from the file); returns the trace and metrics.
+///
+/// # Errors
+/// A vehicle, controller or disturbance the scenario gets wrong (the message names the key).
+///
+/// # Examples
+/// The SSI-PI paper's quadrotor (`examples/quadrotor-ssi.toml`) follows its roll step without a crash:
+/// ```
+/// let text = include_str!("../../../examples/quadrotor-ssi.toml");
+/// let scn = skyloop_sim::Scenario::from_toml(text)?;
+/// let (trace, m) = skyloop_sim::simulate(&scn)?;
+/// assert!(!m.crashed);
+/// assert!(trace.len() > 100);
+/// assert!(m.max_abs_error.is_finite());
+/// # Ok::<(), skyloop_sim::SimError>(())
+/// ```
 pub fn simulate(scn: &Scenario) -> Result<(Vec<Sample>, Metrics)> {
     let mut sim = Simulation::new(scn, scn.sim.seed)?;
     let every = log_every(scn)?;

@@ -42,3 +42,180 @@ pub fn load_model_in(base: &Path, name: &str) -> Result<StateSpace> {
         load_model(name)
     }
 }
+
+/// Format of a written-out model entry.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Form {
+    /// Gain, zeros and poles as real first- and second-order factors: `2*(s+3)/(s*(s^2+2*s+5))`.
+    Zpk,
+    /// Numerator and denominator polynomials: `(2*s+6)/(s^3+2*s^2+5*s)`.
+    Tf,
+}
+
+/// Every entry (output i, input j) of `sys` written as a transfer-function expression in the
+/// language [`load_model`] reads, with its delay as `exp(-T*s)` (continuous time) or `z` in place of
+/// `s` for a discrete model; numbers have 6 significant digits.
+///
+/// # Errors
+/// A model whose entries' zeros or poles cannot be computed.
+///
+/// # Examples
+/// ```
+/// use skyloop::model::{expressions, load_model, Form};
+/// let g = load_model("2*exp(-0.1*s)*(s+3)/(s*(s^2+2*s+5))")?;
+/// let e = expressions(&g, Form::Zpk)?;
+/// assert_eq!(e[0][0], "2*exp(-0.1*s)*(s+3)/(s*(s^2+2*s+5))");
+/// // The text reads back as the same model.
+/// let back = load_model(&e[0][0])?;
+/// assert_eq!(back.nx(), 3);
+/// # Ok::<(), skyloop::Error>(())
+/// ```
+pub fn expressions(sys: &StateSpace, form: Form) -> Result<Vec<Vec<String>>> {
+    let var = if sys.is_continuous() { "s" } else { "z" };
+    let mut out = Vec::with_capacity(sys.ny());
+    for i in 0..sys.ny() {
+        let mut row = Vec::with_capacity(sys.nu());
+        for j in 0..sys.nu() {
+            let (z, p, k) = skyloop_lti::convert::ss_entry_zpk(sys, i, j)?;
+            let delay =
+                sys.output_delay.get(i).copied().unwrap_or(0.0) + sys.input_delay.get(j).copied().unwrap_or(0.0);
+            row.push(entry_text(&z, &p, k, delay, var, form));
+        }
+        out.push(row);
+    }
+    Ok(out)
+}
+
+/// A number with 6 significant digits, without trailing zeros or a needless exponent.
+fn g6(x: f64) -> String {
+    if x == 0.0 {
+        return "0".into();
+    }
+    let e = x.abs().log10().floor() as i32;
+    if !(-4..6).contains(&e) {
+        let s = format!("{x:.5e}");
+        let (m, ex) = s.split_once('e').unwrap_or((&s, "0"));
+        let m = m.trim_end_matches('0').trim_end_matches('.');
+        return format!("{m}e{ex}");
+    }
+    let decimals = (5 - e).max(0) as usize;
+    let s = format!("{x:.decimals$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+/// Real factors of a root list: `s`, `(s+a)`, `(s^2+b*s+c)`, in ascending order of size.
+fn factors(roots: &[skyloop_lti::c64], var: &str) -> Vec<String> {
+    let mut f: Vec<(f64, String)> = Vec::new();
+    for r in roots {
+        if r.im.abs() <= 1e-9 * r.norm().max(1.0) {
+            let a = -r.re;
+            let t = if a == 0.0 || a.abs() < 1e-12 {
+                var.to_string()
+            } else if a > 0.0 {
+                format!("({var}+{})", g6(a))
+            } else {
+                format!("({var}-{})", g6(-a))
+            };
+            f.push((r.norm(), t));
+        } else if r.im > 0.0 {
+            let (b, c) = (-2.0 * r.re, r.norm_sqr());
+            let bt = if b.abs() < 1e-12 * c.sqrt() {
+                String::new()
+            } else if b > 0.0 {
+                format!("+{}*{var}", g6(b))
+            } else {
+                format!("-{}*{var}", g6(-b))
+            };
+            f.push((r.norm(), format!("({var}^2{bt}+{})", g6(c))));
+        }
+    }
+    f.sort_by(|a, b| a.0.total_cmp(&b.0));
+    f.into_iter().map(|(_, t)| t).collect()
+}
+
+/// The coefficients of Π(s − r), highest power first (real for conjugate-closed root lists).
+fn poly_text(roots: &[skyloop_lti::c64], k: f64, var: &str) -> String {
+    let p = skyloop_lti::poly::Poly::from_roots(roots).scale(k);
+    let n = p.degree();
+    let mut terms = Vec::new();
+    for d in (0..=n).rev() {
+        let c = p.coeff_of_power(d);
+        if c == 0.0 && n > 0 {
+            continue;
+        }
+        let mag = if (c.abs() - 1.0).abs() < 1e-12 && d > 0 {
+            String::new()
+        } else {
+            g6(c.abs())
+        };
+        let pow = match d {
+            0 => String::new(),
+            1 => var.to_string(),
+            _ => format!("{var}^{d}"),
+        };
+        let body = match (mag.is_empty(), pow.is_empty()) {
+            (true, _) => pow,
+            (false, true) => mag,
+            (false, false) => format!("{mag}*{pow}"),
+        };
+        let sign = if c < 0.0 { "-" } else { "+" };
+        terms.push(if terms.is_empty() && sign == "+" {
+            body
+        } else {
+            format!("{sign}{body}")
+        });
+    }
+    if terms.is_empty() {
+        "0".into()
+    } else {
+        terms.concat()
+    }
+}
+
+fn entry_text(z: &[skyloop_lti::c64], p: &[skyloop_lti::c64], k: f64, delay_s: f64, var: &str, form: Form) -> String {
+    if k == 0.0 {
+        return "0".into();
+    }
+    let delay = if delay_s > 0.0 {
+        format!("exp(-{}*s)", g6(delay_s))
+    } else {
+        String::new()
+    };
+    match form {
+        Form::Zpk => {
+            let mut num: Vec<String> = Vec::new();
+            if k != 1.0 || (z.is_empty() && delay.is_empty()) {
+                num.push(g6(k));
+            }
+            if !delay.is_empty() {
+                num.push(delay);
+            }
+            num.extend(factors(z, var));
+            let den = factors(p, var);
+            let n = num.join("*");
+            match den.len() {
+                0 => n,
+                1 => format!("{n}/{}", den[0]),
+                _ => format!("{n}/({})", den.join("*")),
+            }
+        }
+        Form::Tf => {
+            let num = poly_text(z, k, var);
+            let num = if z.is_empty() { num } else { format!("({num})") };
+            let num = if delay.is_empty() {
+                num
+            } else {
+                format!("{delay}*{num}")
+            };
+            if p.is_empty() {
+                num
+            } else {
+                format!("{num}/({})", poly_text(p, 1.0, var))
+            }
+        }
+    }
+}

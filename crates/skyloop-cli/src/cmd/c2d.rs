@@ -7,6 +7,7 @@ use skyloop::lti::discretize::{c2d, Method};
 #[derive(clap::Args)]
 pub struct Args {
     /// Transfer-function expression or path to an LTI JSON file (continuous time).
+    #[arg(allow_hyphen_values = true)]
     model: String,
     /// Sample time in seconds.
     #[arg(long)]

@@ -7,6 +7,7 @@ use std::f64::consts::PI;
 #[derive(clap::Args)]
 pub struct Args {
     /// Transfer-function expression or path to an LTI JSON file.
+    #[arg(allow_hyphen_values = true)]
     model: String,
     /// Comma-separated frequencies in Hz (default: 50 log-spaced points over the model's dynamics).
     #[arg(long)]

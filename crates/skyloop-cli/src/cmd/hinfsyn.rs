@@ -10,6 +10,7 @@ use skyloop::robust::hinfsyn::{hinfsyn_with, HinfOptions};
 #[derive(ClapArgs)]
 pub struct Args {
     /// Generalized plant P (LTI JSON file or expression); last NY outputs are measurements, last NU inputs controls.
+    #[arg(allow_hyphen_values = true)]
     pub plant: String,
     /// Number of measured outputs y (the last ones of P).
     #[arg(long)]
@@ -29,6 +30,9 @@ pub struct Args {
     /// Print {"gamma":..,"closed_loop_norm":..,"controller":LTI JSON} on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Write the controller K (u = K·y) as LTI JSON to this file.
+    #[arg(long)]
+    pub out: Option<std::path::PathBuf>,
     /// Repeat the synthesis N times and print the fastest wall time on stderr (for bench/compare.py).
     #[arg(long)]
     pub bench: Option<usize>,
@@ -51,6 +55,11 @@ pub fn run(a: Args) -> skyloop::Result<()> {
         eprintln!("bench_seconds {best:e}");
     }
     let sol = hinfsyn_with(&p, a.nmeas, a.ncon, &opts).map_err(|e| format!("hinfsyn: {e}"))?;
+    if let Some(path) = &a.out {
+        std::fs::write(path, skyloop::lti::json::to_json_string(&sol.controller))
+            .map_err(|e| skyloop::Error::write(path, e))?;
+        eprintln!("wrote {}", path.display());
+    }
     if a.json {
         return print_json(&serde_json::json!({
             "gamma": sol.gamma,

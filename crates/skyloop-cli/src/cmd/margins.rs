@@ -10,6 +10,7 @@ use std::f64::consts::PI;
 #[derive(clap::Args)]
 pub struct Args {
     /// Loop transfer L (expression or LTI JSON path); the loop is closed as u = −y (L = P·C).
+    #[arg(allow_hyphen_values = true)]
     model: String,
     /// Print one JSON object instead of a table.
     #[arg(long)]

@@ -8,6 +8,7 @@ use skyloop::lti::minreal::minreal;
 #[derive(clap::Args)]
 pub struct Args {
     /// Transfer-function expression or path to an LTI JSON file.
+    #[arg(allow_hyphen_values = true)]
     model: String,
     /// Relative rank tolerance of the staircase reduction (default √ε, as MATLAB).
     #[arg(long)]

@@ -15,6 +15,7 @@ mod musyn;
 mod ncfsyn;
 mod norm;
 mod nyquist;
+mod pade;
 mod plot_args;
 mod poles;
 mod reduce;
@@ -65,6 +66,8 @@ pub enum Command {
     C2d(c2d::Args),
     /// Poles of a model (eigenvalues of A).
     Poles(poles::Args),
+    /// Replace delays by Padé approximants (MATLAB pade).
+    Pade(pade::Args),
     /// Transmission zeros of a model.
     Zeros(zeros::Args),
     /// Discretize a controller (Tustin) and write a self-contained C header for flight firmware.
@@ -99,6 +102,7 @@ pub fn run(cmd: Command) -> skyloop::Result<()> {
         Command::Reproduce(a) => reproduce::run(a),
         Command::C2d(a) => c2d::run(a),
         Command::Poles(a) => poles::run(a),
+        Command::Pade(a) => pade::run(a),
         Command::Zeros(a) => zeros::run(a),
         Command::Export(a) => export::run(a),
         Command::Hinfsyn(a) => hinfsyn::run(a),

@@ -9,6 +9,7 @@ use skyloop::robust::uncertainty::BlockStructure;
 #[derive(clap::Args)]
 pub struct Args {
     /// Transfer-function expression or path to an LTI JSON file (the M of det(I − MΔ)).
+    #[arg(allow_hyphen_values = true)]
     model: String,
     /// Block structure, e.g. `c1x1,c1x1,f2x2,r1,c3r` (cMxN/fMxN full, cNr repeated complex scalar, rN real).
     #[arg(long)]

@@ -1,4 +1,5 @@
-//! `skyloop ncfsyn --plant P [--w1 W1] [--w2 W2]`: Glover–McFarlane H∞ loop shaping.
+//! `skyloop ncfsyn P [--w1 W1] [--w2 W2] [--out C.json]`: Glover–McFarlane H∞ loop shaping (the plant
+//! may also be given as `--plant P`).
 
 use crate::output::print_json;
 use clap::Args as ClapArgs;
@@ -10,8 +11,15 @@ use skyloop::robust::ncfsyn::{ncfsyn, NcfOptions};
 #[derive(ClapArgs)]
 pub struct Args {
     /// Plant P (LTI JSON file or expression such as "0.09*exp(-0.03*s)/(s*(0.03*s+1))").
+    #[arg(
+        allow_hyphen_values = true,
+        required_unless_present = "plant",
+        conflicts_with = "plant"
+    )]
+    pub model: Option<String>,
+    /// The plant, as a flag (same as the positional MODEL).
     #[arg(long)]
-    pub plant: String,
+    pub plant: Option<String>,
     /// Input-side weight W1 (shaped plant W2·P·W1).
     #[arg(long)]
     pub w1: Option<String>,
@@ -27,11 +35,15 @@ pub struct Args {
     /// Print {"gamma_min":..,"gamma":..,"controller":LTI JSON} on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Write the controller C (u = C·(r − y)) as LTI JSON to this file.
+    #[arg(long)]
+    pub out: Option<std::path::PathBuf>,
 }
 
 /// Runs the loop-shaping design; the controller is C = −W1·K∞·W2 for u = C·(r − y).
 pub fn run(a: Args) -> skyloop::Result<()> {
-    let p = load_model(&a.plant)?;
+    let plant = a.model.as_deref().or(a.plant.as_deref()).unwrap_or_default();
+    let p = load_model(plant)?;
     let w1 = a.w1.as_deref().map(load_model).transpose()?;
     let w2 = a.w2.as_deref().map(load_model).transpose()?;
     let opts = NcfOptions {
@@ -39,6 +51,11 @@ pub fn run(a: Args) -> skyloop::Result<()> {
         pade_order: a.pade,
     };
     let sol = ncfsyn(&p, w1.as_ref(), w2.as_ref(), &opts).map_err(|e| format!("ncfsyn: {e}"))?;
+    if let Some(path) = &a.out {
+        std::fs::write(path, skyloop::lti::json::to_json_string(&sol.controller))
+            .map_err(|e| skyloop::Error::write(path, e))?;
+        eprintln!("wrote {}", path.display());
+    }
     if a.json {
         return print_json(&serde_json::json!({
             "gamma_min": sol.gamma_min,

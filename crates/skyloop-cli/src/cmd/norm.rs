@@ -9,6 +9,7 @@ use std::f64::consts::PI;
 #[derive(clap::Args)]
 pub struct Args {
     /// Transfer-function expression or path to an LTI JSON file.
+    #[arg(allow_hyphen_values = true)]
     model: String,
     /// Print `{"hinf":..,"hinf_freq_hz":..,"h2":..}` (null where a norm is infinite).
     #[arg(long)]

@@ -4,6 +4,7 @@
 #[derive(clap::Args)]
 pub struct Args {
     /// Transfer-function expression or path to an LTI JSON file.
+    #[arg(allow_hyphen_values = true)]
     model: String,
     /// Print `{"re":[..],"im":[..]}` instead of a table.
     #[arg(long)]

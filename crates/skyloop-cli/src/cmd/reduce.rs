@@ -8,6 +8,7 @@ use skyloop::lti::reduce::{balred, Method};
 #[derive(clap::Args)]
 pub struct Args {
     /// Transfer-function expression or path to an LTI JSON file.
+    #[arg(allow_hyphen_values = true)]
     model: String,
     /// Number of states of the reduced model (unstable poles are always kept and count here).
     #[arg(long)]

@@ -154,6 +154,18 @@ fn bad(key: &str, msg: impl std::fmt::Display) -> LtiError {
 
 impl DesignSpec {
     /// Parses and checks a spec; relative model paths are resolved against `base_dir`.
+    ///
+    /// # Errors
+    /// TOML that does not parse, an unknown key, or a value out of range; the message names the key
+    /// (`reduction.order: must be at least 1`).
+    ///
+    /// # Examples
+    /// ```
+    /// use skyloop::spec::design::DesignSpec;
+    /// let bad = "[plant]\nmodel = \"1/(s+1)\"\n[synthesis]\nmethod = \"ncfsyn\"\nw1 = \"1/s\"\nfactr = 1.1\n";
+    /// let e = DesignSpec::from_toml_str(bad, std::path::Path::new(".")).expect_err("typo");
+    /// assert!(e.to_string().contains("factr"));
+    /// ```
     pub fn from_toml_str(text: &str, base_dir: &Path) -> Result<DesignSpec> {
         let mut spec: DesignSpec =
             toml::from_str(text).map_err(|e| LtiError::InvalidArgument(format!("design spec: {e}")))?;
