@@ -1,6 +1,7 @@
 //! CLI golden tests of `skyloop design` on examples/bicopter.toml against the bicopter paper
 //! ("Modeling, Identification, and Control of Non-minimum Phase Dynamics of Bi-copter UAVs", Section IV), its output files, `skyloop reproduce
 //! bicopter`, and exit status 2 on bad specs.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use skyloop::lti::freqresp::{evalfr, logspace};
 use skyloop::lti::{c64, StateSpace};

@@ -1,4 +1,5 @@
 //! CLI tests of `freqresp`, `margins` and `norm`: JSON shapes, the bicopter golden margins, bad input.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 mod common;
 use common::skyloop;

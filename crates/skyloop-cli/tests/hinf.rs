@@ -1,4 +1,5 @@
 //! CLI tests of `skyloop hinfsyn` and `skyloop ncfsyn`: JSON output, and exit 2 on ill-posed problems.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 mod common;
 use common::skyloop;

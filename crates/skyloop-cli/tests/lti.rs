@@ -1,4 +1,5 @@
 //! CLI tests for models given as expressions, and the LTI commands (c2d, poles, zeros).
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 mod common;
 use common::skyloop;

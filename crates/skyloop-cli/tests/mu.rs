@@ -1,4 +1,5 @@
 //! `skyloop mu`: JSON output against closed forms, and exit status 2 on bad input.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use std::process::Command;
 

@@ -1,4 +1,5 @@
 //! `skyloop musyn`: the distillation example end to end, and exit status 2 on bad specs.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use std::path::PathBuf;
 use std::process::Command;

@@ -1,4 +1,5 @@
 //! The plotting subcommands write real files and refuse bad input with exit status 2.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use std::path::PathBuf;
 use std::process::Command;

@@ -1,5 +1,6 @@
 //! CLI tests of `skyloop reduce` and `skyloop minreal` (models from the SLICOT fixtures of
 //! skyloop-lti, written by tools/gen_reduce.py).
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use serde_json::{json, Value};
 

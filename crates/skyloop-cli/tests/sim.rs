@@ -1,4 +1,5 @@
 //! CLI: simulate, reproduce, export.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use std::process::Command;
 

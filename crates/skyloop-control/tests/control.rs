@@ -1,4 +1,5 @@
 //! skyloop-control against scipy references (tools/gen_control.py → tests/fixtures/control/control.json).
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use skyloop_control::*;
 
@@ -16,7 +17,7 @@ fn vec(v: &serde_json::Value) -> Vec<f64> {
 }
 
 fn mat(v: &serde_json::Value) -> Vec<f64> {
-    v.as_array().expect("array").iter().flat_map(|r| vec(r)).collect()
+    v.as_array().expect("array").iter().flat_map(vec).collect()
 }
 
 fn max_rel_err(a: &[f64], b: &[f64]) -> f64 {

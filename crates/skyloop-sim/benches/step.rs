@@ -1,6 +1,6 @@
 //! Physics steps per second: the SSI-PI quadrotor with motors, RK4 at 1 kHz, controllers and gyro in
 //! the loop (target ≥ 2 M steps/s on one core). Throughput is reported in elements (= steps).
-
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 #![allow(missing_docs)] // criterion_group! generates undocumented functions
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};

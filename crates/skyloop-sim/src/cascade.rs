@@ -287,6 +287,8 @@ impl Cascade {
     }
 
     /// Position loop: NED position/velocity and position setpoint → attitude setpoint and thrust (N).
+    // The arguments are the loop's measured and commanded state, each with its own unit.
+    #[allow(clippy::too_many_arguments)]
     pub fn position_step(&mut self, pos: V3, vel: V3, pos_sp: V3, euler: V3, yaw_sp: f64, dt: f64, horizontal: bool) {
         let s = &self.spec;
         let mut acc = [0.0; 3];

@@ -20,7 +20,7 @@ pub fn vehicle(name: &str) -> Result<VehicleSpec> {
     }
 }
 
-/// Quadrotor of the SSI-PI paper. The paper takes T-Lion's parameters from its ref. [19] but prints
+/// Quadrotor of the SSI-PI paper. The paper takes T-Lion's parameters from its ref. \[19\] but prints
 /// none, so these are ASSUMED values of a 1 kg, 0.4 m X-quadrotor: J within the 1e-3…1e-6·(10) kg·m²
 /// range the paper quotes for small UAVs (Sec. IV-A), thrust-to-weight ≈ 3.6 (racing class, Sec. I).
 pub fn quadrotor_ssi() -> QuadParams {

@@ -1,4 +1,5 @@
 //! Nonlinear closed-loop runs of the example scenarios.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use skyloop_sim::{simulate, Scenario};
 

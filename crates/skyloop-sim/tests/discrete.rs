@@ -1,5 +1,6 @@
 //! Runtime controllers built from an LTI model (Tustin via skyloop-lti c2d) reproduce scipy's
 //! discretization of the bicopter's H∞ controller eq. (12) at 250 Hz (tools/gen_control.py fixture).
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use skyloop_sim::runtime_controller;
 

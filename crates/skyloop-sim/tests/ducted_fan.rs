@@ -1,6 +1,7 @@
 //! The ducted fan of Pross ("H∞ and μ-synthesis of a ducted-fan VTOL micro-UAV"): its hover linearization at
 //! yaw 45° against partial derivatives of eq. (3)–(4) worked out by hand, the actuator/body split
 //! of Section II-D, and the linear outputs measured on the nonlinear state.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use skyloop_lti::freqresp::evalfr;
 use skyloop_lti::{c64, interconnect};

@@ -1,4 +1,5 @@
 //! Linearization checks against the papers' closed forms.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use num_complex::Complex64 as C;
 use skyloop_sim::linear_models::{self, SsiLoop};

@@ -1,3 +1,4 @@
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 #![allow(missing_docs)] // criterion_group! generates an undocumented function
 //! The whole bicopter design of examples/bicopter.toml (ncfsyn with Padé, gain boost, balanced
 //! reduction to 5 states, Tustin at 250 Hz + SOS, γ / b(P,C) / classic and disk margins after each

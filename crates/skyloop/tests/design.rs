@@ -2,6 +2,7 @@
 //! "Modeling, Identification, and Control of Non-minimum Phase Dynamics of Bi-copter UAVs") and on bad specs. The CLI golden tests
 //! (crates/skyloop-cli/tests/design.rs) check the printed margins; these check the library's
 //! internal consistency.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use skyloop::design::loop_metrics::{closeness, shaped_gamma};
 use skyloop::design::{design, DesignSpec};

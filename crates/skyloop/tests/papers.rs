@@ -1,5 +1,6 @@
 //! The paper reproductions, checked on their `Reproduction`: every claim the papers make and the
 //! numbers measured on the way, not parsed console text.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use skyloop::papers::{reproduce, Reproduction};
 use std::path::PathBuf;

@@ -30,6 +30,8 @@ mod zeros;
 use clap::Subcommand;
 
 /// Every skyloop subcommand.
+// Parsed once per process: the size of the largest variant costs nothing worth boxing for.
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand)]
 pub enum Command {
     /// Print a model's dimensions and matrices (or its LTI JSON with --json).

@@ -750,10 +750,10 @@ pub fn run(out: &Path, quick: bool) -> Result<Reproduction> {
         ),
     );
 
-    rep.note(format!(
+    rep.note(
         "\nFig. 6 by the worst-case perturbation: K∞'s destabilizing Δ from its robust-stability μ sweep, realized \
-         as a stable real-rational Δ(s) (skyloop_robust::uncertainty::worst), one Δ for both loops F_u(Δ, F_l(G, K)):"
-    ));
+         as a stable real-rational Δ(s) (skyloop_robust::uncertainty::worst), one Δ for both loops F_u(Δ, F_l(G, K)):",
+    );
     let rsm_mu = robust_stability(&mr.rs);
     let real = realize_perturbation_detailed(rsm.delta.as_ref(), &structure()?, rsm.w_rad_s)
         .map_err(|e| format!("worst-case Δ: {e}"))?;
