@@ -578,7 +578,12 @@ pub fn default_grid(sys: &StateSpace, n: usize) -> Result<Vec<f64>> {
         hi
     };
     let lo = lo.min(hi / 1e4);
-    Ok(logspace(lo.log10(), hi.log10(), n.max(2)))
+    try_logspace(lo.log10(), hi.log10(), n.max(2)).map_err(|_| {
+        LtiError::InvalidArgument(format!(
+            "the model's dynamics put the frequency grid at {lo:e} to {hi:e} rad/s, beyond the floating-point range \
+             (10^±307) or with too many points ({n}, at most {MAX_GRID_POINTS})"
+        ))
+    })
 }
 
 /// Open-loop poles sorted into what frequency analysis needs (s-plane view; discrete poles mapped
@@ -788,8 +793,13 @@ pub fn dynamics_range(sys: &StateSpace) -> Result<(f64, f64)> {
     Ok((lo, hi))
 }
 
-/// `n` points log-spaced from 10^a to 10^b.
+/// Most points a frequency grid may have (8 bytes each: 80 MB).
+pub const MAX_GRID_POINTS: usize = 10_000_000;
+
+/// `n` points log-spaced from 10^a to 10^b; `n` is capped at [`MAX_GRID_POINTS`] (use
+/// [`try_logspace`] for an error instead).
 pub fn logspace(a: f64, b: f64, n: usize) -> Vec<f64> {
+    let n = n.min(MAX_GRID_POINTS);
     if n == 1 {
         return vec![10f64.powf(a)];
     }
@@ -798,9 +808,44 @@ pub fn logspace(a: f64, b: f64, n: usize) -> Vec<f64> {
         .collect()
 }
 
+/// [`logspace`] with checks: `a`, `b` finite with 10^a and 10^b positive and finite (|a|, |b| ≤ 307),
+/// and 1 ≤ `n` ≤ [`MAX_GRID_POINTS`]; errors name the limit.
+pub fn try_logspace(a: f64, b: f64, n: usize) -> Result<Vec<f64>> {
+    if !(a.is_finite() && b.is_finite() && a.abs() <= 307.0 && b.abs() <= 307.0) {
+        return Err(LtiError::InvalidArgument(format!(
+            "grid ends 10^{a} and 10^{b} rad/s: exponents must be finite and within ±307"
+        )));
+    }
+    if n == 0 || n > MAX_GRID_POINTS {
+        return Err(LtiError::InvalidArgument(format!(
+            "a grid of {n} points: 1 to {MAX_GRID_POINTS} are supported"
+        )));
+    }
+    Ok(logspace(a, b, n))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn grids_are_bounded() {
+        assert!(try_logspace(0.0, 1.0, MAX_GRID_POINTS + 1).is_err());
+        assert!(try_logspace(f64::NEG_INFINITY, 1.0, 10).is_err());
+        assert_eq!(try_logspace(-1.0, 1.0, 3).unwrap().len(), 3);
+        // Subnormal poles and a 1e-300 s delay: a clear error, no overflow or NaN grid.
+        let sub = StateSpace::from_rows(&[vec![-1e-310]], &[vec![1.0]], &[vec![1.0]], &[vec![0.0]], 0.0).unwrap();
+        assert!(
+            default_grid(&sub, 100).is_err()
+                || default_grid(&sub, 100)
+                    .unwrap()
+                    .iter()
+                    .all(|w| w.is_finite() && *w > 0.0)
+        );
+        let fast = sub.clone().with_delays(vec![1e-300], vec![0.0]).unwrap();
+        let g = default_grid(&fast, 100);
+        assert!(g.is_err() || g.unwrap().iter().all(|w| w.is_finite() && *w > 0.0));
+    }
 
     fn dense_response(sys: &StateSpace, s: c64) -> Mat<c64> {
         // Test-only reference: dense complex LU solve of (sI − A) X = B through faer.
