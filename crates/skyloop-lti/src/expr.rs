@@ -649,15 +649,6 @@ fn root_poly(r: &Root) -> Poly {
     }
 }
 
-/// Index of the root in `v` (of degree `deg`) whose magnitude is closest to `m`.
-fn nearest(v: &[Root], deg: usize, m: f64) -> Option<usize> {
-    v.iter()
-        .enumerate()
-        .filter(|(_, r)| r.degree() == deg)
-        .min_by(|a, b| (a.1.mag() - m).abs().total_cmp(&(b.1.mag() - m).abs()))
-        .map(|(i, _)| i)
-}
-
 /// Balanced realization (A, B, C, D) of the section n(s)/d(s), deg n ≤ deg d ≤ 2, d monic.
 fn realize_section(num: &Poly, den: Den) -> Result<StateSpace> {
     let d = den.poly();
@@ -830,7 +821,6 @@ fn realize_fact(f: &Fact) -> Result<StateSpace> {
     for (s, w) in pairs {
         sections.push((Poly::one(), Den::Pair(s, w)));
     }
-    let _ = nearest; // pairing by magnitude is done inline above
     if sections.is_empty() {
         return StateSpace::gain(one(k), 0.0);
     }
@@ -858,7 +848,7 @@ fn realize_fact(f: &Fact) -> Result<StateSpace> {
         models.push((realize_section(num, *den)?, g));
     }
     let per = log_k / models.len() as f64;
-    let mut out: Option<StateSpace> = None;
+    let mut scaled = Vec::with_capacity(models.len());
     for (i, (mut m, g)) in models.into_iter().enumerate() {
         let mut f = (per - g.ln()).exp();
         if i == 0 && k < 0.0 {
@@ -874,12 +864,55 @@ fn realize_fact(f: &Fact) -> Result<StateSpace> {
         m.b = &m.b * h;
         m.c = &m.c * (f / h);
         m.d = &m.d * f;
-        out = Some(match out {
-            None => m,
-            Some(prev) => series_upper(&prev, &m)?,
-        });
+        scaled.push(m);
     }
-    out.ok_or_else(improper)
+    chain(&scaled)
+}
+
+/// The series connection u → m[0] → m[1] → … → y of SISO sections, assembled in one pass (O(n²)
+/// entries, where pairwise connections would copy O(n²) per section), with the states of the last
+/// section first so that A is block upper triangular as in [`series_upper`].
+fn chain(models: &[StateSpace]) -> Result<StateSpace> {
+    let n: usize = models.iter().map(StateSpace::nx).sum();
+    // Natural order first (section 0's states first): section i sees u_i = w·x + dprod·u.
+    let mut a = Mat::<f64>::zeros(n, n);
+    let mut b = Mat::<f64>::zeros(n, 1);
+    let mut w = vec![0.0; n];
+    let mut dprod = 1.0;
+    let mut offsets = Vec::with_capacity(models.len());
+    let mut off = 0;
+    for m in models {
+        let ni = m.nx();
+        offsets.push(off);
+        for r in 0..ni {
+            for c in 0..ni {
+                a[(off + r, off + c)] = m.a[(r, c)];
+            }
+            let bi = m.b[(r, 0)];
+            for (c, &wc) in w.iter().enumerate().take(off) {
+                a[(off + r, c)] = bi * wc;
+            }
+            b[(off + r, 0)] = bi * dprod;
+        }
+        let di = m.d[(0, 0)];
+        for wc in w.iter_mut().take(off) {
+            *wc *= di;
+        }
+        for c in 0..ni {
+            w[off + c] = m.c[(0, c)];
+        }
+        dprod *= di;
+        off += ni;
+    }
+    // Reverse the order of the sections (not of the states within a section).
+    let mut perm = Vec::with_capacity(n);
+    for (m, &o) in models.iter().zip(&offsets).rev() {
+        perm.extend(o..o + m.nx());
+    }
+    let ap = Mat::from_fn(n, n, |i, j| a[(perm[i], perm[j])]);
+    let bp = Mat::from_fn(n, 1, |i, _| b[(perm[i], 0)]);
+    let cp = Mat::from_fn(1, n, |_, j| w[perm[j]]);
+    StateSpace::new(ap, bp, cp, Mat::from_fn(1, 1, |_, _| dprod), 0.0)
 }
 
 fn improper() -> LtiError {
@@ -1419,6 +1452,41 @@ mod tests {
         assert_eq!(parse_col("exp -s"), 5);
         let msg = parse("1/(s+").unwrap_err().to_string();
         assert!(msg.contains("column 6") && msg.contains("expected"), "{msg}");
+    }
+
+    #[test]
+    fn edges_of_the_grammar() {
+        // Missing '*': the message names the fix.
+        let msg = parse("2s").unwrap_err().to_string();
+        assert!(msg.contains("write 2*s"), "{msg}");
+        let msg = parse("s(s+1)").unwrap_err().to_string();
+        assert!(msg.contains("write s*(s+1)") || msg.contains("write s*("), "{msg}");
+        let msg = parse("(s+1)(s+2)").unwrap_err().to_string();
+        assert!(msg.contains("write )*("), "{msg}");
+        // A leading minus.
+        let m = HashMap::new();
+        let v = parse("-1/(s+1)").unwrap().eval(c64::new(0.0, 0.0), &m).unwrap();
+        assert_eq!(v.re, -1.0);
+        let g = parse_model("-2/(s+1)").unwrap();
+        assert_eq!(g.nx(), 1);
+        // Nesting: 11,000 parentheses is an error naming the limit, not a stack overflow.
+        let deep = format!("{}s{}", "(".repeat(11_000), ")".repeat(11_000));
+        let msg = parse(&deep).unwrap_err().to_string();
+        assert!(msg.contains(&MAX_DEPTH.to_string()), "{msg}");
+        let ok = format!("{}s{}", "(".repeat(150), ")".repeat(150));
+        assert!(parse(&ok).is_ok());
+        let signs = "-".repeat(5000) + "s";
+        assert!(parse(&signs).is_err());
+        // A very long sum is refused before its tree is too deep to walk (or drop).
+        let long = vec!["1"; 20_000].join("+");
+        let msg = parse(&long).unwrap_err().to_string();
+        assert!(msg.contains("too long"), "{msg}");
+        let sum: String = (1..=500).map(|k| format!("1/(s+{k})")).collect::<Vec<_>>().join("+");
+        assert_eq!(parse_model(&sum).unwrap().nx(), 500);
+        // Orders beyond the bound are errors, also for the polynomial path.
+        assert!(parse_model("1/((s+1)^1000)^1000").is_err());
+        assert!(parse("((s+1)^1000)^1000").unwrap().to_tf(&m).is_err());
+        assert!(parse_model("1/(s+1)^1000").is_ok());
     }
 
     #[test]
