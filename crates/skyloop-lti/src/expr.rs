@@ -56,7 +56,11 @@ use crate::poly::Poly;
 use crate::ss::StateSpace;
 use crate::tf::{rat_add, TransferFunction};
 use faer::{c64, Mat};
+use std::cell::Cell;
 use std::collections::HashMap;
+
+/// Most sub-expression visits one realization may take (see `Expr::realize`).
+pub const MAX_REALIZE_VISITS: usize = 200_000;
 
 /// Highest model order (states, or polynomial degree for [`Expr::to_tf`]) an expression may produce.
 pub const MAX_ORDER: usize = 1000;
@@ -926,7 +930,7 @@ impl Expr {
     /// The SISO state-space model of the expression with its exact delay, built from the
     /// expression tree without multiplying out polynomials (see the module documentation).
     pub fn to_ss(&self, params: &HashMap<String, f64>) -> Result<StateSpace> {
-        let v = self.realize(params)?;
+        let v = self.realize(params, &Cell::new(0))?;
         let delay = delay_of(&v);
         if delay < 0.0 {
             return Err(LtiError::Unsupported(format!(
@@ -937,38 +941,94 @@ impl Expr {
         sys.g.with_delays(vec![delay], vec![0.0])
     }
 
-    fn realize(&self, params: &HashMap<String, f64>) -> Result<Val> {
+    /// Zeros, poles and gain with the net delay: from the roots of each factor as written when the
+    /// expression is a product of factors (nothing multiplied out: the 25 poles of `1/(s+1)^25` are
+    /// exactly −1), else from its realization ([`Zpk::from_ss`](crate::zpk::Zpk::from_ss)). Common
+    /// factors are kept, as a zero-pole-gain form states them.
+    pub fn to_zpk(&self, params: &HashMap<String, f64>) -> Result<crate::zpk::Zpk> {
+        let v = self.realize(params, &Cell::new(0))?;
+        let delay = delay_of(&v);
+        if delay < 0.0 {
+            return Err(LtiError::Unsupported(format!(
+                "the net delay is negative ({delay} s): the model would be a prediction"
+            )));
+        }
+        let mut out = match v {
+            Val::F(f) => {
+                let roots = |fs: &[Poly], k: &mut f64, inv: bool| -> Result<Vec<c64>> {
+                    let mut r = Vec::new();
+                    for q in fs {
+                        let lead = factor_roots(q, &mut r)?;
+                        *k = if inv { *k / lead } else { *k * lead };
+                    }
+                    Ok(r.iter()
+                        .flat_map(|x| {
+                            if x.im > 0.0 {
+                                vec![c64::new(x.re, x.im), c64::new(x.re, -x.im)]
+                            } else {
+                                vec![c64::new(x.re, 0.0)]
+                            }
+                        })
+                        .collect())
+                };
+                let mut k = f.k;
+                if k == 0.0 {
+                    crate::zpk::Zpk::siso(Vec::new(), Vec::new(), 0.0, 0.0)
+                } else {
+                    let z = roots(&f.num, &mut k, false)?;
+                    let p = roots(&f.den, &mut k, true)?;
+                    crate::zpk::Zpk::siso(z, p, k, 0.0)
+                }
+            }
+            Val::S(s) => crate::zpk::Zpk::from_ss(&s.g)?,
+        };
+        out.input_delay = vec![delay];
+        Ok(out)
+    }
+
+    /// `visits` counts realized nodes over the whole call: structurally equal sub-trees (G in
+    /// `G/(1 + G·H)`) are realized more than once when no shortcut applies, which nested forms could
+    /// turn exponential, so the count is bounded by [`MAX_REALIZE_VISITS`].
+    fn realize(&self, params: &HashMap<String, f64>, visits: &Cell<usize>) -> Result<Val> {
+        visits.set(visits.get() + 1);
+        if visits.get() > MAX_REALIZE_VISITS {
+            return Err(LtiError::InvalidArgument(format!(
+                "the expression is too complex to realize (more than {MAX_REALIZE_VISITS} sub-expression visits)"
+            )));
+        }
         let step = match self {
             Expr::Num(x) => Step::Done(Val::F(Fact::constant(*x))),
             Expr::S => Step::Done(Val::F(Fact::from_poly(Poly::s(), 1.0, 0.0))),
             Expr::Param(n) => Step::Done(Val::F(Fact::constant(param_value(n, params)?))),
-            Expr::Neg(a) => Step::Done(neg_val(a.realize(params)?)),
-            Expr::Add(a, b) => add_val(&a.realize(params)?, &b.realize(params)?)?,
-            Expr::Sub(a, b) => add_val(&a.realize(params)?, &neg_val(b.realize(params)?))?,
-            Expr::Mul(a, b) => mul_val(&a.realize(params)?, &b.realize(params)?)?,
-            Expr::Div(a, b) => match self.feedback_form(a, b, params)? {
-                Some(v) => Step::Done(v),
-                None => {
-                    let va = a.realize(params)?;
-                    match inv_val(&b.realize(params)?)? {
-                        Some(ib) => {
-                            let step = mul_val(&va, &ib)?;
-                            // A divisor realized as a sum was inverted: the product may carry
-                            // modes that cancel (e.g. (1/(s+1)) / (1 + 1/(s+1))); remove them.
-                            match (step, &ib) {
-                                (Step::Done(Val::S(s)), Val::S(_)) => Step::Done(Val::S(Sys {
-                                    g: crate::minreal::minreal(&s.g, None)?,
-                                    delay: s.delay,
-                                })),
-                                (st, _) => st,
+            Expr::Neg(a) => Step::Done(neg_val(a.realize(params, visits)?)),
+            Expr::Add(a, b) => add_val(&a.realize(params, visits)?, &b.realize(params, visits)?)?,
+            Expr::Sub(a, b) => add_val(&a.realize(params, visits)?, &neg_val(b.realize(params, visits)?))?,
+            Expr::Mul(a, b) => mul_val(&a.realize(params, visits)?, &b.realize(params, visits)?)?,
+            Expr::Div(a, b) => {
+                let va = a.realize(params, visits)?;
+                match self.feedback_form(&va, a, b, params, visits)? {
+                    Some(v) => Step::Done(v),
+                    None => {
+                        match inv_val(&b.realize(params, visits)?)? {
+                            Some(ib) => {
+                                let step = mul_val(&va, &ib)?;
+                                // A divisor realized as a sum was inverted: the product may carry
+                                // modes that cancel (e.g. (1/(s+1)) / (1 + 1/(s+1))); remove them.
+                                match (step, &ib) {
+                                    (Step::Done(Val::S(s)), Val::S(_)) => Step::Done(Val::S(Sys {
+                                        g: crate::minreal::minreal(&s.g, None)?,
+                                        delay: s.delay,
+                                    })),
+                                    (st, _) => st,
+                                }
                             }
+                            None => Step::Expand,
                         }
-                        None => Step::Expand,
                     }
                 }
-            },
+            }
             Expr::Pow(a, k) => {
-                let base = a.realize(params)?;
+                let base = a.realize(params, visits)?;
                 let base = if *k < 0 { inv_val(&base)? } else { Some(base) };
                 match base {
                     None => Step::Expand,
@@ -1022,7 +1082,14 @@ impl Expr {
 
     /// `G/(c + G·H)` and `G/(c − G·H)` (also `G/(c ± G)`) as a feedback interconnection, when G and
     /// H are proper and delay-free: the closed loop has the states of G and H once.
-    fn feedback_form(&self, num: &Expr, den: &Expr, params: &HashMap<String, f64>) -> Result<Option<Val>> {
+    fn feedback_form(
+        &self,
+        va: &Val,
+        num: &Expr,
+        den: &Expr,
+        params: &HashMap<String, f64>,
+        visits: &Cell<usize>,
+    ) -> Result<Option<Val>> {
         let (c, x, sign) = match den {
             Expr::Add(l, r) => match (&**l, &**r) {
                 (Expr::Num(c), x) | (x, Expr::Num(c)) => (*c, x, -1.0),
@@ -1051,7 +1118,7 @@ impl Expr {
             None
         };
         let Some(h) = h else { return Ok(None) };
-        let (Some(g), Some(hs)) = (to_sys(&num.realize(params)?)?, to_sys(&h.realize(params)?)?) else {
+        let (Some(g), Some(hs)) = (to_sys(va)?, to_sys(&h.realize(params, visits)?)?) else {
             return Ok(None);
         };
         if g.delay != 0.0 || hs.delay != 0.0 {
@@ -1452,6 +1519,27 @@ mod tests {
         assert_eq!(parse_col("exp -s"), 5);
         let msg = parse("1/(s+").unwrap_err().to_string();
         assert!(msg.contains("column 6") && msg.contains("expected"), "{msg}");
+    }
+
+    #[test]
+    fn zpk_from_the_factors() {
+        let m = HashMap::new();
+        let z = parse("2/(s+1)^25").unwrap().to_zpk(&m).unwrap();
+        assert_eq!(z.p[0][0].len(), 25);
+        assert!(z.p[0][0].iter().all(|p| *p == c64::new(-1.0, 0.0)));
+        assert_eq!(z.k[0][0], 2.0);
+        let z = parse(BICOPTER).unwrap().to_zpk(&m).unwrap();
+        assert_eq!((z.z[0][0].len(), z.p[0][0].len()), (2, 4));
+        assert_eq!(z.input_delay, vec![0.032]);
+        let s = c64::new(0.0, 9.2);
+        let want = bicopter_direct(s) / (-0.032 * s).exp();
+        let zp: c64 = z.z[0][0].iter().map(|r| s - r).product();
+        let pp: c64 = z.p[0][0].iter().map(|r| s - r).product();
+        let got = zp / pp * z.k[0][0];
+        assert!((got - want).norm() < 1e-12 * want.norm(), "{got} vs {want}");
+        // A sum goes through its realization.
+        let z = parse("1/(s+1) + 1/(s+2)").unwrap().to_zpk(&m).unwrap();
+        assert_eq!(z.p[0][0].len(), 2);
     }
 
     #[test]
