@@ -9,14 +9,68 @@
 //! primary := number | 's' | parameter | 'exp' '(' sum ')' | '(' sum ')'
 //! ```
 //! Numbers accept `1`, `1.5`, `.5`, `1e-3`; parameters are identifiers other than `s` and `exp`.
+//! The parser accepts at most [`MAX_DEPTH`] nested parentheses, signs and `exp(...)` calls, and a
+//! missing `*` is named with its fix (`2s` → "write 2*s").
+//!
+//! # From an expression to a state-space model
+//!
+//! [`parse_model`] / [`Expr::to_ss`] never multiply the expression out into one polynomial ratio
+//! (whose coefficients lose the roots from about order 18: `1/(s+1)^25` was off by 23× at 1 rad/s).
+//! The tree is realized bottom-up, each node as either
+//!
+//! * a **factored value** `k · Π nᵢ(s) / Π dⱼ(s) · e^(−T·s)`, kept as the list of factors the user
+//!   wrote (`s`, `s+1`, `s^2+2*s+5`, ...): numbers, `s`, products, quotients and integer powers of
+//!   factored values stay factored (a power repeats its factors), and a sum of polynomials is one
+//!   polynomial factor of the degree written; or
+//! * a **realized value**: a proper, delay-free SISO state-space model times `e^(−T·s)`.
+//!
+//! A factored value becomes a model when it must (it is added to something with dynamics, multiplied
+//! with a realized value, or is the result): the roots of each factor (closed form up to degree 2,
+//! the balanced companion matrix above) are grouped into real poles and complex pairs, roots shared by
+//! numerator and denominator cancel (1e-10 relative), zeros are paired with the poles of nearest
+//! magnitude into first- and second-order sections (a complex zero pair with a complex pole pair or
+//! two real poles), and each section is realized small and balanced: `[p]` for a real pole, the
+//! normal form `[σ ω; −ω σ]` for a pair, a triangular 2×2 for two real poles. Each section is scaled
+//! to unit gain at its corner frequency and the total gain is spread evenly over the sections (in
+//! logarithms, so gains of 1e±300 neither overflow nor end up in one section). Sections and realized
+//! factors of a product are chained in series with the later model's states first, so A is block
+//! upper triangular: the poles of a chain are the sections' own poles (a 60-fold pole stays exact
+//! instead of scattering by ε^(1/60)), and the response is one quasi-triangular solve.
+//!
+//! `+`/`−` connect realized terms in parallel (block diagonal A). `/` inverts the divisor: a factored
+//! divisor swaps its factors; a realized biproper divisor (A, B, C, D ≠ 0) is inverted exactly as
+//! (A − BD⁻¹C, BD⁻¹, −D⁻¹C, D⁻¹) and the product is reduced by [`crate::minreal::minreal`] because
+//! such a quotient usually cancels modes (`(1/(s+1))/(1 + 1/(s+1))`). The feedback forms
+//! `G/(c + G·H)`, `G/(c − G·H)` and `G/(c ± G)` with proper, delay-free G and H are built by
+//! [`crate::interconnect::feedback`], with the states of G and H once. What has no proper structural
+//! form (a strictly proper divisor that is a sum, an improper term in a sum such as `s + 1/(s+1)`)
+//! falls back, for that node only, to its exact rational form (the polynomial path of
+//! [`Expr::to_tf`]), which is then realized like a user-written factor.
+//!
+//! Delays are collected exactly as in [`Expr::to_tf`]: products add them, a sum needs equal delays,
+//! and the model carries the net delay as its input delay. Models of order above [`MAX_ORDER`] are
+//! refused. [`Expr::to_tf`] keeps the polynomial form for those who ask for a transfer function.
 
-use crate::convert::tf_to_ss;
 use crate::error::{LtiError, Result};
 use crate::poly::Poly;
 use crate::ss::StateSpace;
 use crate::tf::{rat_add, TransferFunction};
-use faer::c64;
+use faer::{c64, Mat};
+use std::cell::Cell;
 use std::collections::HashMap;
+
+/// Most sub-expression visits one realization may take (see `Expr::realize`).
+pub const MAX_REALIZE_VISITS: usize = 200_000;
+
+/// Highest model order (states, or polynomial degree for [`Expr::to_tf`]) an expression may produce.
+pub const MAX_ORDER: usize = 1000;
+
+/// Deepest nesting of parentheses, signs and `exp(...)` the parser accepts (recursion bound).
+pub const MAX_DEPTH: usize = 200;
+
+/// Deepest expression tree the parser builds (a sum of n terms is n deep): evaluation and
+/// realization recurse over the tree.
+pub const MAX_TREE_DEPTH: usize = 1000;
 
 /// A parsed transfer-function expression in the Laplace variable `s`.
 #[derive(Debug, Clone, PartialEq)]
@@ -46,14 +100,26 @@ pub enum Expr {
 /// Parses an expression; errors carry the 1-based column and what was expected.
 pub fn parse(text: &str) -> Result<Expr> {
     let toks = lex(text)?;
-    let mut p = Parser { toks, pos: 0 };
-    let e = p.sum()?;
+    let mut p = Parser { toks, pos: 0, depth: 0 };
+    let (e, _) = p.sum()?;
     match p.peek() {
         Tok::End => Ok(e),
-        t => Err(p.err(format!(
-            "expected an operator or the end of the expression, found {}",
-            t.describe()
-        ))),
+        t => {
+            // Juxtaposition ("2s", "s(s+1)", ")(") is the usual slip: name the fix.
+            let prev = p.pos.checked_sub(1).map(|i| p.toks[i].0.clone());
+            let hint = match (&prev, t) {
+                (Some(a), Tok::Ident(_) | Tok::Num(_) | Tok::Op('('))
+                    if matches!(a, Tok::Num(_) | Tok::Ident(_) | Tok::Op(')')) =>
+                {
+                    format!(" (write {}*{} to multiply)", a.text(), t.text())
+                }
+                _ => String::new(),
+            };
+            Err(p.err(format!(
+                "expected an operator or the end of the expression, found {}{hint}",
+                t.describe()
+            )))
+        }
     }
 }
 
@@ -67,7 +133,7 @@ pub fn parse_model(text: &str) -> Result<StateSpace> {
             params.join(", ")
         )));
     }
-    tf_to_ss(&e.to_tf(&HashMap::new())?)
+    e.to_ss(&HashMap::new())
 }
 
 impl Expr {
@@ -143,12 +209,13 @@ impl Expr {
                 let rb = b.rational(params)?;
                 a.rational(params)?.add(&Rat { num: -&rb.num, ..rb })?
             }
-            Expr::Mul(a, b) => a.rational(params)?.mul(&b.rational(params)?),
-            Expr::Div(a, b) => a.rational(params)?.mul(&b.rational(params)?.inv()?),
+            Expr::Mul(a, b) => a.rational(params)?.mul(&b.rational(params)?)?,
+            Expr::Div(a, b) => a.rational(params)?.mul(&b.rational(params)?.inv()?)?,
             Expr::Pow(a, k) => {
                 let r = a.rational(params)?;
                 let base = if *k < 0 { r.inv()? } else { r };
                 let n = k.unsigned_abs();
+                check_order((base.num.degree().max(base.den.degree())).saturating_mul(n as usize))?;
                 Rat {
                     num: base.num.powi(n),
                     den: base.den.powi(n),
@@ -213,12 +280,13 @@ impl Rat {
         Ok(Rat { num, den, delay })
     }
 
-    fn mul(&self, o: &Rat) -> Rat {
-        Rat {
+    fn mul(&self, o: &Rat) -> Result<Rat> {
+        check_order((self.num.degree() + o.num.degree()).max(self.den.degree() + o.den.degree()))?;
+        Ok(Rat {
             num: &self.num * &o.num,
             den: &self.den * &o.den,
             delay: self.delay + o.delay,
-        }
+        })
     }
 
     fn inv(&self) -> Result<Rat> {
@@ -233,6 +301,843 @@ impl Rat {
     }
 }
 
+// ---------------------------------------------------------------------------------------------
+// Realization from the expression tree (see the module documentation).
+
+/// A factored sub-expression `k · Π num / Π den · e^(−delay·s)`; every factor has degree ≥ 1.
+#[derive(Debug, Clone)]
+struct Fact {
+    k: f64,
+    num: Vec<Poly>,
+    den: Vec<Poly>,
+    delay: f64,
+}
+
+/// A realized sub-expression: a proper, delay-free SISO model times `e^(−delay·s)`.
+#[derive(Debug, Clone)]
+struct Sys {
+    g: StateSpace,
+    delay: f64,
+}
+
+#[derive(Debug, Clone)]
+enum Val {
+    F(Fact),
+    S(Sys),
+}
+
+/// What a sub-expression could not be built as structurally (the caller expands that node instead).
+enum Step {
+    Done(Val),
+    Expand,
+}
+
+impl Fact {
+    fn constant(k: f64) -> Fact {
+        Fact {
+            k,
+            num: Vec::new(),
+            den: Vec::new(),
+            delay: 0.0,
+        }
+    }
+
+    /// `k·p` with constant polynomials folded into the gain.
+    fn from_poly(p: Poly, k: f64, delay: f64) -> Fact {
+        let mut f = Fact::constant(k);
+        f.delay = delay;
+        if p.degree() == 0 {
+            f.k *= p.leading();
+        } else {
+            f.num.push(p);
+        }
+        f
+    }
+
+    fn deg(v: &[Poly]) -> usize {
+        v.iter().map(Poly::degree).sum()
+    }
+
+    fn is_proper(&self) -> bool {
+        self.k == 0.0 || Fact::deg(&self.num) <= Fact::deg(&self.den)
+    }
+
+    fn order(&self) -> usize {
+        Fact::deg(&self.num).max(Fact::deg(&self.den))
+    }
+
+    fn inv(&self) -> Result<Fact> {
+        if self.k == 0.0 {
+            return Err(LtiError::InvalidArgument("division by zero".into()));
+        }
+        Ok(Fact {
+            k: 1.0 / self.k,
+            num: self.den.clone(),
+            den: self.num.clone(),
+            delay: -self.delay,
+        })
+    }
+
+    /// The product of the numerator factors times k (only for polynomials, den empty).
+    fn expand_num(&self) -> Poly {
+        self.num.iter().fold(Poly::constant(self.k), |acc, p| &acc * p)
+    }
+}
+
+fn check_order(n: usize) -> Result<()> {
+    if n > MAX_ORDER {
+        return Err(LtiError::InvalidArgument(format!(
+            "the expression's model would have order {n}; at most {MAX_ORDER} is supported"
+        )));
+    }
+    Ok(())
+}
+
+fn sys_order(v: &Val) -> usize {
+    match v {
+        Val::F(f) => f.order(),
+        Val::S(s) => s.g.nx(),
+    }
+}
+
+/// Delay of a sum of two terms: equal delays (to 1e-12), or the other's when one term is zero.
+fn sum_delay(t1: f64, z1: bool, t2: f64, z2: bool) -> Result<f64> {
+    if z1 {
+        Ok(t2)
+    } else if z2 || (t1 - t2).abs() <= 1e-12 * t1.abs().max(t2.abs()) {
+        Ok(t1)
+    } else {
+        Err(LtiError::Unsupported(format!(
+            "cannot add terms with different delays ({t1} s and {t2} s): the sum is not one delayed rational model"
+        )))
+    }
+}
+
+fn is_zero_val(v: &Val) -> bool {
+    match v {
+        Val::F(f) => f.k == 0.0,
+        Val::S(s) => s.g.d[(0, 0)] == 0.0 && (0..s.g.nx()).all(|j| s.g.c[(0, j)] == 0.0),
+    }
+}
+
+fn delay_of(v: &Val) -> f64 {
+    match v {
+        Val::F(f) => f.delay,
+        Val::S(s) => s.delay,
+    }
+}
+
+/// The realized form of a value, when it is proper.
+fn to_sys(v: &Val) -> Result<Option<Sys>> {
+    match v {
+        Val::S(s) => Ok(Some(s.clone())),
+        Val::F(f) if f.is_proper() => Ok(Some(Sys {
+            g: realize_fact(f)?,
+            delay: f.delay,
+        })),
+        Val::F(_) => Ok(None),
+    }
+}
+
+fn neg_val(v: Val) -> Val {
+    match v {
+        Val::F(mut f) => {
+            f.k = -f.k;
+            Val::F(f)
+        }
+        Val::S(mut s) => {
+            s.g.c = -&s.g.c;
+            s.g.d = -&s.g.d;
+            Val::S(s)
+        }
+    }
+}
+
+fn add_val(a: &Val, b: &Val) -> Result<Step> {
+    let delay = sum_delay(delay_of(a), is_zero_val(a), delay_of(b), is_zero_val(b))?;
+    if is_zero_val(a) {
+        return Ok(Step::Done(b.clone()));
+    }
+    if is_zero_val(b) {
+        return Ok(Step::Done(a.clone()));
+    }
+    if let (Val::F(fa), Val::F(fb)) = (a, b) {
+        if fa.den.is_empty() && fb.den.is_empty() {
+            // A polynomial written as a sum (s^2 + 2*s + 5): one factor of the degree the user wrote.
+            let p = &fa.expand_num() + &fb.expand_num();
+            return Ok(Step::Done(Val::F(Fact::from_poly(p, 1.0, delay))));
+        }
+    }
+    match (to_sys(a)?, to_sys(b)?) {
+        (Some(sa), Some(sb)) => {
+            let g = crate::interconnect::parallel(&sa.g, &sb.g)?;
+            Ok(Step::Done(Val::S(Sys { g, delay })))
+        }
+        // A proper plus an improper term has a polynomial part: expand this node.
+        _ => Ok(Step::Expand),
+    }
+}
+
+fn mul_val(a: &Val, b: &Val) -> Result<Step> {
+    check_order(sys_order(a) + sys_order(b))?;
+    if let (Val::F(fa), Val::F(fb)) = (a, b) {
+        return Ok(Step::Done(Val::F(Fact {
+            k: fa.k * fb.k,
+            num: [fa.num.clone(), fb.num.clone()].concat(),
+            den: [fa.den.clone(), fb.den.clone()].concat(),
+            delay: fa.delay + fb.delay,
+        })));
+    }
+    if is_zero_val(a) || is_zero_val(b) {
+        return Ok(Step::Done(Val::F(Fact::constant(0.0))));
+    }
+    match (to_sys(a)?, to_sys(b)?) {
+        (Some(sa), Some(sb)) => Ok(Step::Done(Val::S(Sys {
+            g: series_upper(&sa.g, &sb.g)?,
+            delay: sa.delay + sb.delay,
+        }))),
+        _ => Ok(Step::Expand),
+    }
+}
+
+/// The inverse of a value: factors swap for a factored form; a biproper realization
+/// (A, B, C, D), D ≠ 0, inverts exactly to (A − B D⁻¹ C, B D⁻¹, −D⁻¹ C, D⁻¹).
+fn inv_val(v: &Val) -> Result<Option<Val>> {
+    match v {
+        Val::F(f) => Ok(Some(Val::F(f.inv()?))),
+        Val::S(s) => {
+            let d = s.g.d[(0, 0)];
+            if d == 0.0 {
+                return Ok(None); // strictly proper: the inverse is improper
+            }
+            let g = &s.g;
+            let a = &g.a - &g.b * &g.c * (1.0 / d);
+            let b = &g.b * (1.0 / d);
+            let c = &g.c * (-1.0 / d);
+            let dd = Mat::from_fn(1, 1, |_, _| 1.0 / d);
+            Ok(Some(Val::S(Sys {
+                g: StateSpace::new(a, b, c, dd, 0.0)?,
+                delay: -s.delay,
+            })))
+        }
+    }
+}
+
+/// Series connection u → g1 → g2 → y with the states of g2 first, so that A = [A2 B2·C1; 0 A1] is
+/// block upper triangular: a chain of sections is then (quasi-)triangular and its poles are the
+/// sections' poles, read off by the eigenvalue solver without mixing the sections.
+fn series_upper(g1: &StateSpace, g2: &StateSpace) -> Result<StateSpace> {
+    let (n1, n2) = (g1.nx(), g2.nx());
+    let n = n1 + n2;
+    let b2c1 = &g2.b * &g1.c;
+    let d1 = g1.d[(0, 0)];
+    let d2 = g2.d[(0, 0)];
+    let a = Mat::from_fn(n, n, |i, j| match (i < n2, j < n2) {
+        (true, true) => g2.a[(i, j)],
+        (true, false) => b2c1[(i, j - n2)],
+        (false, false) => g1.a[(i - n2, j - n2)],
+        (false, true) => 0.0,
+    });
+    let b = Mat::from_fn(n, 1, |i, _| if i < n2 { g2.b[(i, 0)] * d1 } else { g1.b[(i - n2, 0)] });
+    let c = Mat::from_fn(1, n, |_, j| if j < n2 { g2.c[(0, j)] } else { d2 * g1.c[(0, j - n2)] });
+    StateSpace::new(a, b, c, Mat::from_fn(1, 1, |_, _| d1 * d2), 0.0)
+}
+
+/// A real root or a complex-conjugate pair (im > 0) of a factor.
+#[derive(Debug, Clone, Copy)]
+struct Root {
+    re: f64,
+    im: f64,
+}
+
+impl Root {
+    fn mag(&self) -> f64 {
+        self.re.hypot(self.im)
+    }
+    fn degree(&self) -> usize {
+        if self.im > 0.0 {
+            2
+        } else {
+            1
+        }
+    }
+}
+
+/// Roots of a factor as real roots and conjugate pairs, and its leading coefficient.
+fn factor_roots(p: &Poly, out: &mut Vec<Root>) -> Result<f64> {
+    let lead = p.leading();
+    match p.degree() {
+        0 => {}
+        1 => out.push(Root {
+            re: -p.coeffs[1] / lead,
+            im: 0.0,
+        }),
+        2 => {
+            // s² + b s + c with the cancellation-free quadratic formula.
+            let (b, c) = (p.coeffs[1] / lead, p.coeffs[2] / lead);
+            let disc = 0.25 * b * b - c;
+            if !disc.is_finite() {
+                for r in p.roots()? {
+                    push_root(r, out);
+                }
+            } else if disc >= 0.0 {
+                let q = -0.5 * b - disc.sqrt().copysign(b);
+                if q == 0.0 {
+                    out.push(Root { re: 0.0, im: 0.0 });
+                    out.push(Root { re: 0.0, im: 0.0 });
+                } else {
+                    out.push(Root { re: q, im: 0.0 });
+                    out.push(Root { re: c / q, im: 0.0 });
+                }
+            } else {
+                out.push(Root {
+                    re: -0.5 * b,
+                    im: (-disc).sqrt(),
+                });
+            }
+        }
+        _ => {
+            for r in p.roots()? {
+                push_root(r, out);
+            }
+        }
+    }
+    Ok(lead)
+}
+
+/// Keeps real roots and the upper member of each conjugate pair.
+fn push_root(r: c64, out: &mut Vec<Root>) {
+    if r.im == 0.0 {
+        out.push(Root { re: r.re, im: 0.0 });
+    } else if r.im > 0.0 {
+        out.push(Root { re: r.re, im: r.im });
+    }
+}
+
+/// One section's denominator: a real pole, a complex pair, or two real poles.
+#[derive(Debug, Clone, Copy)]
+enum Den {
+    Real(f64),
+    Pair(f64, f64),
+    Two(f64, f64),
+}
+
+impl Den {
+    fn degree(&self) -> usize {
+        match self {
+            Den::Real(_) => 1,
+            _ => 2,
+        }
+    }
+    fn poly(&self) -> Poly {
+        match *self {
+            Den::Real(p) => Poly::new(vec![1.0, -p]),
+            Den::Pair(s, w) => Poly::new(vec![1.0, -2.0 * s, s * s + w * w]),
+            Den::Two(p1, p2) => Poly::new(vec![1.0, -(p1 + p2), p1 * p2]),
+        }
+    }
+    fn mag(&self) -> f64 {
+        match *self {
+            Den::Real(p) => p.abs(),
+            Den::Pair(s, w) => s.hypot(w),
+            Den::Two(p1, p2) => (p1.abs() * p2.abs()).sqrt(),
+        }
+    }
+}
+
+fn root_poly(r: &Root) -> Poly {
+    if r.im > 0.0 {
+        Poly::new(vec![1.0, -2.0 * r.re, r.re * r.re + r.im * r.im])
+    } else {
+        Poly::new(vec![1.0, -r.re])
+    }
+}
+
+/// Balanced realization (A, B, C, D) of the section n(s)/d(s), deg n ≤ deg d ≤ 2, d monic.
+fn realize_section(num: &Poly, den: Den) -> Result<StateSpace> {
+    let d = den.poly();
+    let nn = |k: usize| num.coeff_of_power(k);
+    let dd = if den.degree() == num.degree() {
+        num.leading()
+    } else {
+        0.0
+    };
+    let one = |x: f64| Mat::from_fn(1, 1, |_, _| x);
+    // r(s) = n(s) − dd·d(s), the strictly proper remainder.
+    let r: Vec<f64> = (0..den.degree()).map(|k| nn(k) - dd * d.coeff_of_power(k)).collect();
+    let (a, b, c) = match den {
+        Den::Real(p) => {
+            let res = r[0];
+            let beta = res.abs().sqrt();
+            if beta == 0.0 {
+                return StateSpace::gain(one(dd), 0.0);
+            }
+            (one(p), one(beta), one(res / beta))
+        }
+        Den::Pair(s, w) => {
+            // A = [σ ω; −ω σ] (normal), B = [β; 0]: C adj(sI − A) B = c1β(s − σ) − c2ωβ.
+            let (r0, r1) = (r[0], r[1]);
+            let q = (r0 + r1 * s) / w;
+            let beta = r1.hypot(q).sqrt();
+            if beta == 0.0 {
+                return StateSpace::gain(one(dd), 0.0);
+            }
+            let a = Mat::from_fn(2, 2, |i, j| match (i, j) {
+                (0, 0) | (1, 1) => s,
+                (0, 1) => w,
+                _ => -w,
+            });
+            let b = Mat::from_fn(2, 1, |i, _| if i == 0 { beta } else { 0.0 });
+            let c = Mat::from_fn(1, 2, |_, j| if j == 0 { r1 / beta } else { -q / beta });
+            (a, b, c)
+        }
+        Den::Two(p1, p2) => {
+            // Triangular: x1' = p1 x1 + m u, x2' = p2 x2 + m x1 (states [x2, x1]); exact even when
+            // p1 ≈ p2, unlike partial fractions.
+            let (r0, r1) = (r[0], r[1]);
+            let m = {
+                let g = (p1.abs() * p2.abs()).sqrt();
+                if g > 0.0 && g.is_finite() {
+                    g
+                } else if p1.abs().max(p2.abs()) > 0.0 {
+                    p1.abs().max(p2.abs())
+                } else {
+                    1.0
+                }
+            };
+            let c1 = r1 / m;
+            let c2 = (r0 + r1 * p2) / (m * m);
+            let a = Mat::from_fn(2, 2, |i, j| match (i, j) {
+                (0, 0) => p2,
+                (0, 1) => m,
+                (1, 1) => p1,
+                _ => 0.0,
+            });
+            let b = Mat::from_fn(2, 1, |i, _| if i == 1 { m } else { 0.0 });
+            let c = Mat::from_fn(1, 2, |_, j| if j == 0 { c2 } else { c1 });
+            (a, b, c)
+        }
+    };
+    StateSpace::new(a, b, c, one(dd), 0.0)
+}
+
+/// The state-space model of a proper factored value: roots of every factor, common roots
+/// cancelled, zeros paired with poles into first- and second-order sections, the gain spread evenly
+/// over the sections, and the sections chained by [`series_upper`].
+fn realize_fact(f: &Fact) -> Result<StateSpace> {
+    let one = |x: f64| Mat::from_fn(1, 1, |_, _| x);
+    if f.k == 0.0 {
+        return StateSpace::gain(one(0.0), 0.0);
+    }
+    let mut k = f.k;
+    let mut z = Vec::new();
+    let mut p = Vec::new();
+    for q in &f.num {
+        k *= factor_roots(q, &mut z)?;
+    }
+    for q in &f.den {
+        k /= factor_roots(q, &mut p)?;
+    }
+    if !k.is_finite() || k == 0.0 {
+        return Err(LtiError::InvalidArgument(format!(
+            "the expression's gain {k} is out of the floating-point range"
+        )));
+    }
+    // Cancel roots shared by numerator and denominator (to 1e-10 relative, as tf_to_ss does).
+    let mut zk = Vec::new();
+    for r in z {
+        let hit = p.iter().position(|q: &Root| {
+            q.degree() == r.degree() && (q.re - r.re).hypot(q.im - r.im) <= 1e-10 * (1.0 + r.mag())
+        });
+        match hit {
+            Some(i) => {
+                p.remove(i);
+            }
+            None => zk.push(r),
+        }
+    }
+    let mut z = zk;
+    // Pair zeros with poles: complex zero pairs need a second-order denominator (a complex pole
+    // pair, else two real poles); real zeros take a real pole, else share a second-order one.
+    let mut sections: Vec<(Poly, Den)> = Vec::new();
+    let mut reals: Vec<f64> = Vec::new();
+    let mut pairs: Vec<(f64, f64)> = Vec::new();
+    p.sort_by(|a, b| a.mag().total_cmp(&b.mag()));
+    for r in &p {
+        if r.im > 0.0 {
+            pairs.push((r.re, r.im));
+        } else {
+            reals.push(r.re);
+        }
+    }
+    let take_nearest_real = |reals: &mut Vec<f64>, m: f64| -> Option<f64> {
+        let i = reals
+            .iter()
+            .enumerate()
+            .min_by(|a, b| (a.1.abs() - m).abs().total_cmp(&(b.1.abs() - m).abs()))
+            .map(|(i, _)| i)?;
+        Some(reals.remove(i))
+    };
+    z.sort_by(|a, b| b.degree().cmp(&a.degree()));
+    let mut pending_real_zero: Option<Root> = None;
+    let mut open_quadratics: Vec<(Poly, Den)> = Vec::new();
+    for r in z {
+        if r.degree() == 2 {
+            let den = if !pairs.is_empty() {
+                let m = r.mag();
+                let i = (0..pairs.len())
+                    .min_by(|&a, &b| {
+                        (pairs[a].0.hypot(pairs[a].1) - m)
+                            .abs()
+                            .total_cmp(&(pairs[b].0.hypot(pairs[b].1) - m).abs())
+                    })
+                    .unwrap_or(0);
+                let (s, w) = pairs.remove(i);
+                Den::Pair(s, w)
+            } else {
+                match (
+                    take_nearest_real(&mut reals, r.mag()),
+                    take_nearest_real(&mut reals, r.mag()),
+                ) {
+                    (Some(p1), Some(p2)) => Den::Two(p1, p2),
+                    _ => return Err(improper()),
+                }
+            };
+            sections.push((root_poly(&r), den));
+        } else if let Some(p1) = take_nearest_real(&mut reals, r.mag()) {
+            sections.push((root_poly(&r), Den::Real(p1)));
+        } else if let Some(prev) = pending_real_zero.take() {
+            // Two real zeros left over for one complex pole pair.
+            let (s, w) = pairs.pop().ok_or_else(improper)?;
+            open_quadratics.push((&root_poly(&prev) * &root_poly(&r), Den::Pair(s, w)));
+        } else {
+            pending_real_zero = Some(r);
+        }
+    }
+    if let Some(r) = pending_real_zero {
+        let (s, w) = pairs.pop().ok_or_else(improper)?;
+        sections.push((root_poly(&r), Den::Pair(s, w)));
+    }
+    sections.extend(open_quadratics);
+    for p1 in reals {
+        sections.push((Poly::one(), Den::Real(p1)));
+    }
+    for (s, w) in pairs {
+        sections.push((Poly::one(), Den::Pair(s, w)));
+    }
+    if sections.is_empty() {
+        return StateSpace::gain(one(k), 0.0);
+    }
+    // Each section scaled to unit gain at its own corner frequency, the total gain spread evenly
+    // (in logarithms, so 1e±300 gains neither overflow nor leave one section with all of it).
+    let mut log_k = k.abs().ln();
+    let mut models = Vec::with_capacity(sections.len());
+    for (num, den) in &sections {
+        let w0 = if den.mag() > 0.0 && den.mag().is_finite() {
+            den.mag()
+        } else {
+            1.0
+        };
+        let mut g = 0.0;
+        for w in [w0, 2.0 * w0, 1.0] {
+            let s = c64::new(0.0, w);
+            let v = (num.eval(s) / den.poly().eval(s)).norm();
+            if v > 0.0 && v.is_finite() {
+                g = v;
+                break;
+            }
+        }
+        let g = if g > 0.0 { g } else { 1.0 };
+        log_k += g.ln();
+        models.push((realize_section(num, *den)?, g));
+    }
+    let per = log_k / models.len() as f64;
+    let mut scaled = Vec::with_capacity(models.len());
+    for (i, (mut m, g)) in models.into_iter().enumerate() {
+        let mut f = (per - g.ln()).exp();
+        if i == 0 && k < 0.0 {
+            f = -f;
+        }
+        if !f.is_finite() || f == 0.0 {
+            return Err(LtiError::InvalidArgument(format!(
+                "the expression's gain {k} is out of the floating-point range"
+            )));
+        }
+        // Split the factor between B and C so both stay balanced.
+        let h = f.abs().sqrt();
+        m.b = &m.b * h;
+        m.c = &m.c * (f / h);
+        m.d = &m.d * f;
+        scaled.push(m);
+    }
+    chain(&scaled)
+}
+
+/// The series connection u → m[0] → m[1] → … → y of SISO sections, assembled in one pass (O(n²)
+/// entries, where pairwise connections would copy O(n²) per section), with the states of the last
+/// section first so that A is block upper triangular as in [`series_upper`].
+fn chain(models: &[StateSpace]) -> Result<StateSpace> {
+    let n: usize = models.iter().map(StateSpace::nx).sum();
+    // Natural order first (section 0's states first): section i sees u_i = w·x + dprod·u.
+    let mut a = Mat::<f64>::zeros(n, n);
+    let mut b = Mat::<f64>::zeros(n, 1);
+    let mut w = vec![0.0; n];
+    let mut dprod = 1.0;
+    let mut offsets = Vec::with_capacity(models.len());
+    let mut off = 0;
+    for m in models {
+        let ni = m.nx();
+        offsets.push(off);
+        for r in 0..ni {
+            for c in 0..ni {
+                a[(off + r, off + c)] = m.a[(r, c)];
+            }
+            let bi = m.b[(r, 0)];
+            for (c, &wc) in w.iter().enumerate().take(off) {
+                a[(off + r, c)] = bi * wc;
+            }
+            b[(off + r, 0)] = bi * dprod;
+        }
+        let di = m.d[(0, 0)];
+        for wc in w.iter_mut().take(off) {
+            *wc *= di;
+        }
+        for c in 0..ni {
+            w[off + c] = m.c[(0, c)];
+        }
+        dprod *= di;
+        off += ni;
+    }
+    // Reverse the order of the sections (not of the states within a section).
+    let mut perm = Vec::with_capacity(n);
+    for (m, &o) in models.iter().zip(&offsets).rev() {
+        perm.extend(o..o + m.nx());
+    }
+    let ap = Mat::from_fn(n, n, |i, j| a[(perm[i], perm[j])]);
+    let bp = Mat::from_fn(n, 1, |i, _| b[(perm[i], 0)]);
+    let cp = Mat::from_fn(1, n, |_, j| w[perm[j]]);
+    StateSpace::new(ap, bp, cp, Mat::from_fn(1, 1, |_, _| dprod), 0.0)
+}
+
+fn improper() -> LtiError {
+    LtiError::Unsupported(
+        "the transfer function is improper (numerator degree above denominator degree); it has no state-space form"
+            .into(),
+    )
+}
+
+impl Expr {
+    /// The SISO state-space model of the expression with its exact delay, built from the
+    /// expression tree without multiplying out polynomials (see the module documentation).
+    pub fn to_ss(&self, params: &HashMap<String, f64>) -> Result<StateSpace> {
+        let v = self.realize(params, &Cell::new(0))?;
+        let delay = delay_of(&v);
+        if delay < 0.0 {
+            return Err(LtiError::Unsupported(format!(
+                "the net delay is negative ({delay} s): the model would be a prediction"
+            )));
+        }
+        let sys = to_sys(&v)?.ok_or_else(improper)?;
+        sys.g.with_delays(vec![delay], vec![0.0])
+    }
+
+    /// Zeros, poles and gain with the net delay: from the roots of each factor as written when the
+    /// expression is a product of factors (nothing multiplied out: the 25 poles of `1/(s+1)^25` are
+    /// exactly −1), else from its realization ([`Zpk::from_ss`](crate::zpk::Zpk::from_ss)). Common
+    /// factors are kept, as a zero-pole-gain form states them.
+    pub fn to_zpk(&self, params: &HashMap<String, f64>) -> Result<crate::zpk::Zpk> {
+        let v = self.realize(params, &Cell::new(0))?;
+        let delay = delay_of(&v);
+        if delay < 0.0 {
+            return Err(LtiError::Unsupported(format!(
+                "the net delay is negative ({delay} s): the model would be a prediction"
+            )));
+        }
+        let mut out = match v {
+            Val::F(f) => {
+                let roots = |fs: &[Poly], k: &mut f64, inv: bool| -> Result<Vec<c64>> {
+                    let mut r = Vec::new();
+                    for q in fs {
+                        let lead = factor_roots(q, &mut r)?;
+                        *k = if inv { *k / lead } else { *k * lead };
+                    }
+                    Ok(r.iter()
+                        .flat_map(|x| {
+                            if x.im > 0.0 {
+                                vec![c64::new(x.re, x.im), c64::new(x.re, -x.im)]
+                            } else {
+                                vec![c64::new(x.re, 0.0)]
+                            }
+                        })
+                        .collect())
+                };
+                let mut k = f.k;
+                if k == 0.0 {
+                    crate::zpk::Zpk::siso(Vec::new(), Vec::new(), 0.0, 0.0)
+                } else {
+                    let z = roots(&f.num, &mut k, false)?;
+                    let p = roots(&f.den, &mut k, true)?;
+                    crate::zpk::Zpk::siso(z, p, k, 0.0)
+                }
+            }
+            Val::S(s) => crate::zpk::Zpk::from_ss(&s.g)?,
+        };
+        out.input_delay = vec![delay];
+        Ok(out)
+    }
+
+    /// `visits` counts realized nodes over the whole call: structurally equal sub-trees (G in
+    /// `G/(1 + G·H)`) are realized more than once when no shortcut applies, which nested forms could
+    /// turn exponential, so the count is bounded by [`MAX_REALIZE_VISITS`].
+    fn realize(&self, params: &HashMap<String, f64>, visits: &Cell<usize>) -> Result<Val> {
+        visits.set(visits.get() + 1);
+        if visits.get() > MAX_REALIZE_VISITS {
+            return Err(LtiError::InvalidArgument(format!(
+                "the expression is too complex to realize (more than {MAX_REALIZE_VISITS} sub-expression visits)"
+            )));
+        }
+        let step = match self {
+            Expr::Num(x) => Step::Done(Val::F(Fact::constant(*x))),
+            Expr::S => Step::Done(Val::F(Fact::from_poly(Poly::s(), 1.0, 0.0))),
+            Expr::Param(n) => Step::Done(Val::F(Fact::constant(param_value(n, params)?))),
+            Expr::Neg(a) => Step::Done(neg_val(a.realize(params, visits)?)),
+            Expr::Add(a, b) => add_val(&a.realize(params, visits)?, &b.realize(params, visits)?)?,
+            Expr::Sub(a, b) => add_val(&a.realize(params, visits)?, &neg_val(b.realize(params, visits)?))?,
+            Expr::Mul(a, b) => mul_val(&a.realize(params, visits)?, &b.realize(params, visits)?)?,
+            Expr::Div(a, b) => {
+                let va = a.realize(params, visits)?;
+                match self.feedback_form(&va, a, b, params, visits)? {
+                    Some(v) => Step::Done(v),
+                    None => {
+                        match inv_val(&b.realize(params, visits)?)? {
+                            Some(ib) => {
+                                let step = mul_val(&va, &ib)?;
+                                // A divisor realized as a sum was inverted: the product may carry
+                                // modes that cancel (e.g. (1/(s+1)) / (1 + 1/(s+1))); remove them.
+                                match (step, &ib) {
+                                    (Step::Done(Val::S(s)), Val::S(_)) => Step::Done(Val::S(Sys {
+                                        g: crate::minreal::minreal(&s.g, None)?,
+                                        delay: s.delay,
+                                    })),
+                                    (st, _) => st,
+                                }
+                            }
+                            None => Step::Expand,
+                        }
+                    }
+                }
+            }
+            Expr::Pow(a, k) => {
+                let base = a.realize(params, visits)?;
+                let base = if *k < 0 { inv_val(&base)? } else { Some(base) };
+                match base {
+                    None => Step::Expand,
+                    Some(b) => {
+                        let n = k.unsigned_abs() as usize;
+                        check_order(sys_order(&b).saturating_mul(n))?;
+                        let mut acc = Step::Done(Val::F(Fact::constant(1.0)));
+                        for _ in 0..n {
+                            acc = match acc {
+                                Step::Done(v) => mul_val(&v, &b)?,
+                                Step::Expand => Step::Expand,
+                            };
+                        }
+                        acc
+                    }
+                }
+            }
+            Expr::Exp(_) => {
+                let r = self.rational(params)?;
+                let k = r.num.leading();
+                if !k.is_finite() {
+                    return Err(LtiError::InvalidArgument(format!(
+                        "exp(...): the constant factor {k} is out of the floating-point range"
+                    )));
+                }
+                Step::Done(Val::F(Fact {
+                    k,
+                    num: Vec::new(),
+                    den: Vec::new(),
+                    delay: r.delay,
+                }))
+            }
+        };
+        match step {
+            Step::Done(v) => Ok(v),
+            Step::Expand => {
+                // Structure gave no proper realization of this node: fall back to its rational
+                // (polynomial) form, which is exact but multiplies out this node's factors.
+                let r = self.rational(params)?;
+                if r.num.is_zero() {
+                    return Ok(Val::F(Fact::constant(0.0)));
+                }
+                let mut f = Fact::from_poly(r.num, 1.0, r.delay);
+                let fd = Fact::from_poly(r.den, 1.0, 0.0);
+                f.k /= fd.k;
+                f.den = fd.num;
+                Ok(Val::F(f))
+            }
+        }
+    }
+
+    /// `G/(c + G·H)` and `G/(c − G·H)` (also `G/(c ± G)`) as a feedback interconnection, when G and
+    /// H are proper and delay-free: the closed loop has the states of G and H once.
+    fn feedback_form(
+        &self,
+        va: &Val,
+        num: &Expr,
+        den: &Expr,
+        params: &HashMap<String, f64>,
+        visits: &Cell<usize>,
+    ) -> Result<Option<Val>> {
+        let (c, x, sign) = match den {
+            Expr::Add(l, r) => match (&**l, &**r) {
+                (Expr::Num(c), x) | (x, Expr::Num(c)) => (*c, x, -1.0),
+                _ => return Ok(None),
+            },
+            Expr::Sub(l, r) => match (&**l, &**r) {
+                (Expr::Num(c), x) => (*c, x, 1.0),
+                _ => return Ok(None),
+            },
+            _ => return Ok(None),
+        };
+        if c == 0.0 {
+            return Ok(None);
+        }
+        let h: Option<Expr> = if x == num {
+            Some(Expr::Num(1.0))
+        } else if let Expr::Mul(p, q) = x {
+            if &**p == num {
+                Some((**q).clone())
+            } else if &**q == num {
+                Some((**p).clone())
+            } else {
+                None
+            }
+        } else {
+            None
+        };
+        let Some(h) = h else { return Ok(None) };
+        let (Some(g), Some(hs)) = (to_sys(va)?, to_sys(&h.realize(params, visits)?)?) else {
+            return Ok(None);
+        };
+        if g.delay != 0.0 || hs.delay != 0.0 {
+            return Ok(None);
+        }
+        // G/(c ± G·H) = (1/c)·G/(1 ± G·H/c).
+        let mut hc = hs.g;
+        hc.c = &hc.c * (1.0 / c);
+        hc.d = &hc.d * (1.0 / c);
+        let mut cl = match crate::interconnect::feedback(&g.g, &hc, sign) {
+            Ok(cl) => cl,
+            Err(_) => return Ok(None),
+        };
+        cl.c = &cl.c * (1.0 / c);
+        cl.d = &cl.d * (1.0 / c);
+        Ok(Some(Val::S(Sys { g: cl, delay: 0.0 })))
+    }
+}
+
 #[derive(Debug, Clone, PartialEq)]
 enum Tok {
     Num(f64),
@@ -242,6 +1147,16 @@ enum Tok {
 }
 
 impl Tok {
+    /// The token as written (for fix suggestions).
+    fn text(&self) -> String {
+        match self {
+            Tok::Num(x) => format!("{x}"),
+            Tok::Ident(n) => n.clone(),
+            Tok::Op(c) => c.to_string(),
+            Tok::End => String::new(),
+        }
+    }
+
     fn describe(&self) -> String {
         match self {
             Tok::Num(x) => format!("the number {x}"),
@@ -320,6 +1235,8 @@ fn lex(text: &str) -> Result<Vec<(Tok, usize)>> {
 struct Parser {
     toks: Vec<(Tok, usize)>,
     pos: usize,
+    /// Current recursion depth (parentheses, signs, exp calls).
+    depth: usize,
 }
 
 impl Parser {
@@ -346,58 +1263,90 @@ impl Parser {
         }
     }
 
-    fn sum(&mut self) -> Result<Expr> {
-        let mut e = self.product()?;
+    /// Checks a new node's depth in the tree: deeper trees would overflow the recursive
+    /// evaluation and realization (and even dropping the tree), so they are refused while parsing.
+    fn node(&self, e: Expr, d: usize) -> Result<(Expr, usize)> {
+        if d > MAX_TREE_DEPTH {
+            return Err(self.err(format!(
+                "the expression is too long: its tree would be deeper than {MAX_TREE_DEPTH} operations"
+            )));
+        }
+        Ok((e, d))
+    }
+
+    fn sum(&mut self) -> Result<(Expr, usize)> {
+        let (mut e, mut d) = self.product()?;
         loop {
-            match self.peek() {
-                Tok::Op('+') => {
-                    self.bump();
-                    e = Expr::Add(Box::new(e), Box::new(self.product()?));
-                }
-                Tok::Op('-') => {
-                    self.bump();
-                    e = Expr::Sub(Box::new(e), Box::new(self.product()?));
-                }
-                _ => return Ok(e),
-            }
+            let op = match self.peek() {
+                Tok::Op(c @ ('+' | '-')) => *c,
+                _ => return Ok((e, d)),
+            };
+            self.bump();
+            let (r, dr) = self.product()?;
+            let dn = d.max(dr) + 1;
+            let n = if op == '+' {
+                Expr::Add(Box::new(e), Box::new(r))
+            } else {
+                Expr::Sub(Box::new(e), Box::new(r))
+            };
+            (e, d) = self.node(n, dn)?;
         }
     }
 
-    fn product(&mut self) -> Result<Expr> {
-        let mut e = self.unary()?;
+    fn product(&mut self) -> Result<(Expr, usize)> {
+        let (mut e, mut d) = self.unary()?;
         loop {
-            match self.peek() {
-                Tok::Op('*') => {
-                    self.bump();
-                    e = Expr::Mul(Box::new(e), Box::new(self.unary()?));
-                }
-                Tok::Op('/') => {
-                    self.bump();
-                    e = Expr::Div(Box::new(e), Box::new(self.unary()?));
-                }
-                _ => return Ok(e),
-            }
+            let op = match self.peek() {
+                Tok::Op(c @ ('*' | '/')) => *c,
+                _ => return Ok((e, d)),
+            };
+            self.bump();
+            let (r, dr) = self.unary()?;
+            let dn = d.max(dr) + 1;
+            let n = if op == '*' {
+                Expr::Mul(Box::new(e), Box::new(r))
+            } else {
+                Expr::Div(Box::new(e), Box::new(r))
+            };
+            (e, d) = self.node(n, dn)?;
         }
     }
 
-    fn unary(&mut self) -> Result<Expr> {
-        match self.peek() {
+    /// Enters one nesting level; errors past [`MAX_DEPTH`] instead of overflowing the stack.
+    fn enter(&mut self) -> Result<()> {
+        self.depth += 1;
+        if self.depth > MAX_DEPTH {
+            return Err(self.err(format!(
+                "the expression nests deeper than {MAX_DEPTH} levels of parentheses, signs or exp(...)"
+            )));
+        }
+        Ok(())
+    }
+
+    fn unary(&mut self) -> Result<(Expr, usize)> {
+        self.enter()?;
+        let e = match self.peek() {
             Tok::Op('-') => {
                 self.bump();
-                Ok(Expr::Neg(Box::new(self.unary()?)))
+                match self.unary() {
+                    Ok((e, d)) => self.node(Expr::Neg(Box::new(e)), d + 1),
+                    Err(e) => Err(e),
+                }
             }
             Tok::Op('+') => {
                 self.bump();
                 self.unary()
             }
             _ => self.power(),
-        }
+        };
+        self.depth -= 1;
+        e
     }
 
-    fn power(&mut self) -> Result<Expr> {
-        let base = self.primary()?;
+    fn power(&mut self) -> Result<(Expr, usize)> {
+        let (base, d) = self.primary()?;
         if self.peek() != &Tok::Op('^') {
-            return Ok(base);
+            return Ok((base, d));
         }
         self.bump();
         let neg = if self.peek() == &Tok::Op('-') {
@@ -410,7 +1359,7 @@ impl Parser {
             Tok::Num(x) if x.fract() == 0.0 && x.abs() <= 1000.0 => {
                 self.bump();
                 let k = x as i32;
-                Ok(Expr::Pow(Box::new(base), if neg { -k } else { k }))
+                self.node(Expr::Pow(Box::new(base), if neg { -k } else { k }), d + 1)
             }
             t => Err(self.err(format!(
                 "expected an integer exponent (at most 1000) after '^', found {}",
@@ -419,28 +1368,28 @@ impl Parser {
         }
     }
 
-    fn primary(&mut self) -> Result<Expr> {
+    fn primary(&mut self) -> Result<(Expr, usize)> {
         let col = self.col();
         match self.bump() {
-            Tok::Num(x) => Ok(Expr::Num(x)),
-            Tok::Ident(n) if n == "s" => Ok(Expr::S),
+            Tok::Num(x) => Ok((Expr::Num(x), 1)),
+            Tok::Ident(n) if n == "s" => Ok((Expr::S, 1)),
             Tok::Ident(n) if n == "exp" => {
                 if self.peek() != &Tok::Op('(') {
                     return Err(self.err(format!("expected '(' after 'exp', found {}", self.peek().describe())));
                 }
                 self.bump();
-                let arg = self.sum()?;
+                let (arg, d) = self.sum()?;
                 self.close(col)?;
-                Ok(Expr::Exp(Box::new(arg)))
+                self.node(Expr::Exp(Box::new(arg)), d + 1)
             }
             Tok::Ident(n) => {
                 if self.peek() == &Tok::Op('(') {
                     return Err(LtiError::Parse {
                         column: col,
-                        message: format!("unknown function '{n}' (only exp is known)"),
+                        message: format!("unknown function '{n}' (only exp is known; write {n}*(...) to multiply)"),
                     });
                 }
-                Ok(Expr::Param(n))
+                Ok((Expr::Param(n), 1))
             }
             Tok::Op('(') => {
                 let e = self.sum()?;
@@ -570,6 +1519,62 @@ mod tests {
         assert_eq!(parse_col("exp -s"), 5);
         let msg = parse("1/(s+").unwrap_err().to_string();
         assert!(msg.contains("column 6") && msg.contains("expected"), "{msg}");
+    }
+
+    #[test]
+    fn zpk_from_the_factors() {
+        let m = HashMap::new();
+        let z = parse("2/(s+1)^25").unwrap().to_zpk(&m).unwrap();
+        assert_eq!(z.p[0][0].len(), 25);
+        assert!(z.p[0][0].iter().all(|p| *p == c64::new(-1.0, 0.0)));
+        assert_eq!(z.k[0][0], 2.0);
+        let z = parse(BICOPTER).unwrap().to_zpk(&m).unwrap();
+        assert_eq!((z.z[0][0].len(), z.p[0][0].len()), (2, 4));
+        assert_eq!(z.input_delay, vec![0.032]);
+        let s = c64::new(0.0, 9.2);
+        let want = bicopter_direct(s) / (-0.032 * s).exp();
+        let zp: c64 = z.z[0][0].iter().map(|r| s - r).product();
+        let pp: c64 = z.p[0][0].iter().map(|r| s - r).product();
+        let got = zp / pp * z.k[0][0];
+        assert!((got - want).norm() < 1e-12 * want.norm(), "{got} vs {want}");
+        // A sum goes through its realization.
+        let z = parse("1/(s+1) + 1/(s+2)").unwrap().to_zpk(&m).unwrap();
+        assert_eq!(z.p[0][0].len(), 2);
+    }
+
+    #[test]
+    fn edges_of_the_grammar() {
+        // Missing '*': the message names the fix.
+        let msg = parse("2s").unwrap_err().to_string();
+        assert!(msg.contains("write 2*s"), "{msg}");
+        let msg = parse("s(s+1)").unwrap_err().to_string();
+        assert!(msg.contains("write s*(s+1)") || msg.contains("write s*("), "{msg}");
+        let msg = parse("(s+1)(s+2)").unwrap_err().to_string();
+        assert!(msg.contains("write )*("), "{msg}");
+        // A leading minus.
+        let m = HashMap::new();
+        let v = parse("-1/(s+1)").unwrap().eval(c64::new(0.0, 0.0), &m).unwrap();
+        assert_eq!(v.re, -1.0);
+        let g = parse_model("-2/(s+1)").unwrap();
+        assert_eq!(g.nx(), 1);
+        // Nesting: 11,000 parentheses is an error naming the limit, not a stack overflow.
+        let deep = format!("{}s{}", "(".repeat(11_000), ")".repeat(11_000));
+        let msg = parse(&deep).unwrap_err().to_string();
+        assert!(msg.contains(&MAX_DEPTH.to_string()), "{msg}");
+        let ok = format!("{}s{}", "(".repeat(150), ")".repeat(150));
+        assert!(parse(&ok).is_ok());
+        let signs = "-".repeat(5000) + "s";
+        assert!(parse(&signs).is_err());
+        // A very long sum is refused before its tree is too deep to walk (or drop).
+        let long = vec!["1"; 20_000].join("+");
+        let msg = parse(&long).unwrap_err().to_string();
+        assert!(msg.contains("too long"), "{msg}");
+        let sum: String = (1..=500).map(|k| format!("1/(s+{k})")).collect::<Vec<_>>().join("+");
+        assert_eq!(parse_model(&sum).unwrap().nx(), 500);
+        // Orders beyond the bound are errors, also for the polynomial path.
+        assert!(parse_model("1/((s+1)^1000)^1000").is_err());
+        assert!(parse("((s+1)^1000)^1000").unwrap().to_tf(&m).is_err());
+        assert!(parse_model("1/(s+1)^1000").is_ok());
     }
 
     #[test]

@@ -578,7 +578,12 @@ pub fn default_grid(sys: &StateSpace, n: usize) -> Result<Vec<f64>> {
         hi
     };
     let lo = lo.min(hi / 1e4);
-    Ok(logspace(lo.log10(), hi.log10(), n.max(2)))
+    try_logspace(lo.log10(), hi.log10(), n.max(2)).map_err(|_| {
+        LtiError::InvalidArgument(format!(
+            "the model's dynamics put the frequency grid at {lo:e} to {hi:e} rad/s, beyond the floating-point range \
+             (10^±307) or with too many points ({n}, at most {MAX_GRID_POINTS})"
+        ))
+    })
 }
 
 /// Open-loop poles sorted into what frequency analysis needs (s-plane view; discrete poles mapped
@@ -587,10 +592,10 @@ pub fn default_grid(sys: &StateSpace, n: usize) -> Result<Vec<f64>> {
 pub struct PoleSummary {
     /// Number of poles numerically at the origin (s = 0, z = 1): integrators.
     pub origin: usize,
-    /// Scatter radius (rad/s) of that cluster: a multiple integrator's computed poles split by
-    /// about eps^(1/k)·‖A‖, so everything within 1e-7·‖A_bal‖ of the origin counts as an integrator
-    /// (A_bal: the part of the dgebal-balanced A not isolated by permutation; isolated eigenvalues
-    /// are exact and count only when they are exactly zero).
+    /// Scatter radius (rad/s) of that cluster: a k-fold integrator's computed poles split by about
+    /// (n·ε)^(1/k)·‖A_bal‖ (A_bal: the part of the dgebal-balanced A not isolated by permutation);
+    /// see the rules in `origin_cluster` (isolated eigenvalues are exact and count only at rounding
+    /// level of the spectrum's scale).
     pub origin_radius: f64,
     /// Other poles on the imaginary axis (unit circle), as frequencies ω ≥ 0 in rad/s.
     pub axis_w: Vec<f64>,
@@ -616,31 +621,21 @@ pub fn pole_summary(sys: &StateSpace) -> Result<PoleSummary> {
         return Ok(out);
     }
     let be = balanced_eigen(&sys.a)?;
-    // Relative to the balanced block, not to ‖A‖: a badly scaled realization of a slow stable pole
-    // (‖A‖ inflated by a diagonal similarity) must not turn that pole into an integrator.
-    let tol0 = 1e-7
-        * if sys.dt > 0.0 {
-            be.block_norm.max(1.0)
-        } else {
-            be.block_norm
-        };
-    // Eigenvalues isolated by the balancing permutation are diagonal entries of A, exact for the
-    // model as given, but a model assembled by interconnection (a controller W1·K∞·W2 with an
-    // integrating weight) carries its integrator as a rounding-sized entry such as 1e-9. Relative to
-    // the spectrum's own scale (similarity invariant, unlike ‖A‖) such an entry is an integrator.
-    let spectral_scale = be.eig.iter().map(|p| p.norm()).fold(0.0, f64::max);
-    let tol_exact = 1e-7
-        * if sys.dt > 0.0 {
-            spectral_scale.max(1.0)
-        } else {
-            spectral_scale
-        };
+    let origin_set = origin_cluster(&be, sys.dt, sys.nx());
+    // Floor for the boundary test below: poles are known no better than the origin cluster's radius.
+    let tol = be
+        .eig
+        .iter()
+        .zip(&origin_set)
+        .filter(|(_, &o)| o)
+        .map(|(&p, _)| if sys.dt > 0.0 { (p - 1.0).norm() } else { p.norm() })
+        .fold(0.0, f64::max);
     for (k, &p) in be.eig.iter().enumerate() {
-        let tol = if k < be.exact { tol_exact } else { tol0 };
-        let (near0, s, boundary_dist) = if sys.dt > 0.0 {
-            ((p - 1.0).norm() <= tol, p.ln() / sys.dt, p.norm() - 1.0)
+        let near0 = origin_set[k];
+        let (s, boundary_dist) = if sys.dt > 0.0 {
+            (p.ln() / sys.dt, p.norm() - 1.0)
         } else {
-            (p.norm() <= tol, p, p.re)
+            (p, p.re)
         };
         if near0 {
             out.origin += 1;
@@ -665,6 +660,70 @@ pub fn pole_summary(sys: &StateSpace) -> Result<PoleSummary> {
     out.axis_w.sort_by(f64::total_cmp);
     out.poles = be.eig;
     Ok(out)
+}
+
+/// Which eigenvalues are integrators (s = 0, z = 1), decided by what the computation can resolve
+/// rather than by a fixed fraction of ‖A‖ (which took the pole of 1/((s+1e-5)(s+100)) for an
+/// integrator and gave that stable model an infinite norm):
+///
+/// * an eigenvalue isolated by the balancing permutation is a diagonal entry of A, exact for the
+///   model as given: it is an integrator when it is zero to rounding of the spectrum's own scale
+///   (64·n·ε·max|λ|, similarity invariant);
+/// * the computed eigenvalues of the balanced block carry a backward error of about n·ε·‖A_bal‖, and a
+///   k-fold integrator (Jordan block) scatters them on a circle of radius (c·n·ε)^(1/k)·‖A_bal‖ around
+///   the origin while their mean stays at rounding level. The largest k for which the k
+///   smallest computed eigenvalues (distance to 1 for discrete models) fit that radius and whose mean
+///   is within 10⁴·n·ε·‖A_bal‖ of the origin are integrators; a genuinely slow pole fails the mean
+///   test however slow it is relative to the rest.
+fn origin_cluster(be: &BalancedEigen, dt: f64, n: usize) -> Vec<bool> {
+    let eps = f64::EPSILON;
+    let nf = n.max(1) as f64;
+    let dist = |p: c64| if dt > 0.0 { p - 1.0 } else { p };
+    let spectral_scale = be.eig.iter().map(|p| p.norm()).fold(0.0, f64::max);
+    let exact_tol = 64.0
+        * nf
+        * eps
+        * if dt > 0.0 {
+            spectral_scale.max(1.0)
+        } else {
+            spectral_scale
+        };
+    let mut out: Vec<bool> = be
+        .eig
+        .iter()
+        .enumerate()
+        .map(|(k, &p)| k < be.exact && dist(p).norm() <= exact_tol)
+        .collect();
+    let scale = if dt > 0.0 {
+        be.block_norm.max(1.0)
+    } else {
+        be.block_norm
+    };
+    if scale == 0.0 {
+        // A zero block: its eigenvalues are exactly 0.
+        for k in be.exact..be.eig.len() {
+            out[k] = dist(be.eig[k]).norm() == 0.0;
+        }
+        return out;
+    }
+    let mut idx: Vec<usize> = (be.exact..be.eig.len()).collect();
+    idx.sort_by(|&a, &b| dist(be.eig[a]).norm().total_cmp(&dist(be.eig[b]).norm()));
+    let c = 100.0 * nf * eps;
+    let mean_tol = 1e4 * nf * eps * scale;
+    for k in (1..=idx.len()).rev() {
+        let radius = c.powf(1.0 / k as f64) * scale;
+        if dist(be.eig[idx[k - 1]]).norm() > radius {
+            continue;
+        }
+        let mean = idx[..k].iter().map(|&i| dist(be.eig[i])).sum::<c64>() / k as f64;
+        if mean.norm() <= mean_tol {
+            for &i in &idx[..k] {
+                out[i] = true;
+            }
+            break;
+        }
+    }
+    out
 }
 
 /// Eigenvalues of A after dgebal balancing (skyloop_linalg::balance): eigenvalues isolated by the
@@ -717,7 +776,10 @@ fn balanced_eigen(a: &Mat<f64>) -> Result<BalancedEigen> {
 /// there are none.
 pub fn dynamics_range(sys: &StateSpace) -> Result<(f64, f64)> {
     let mut mags = pole_summary(sys)?.mags;
-    mags.retain(|&m| m > 0.0);
+    // Poles more than eight decades below the fastest (a controller's near-integrator, 1e-9 next to
+    // 1e2) are left out: a grid reaching their corner would be stretched far below any use.
+    let top = mags.iter().cloned().fold(0.0, f64::max);
+    mags.retain(|&m| m > 0.0 && m >= 1e-8 * top);
     for &t in sys.input_delay.iter().chain(&sys.output_delay) {
         if t > 0.0 {
             mags.push(1.0 / t);
@@ -731,8 +793,13 @@ pub fn dynamics_range(sys: &StateSpace) -> Result<(f64, f64)> {
     Ok((lo, hi))
 }
 
-/// `n` points log-spaced from 10^a to 10^b.
+/// Most points a frequency grid may have (8 bytes each: 80 MB).
+pub const MAX_GRID_POINTS: usize = 10_000_000;
+
+/// `n` points log-spaced from 10^a to 10^b; `n` is capped at [`MAX_GRID_POINTS`] (use
+/// [`try_logspace`] for an error instead).
 pub fn logspace(a: f64, b: f64, n: usize) -> Vec<f64> {
+    let n = n.min(MAX_GRID_POINTS);
     if n == 1 {
         return vec![10f64.powf(a)];
     }
@@ -741,9 +808,44 @@ pub fn logspace(a: f64, b: f64, n: usize) -> Vec<f64> {
         .collect()
 }
 
+/// [`logspace`] with checks: `a`, `b` finite with 10^a and 10^b positive and finite (|a|, |b| ≤ 307),
+/// and 1 ≤ `n` ≤ [`MAX_GRID_POINTS`]; errors name the limit.
+pub fn try_logspace(a: f64, b: f64, n: usize) -> Result<Vec<f64>> {
+    if !(a.is_finite() && b.is_finite() && a.abs() <= 307.0 && b.abs() <= 307.0) {
+        return Err(LtiError::InvalidArgument(format!(
+            "grid ends 10^{a} and 10^{b} rad/s: exponents must be finite and within ±307"
+        )));
+    }
+    if n == 0 || n > MAX_GRID_POINTS {
+        return Err(LtiError::InvalidArgument(format!(
+            "a grid of {n} points: 1 to {MAX_GRID_POINTS} are supported"
+        )));
+    }
+    Ok(logspace(a, b, n))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn grids_are_bounded() {
+        assert!(try_logspace(0.0, 1.0, MAX_GRID_POINTS + 1).is_err());
+        assert!(try_logspace(f64::NEG_INFINITY, 1.0, 10).is_err());
+        assert_eq!(try_logspace(-1.0, 1.0, 3).unwrap().len(), 3);
+        // Subnormal poles and a 1e-300 s delay: a clear error, no overflow or NaN grid.
+        let sub = StateSpace::from_rows(&[vec![-1e-310]], &[vec![1.0]], &[vec![1.0]], &[vec![0.0]], 0.0).unwrap();
+        assert!(
+            default_grid(&sub, 100).is_err()
+                || default_grid(&sub, 100)
+                    .unwrap()
+                    .iter()
+                    .all(|w| w.is_finite() && *w > 0.0)
+        );
+        let fast = sub.clone().with_delays(vec![1e-300], vec![0.0]).unwrap();
+        let g = default_grid(&fast, 100);
+        assert!(g.is_err() || g.unwrap().iter().all(|w| w.is_finite() && *w > 0.0));
+    }
 
     fn dense_response(sys: &StateSpace, s: c64) -> Mat<c64> {
         // Test-only reference: dense complex LU solve of (sI − A) X = B through faer.

@@ -16,6 +16,7 @@ pub use ss::StateSpace;
 pub mod analysis;
 pub mod convert;
 pub mod discretize;
+pub mod display;
 pub mod expr;
 pub mod gramian;
 pub mod hamiltonian;

@@ -1,7 +1,14 @@
 //! Stability margins of a SISO loop transfer L (convention u = C(r − y), L = P·C), exact with delays.
 //!
-//! Crossings are located on a dense, adaptively refined logarithmic grid of the exact response
-//! L(jω) (delays included) and refined to machine precision with Brent's method. Definitions follow
+//! Crossings are located on an adaptively refined logarithmic grid of the exact response L(jω)
+//! (delays included) and refined to machine precision with Brent's method. The refinement is
+//! worst-interval-first within a fixed budget ([`MAX_SAMPLES`] evaluations), so a loop whose
+//! computed response is rounding noise somewhere (far above the dynamics of a high-order loop) costs
+//! that budget at most instead of bisecting without end; the budget bounds every call
+//! ([`MAX_EVALUATIONS`] in all). A band where |L| ≡ 1 (all-pass loops) is reported once as
+//! [`AllMargins::unit_gain_band_rad_s`] instead of as rounding-driven gain crossovers. Delays must be
+//! finite, ≥ 0 and short enough for their phase to be resolved over the searched band (at most
+//! [`MAX_DELAY_TURNS`] turns). Definitions follow
 //! MATLAB: `allmargin` (every crossing), `margin` (the smallest-magnitude pair), the delay margin
 //! min over gain crossovers of PM/ω, and `diskmargin` with skew σ = 0 (balanced, α = 1/‖S − 1/2‖∞).
 //! Closed-loop stability comes from the Nyquist criterion on the exact L (see [`nyquist_stable`]).
@@ -16,7 +23,21 @@ use crate::freqresp::{dynamics_range, pole_summary, FreqEvaluator, Workspace};
 use crate::roots::{brent_root, golden_max};
 use crate::ss::StateSpace;
 use faer::c64;
+use std::collections::BinaryHeap;
 use std::f64::consts::PI;
+
+/// Most evaluations of L spent on the adaptive grid of one [`allmargin`] / [`diskmargin`] call.
+pub const MAX_SAMPLES: usize = 30_000;
+
+/// Most evaluations of L in one margins call (grid, crossing refinement, Nyquist winding).
+pub const MAX_EVALUATIONS: usize = 150_000;
+
+/// Most turns (2π each) the loop delay's phase may make over the searched band: each turn needs
+/// dozens of samples, so longer delays (relative to the dynamics) are refused with an error.
+pub const MAX_DELAY_TURNS: f64 = 300.0;
+
+/// Relative tolerance on |L| = 1 for a band to count as all-pass (|L| ≡ 1).
+const UNIT_GAIN_TOL: f64 = 1e-9;
 
 /// A gain margin read at a phase crossover (phase of L ≡ −180° mod 360°).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -52,6 +73,9 @@ pub struct AllMargins {
     pub stable: bool,
     /// The frequency band searched for crossings, rad/s (see the module documentation).
     pub w_range_rad_s: (f64, f64),
+    /// Where |L(jω)| ≡ 1 to 1e-9 (an all-pass loop, e.g. (s−1)/(s+1)), the band in rad/s; no gain
+    /// crossovers are listed inside it (every frequency there is one).
+    pub unit_gain_band_rad_s: Option<(f64, f64)>,
 }
 
 /// The classic margin pair (MATLAB `margin`): the gain and phase margins of smallest magnitude.
@@ -90,6 +114,8 @@ struct Loop {
     ws: Workspace,
     out: [c64; 1],
     dt: f64,
+    /// Evaluations so far (bounded by [`MAX_EVALUATIONS`]).
+    evals: usize,
 }
 
 impl Loop {
@@ -108,12 +134,18 @@ impl Loop {
             ws,
             out: [c64::new(0.0, 0.0)],
             dt: sys.dt,
+            evals: 0,
         })
     }
 
     fn at_s(&mut self, s: c64) -> Result<c64> {
+        self.evals += 1;
         self.ev.eval_into(s, &mut self.ws, &mut self.out)?;
         Ok(self.out[0])
+    }
+
+    fn budget_left(&self) -> bool {
+        self.evals < MAX_EVALUATIONS
     }
 
     fn at(&mut self, w: f64) -> Result<c64> {
@@ -135,6 +167,16 @@ struct Grid {
 /// Search bounds (rad/s) for crossings: see the module documentation.
 fn search_range(sys: &StateSpace, lp: &mut Loop) -> Result<(f64, f64)> {
     let (lo, hi) = dynamics_range(sys)?;
+    // Far enough inside the floating-point range for the decade widening below (and the logarithmic
+    // grid) to stay finite and normal.
+    const W_MIN: f64 = 1e-250;
+    const W_MAX: f64 = 1e250;
+    if !(lo >= W_MIN && hi <= W_MAX) {
+        return Err(LtiError::InvalidArgument(format!(
+            "the loop's characteristic frequencies (poles, 1/delay) span {lo:e} to {hi:e} rad/s; margins search \
+             {W_MIN:e} to {W_MAX:e} rad/s"
+        )));
+    }
     let nyquist = if sys.dt > 0.0 { PI / sys.dt } else { f64::INFINITY };
     let mut w_lo = (lo / 100.0).min(nyquist / 1e4);
     let delayed = sys.has_delay() && sys.dt == 0.0;
@@ -142,6 +184,9 @@ fn search_range(sys: &StateSpace, lp: &mut Loop) -> Result<(f64, f64)> {
     let logmag = |lp: &mut Loop, w: f64| lp.at_or_inf(w).norm().ln();
     // Widen until the magnitude moves away from 0 dB beyond the ends (asymptotic region).
     for _ in 0..30 {
+        if w_lo < 1e3 * W_MIN {
+            break;
+        }
         let (m1, m0) = (logmag(lp, w_lo), logmag(lp, w_lo / 10.0));
         if (m0 > 0.0) == (m1 > 0.0) && m0.abs() >= m1.abs() && m1 != 0.0 {
             break;
@@ -150,6 +195,9 @@ fn search_range(sys: &StateSpace, lp: &mut Loop) -> Result<(f64, f64)> {
     }
     if w_hi < nyquist {
         for _ in 0..30 {
+            if w_hi > 1e-3 * W_MAX {
+                break;
+            }
             let (m1, m2) = (logmag(lp, w_hi), logmag(lp, w_hi * 10.0));
             if ((m2 > 0.0) == (m1 > 0.0) && m2.abs() >= m1.abs() && m1 != 0.0) || (m1 - m2).abs() < 1e-9 {
                 break;
@@ -160,51 +208,157 @@ fn search_range(sys: &StateSpace, lp: &mut Loop) -> Result<(f64, f64)> {
             }
         }
     }
+    check_delay(sys, w_hi)?;
     Ok((w_lo, w_hi))
 }
 
-/// Samples L on [w_lo, w_hi] (100 points/decade), then bisects every interval whose phase moves
-/// more than 10° or whose magnitude moves more than 0.1 neper, so no crossing can hide between samples.
+/// Refuses delays whose phase over [0, w_hi] turns more than [`MAX_DELAY_TURNS`] times.
+fn check_delay(sys: &StateSpace, w_hi: f64) -> Result<()> {
+    let tau = sys.input_delay[0] + sys.output_delay[0];
+    if !(tau.is_finite() && tau >= 0.0) {
+        return Err(LtiError::InvalidArgument(format!(
+            "the loop delay must be finite and >= 0, got {tau} s"
+        )));
+    }
+    let turns = tau * w_hi / (2.0 * PI);
+    if turns > MAX_DELAY_TURNS {
+        return Err(LtiError::InvalidArgument(format!(
+            "the loop delay of {tau} s is too long for its dynamics: its phase turns {turns:.3e} times over the \
+             searched band up to {w_hi:.4e} rad/s, at most {MAX_DELAY_TURNS} are resolved (delays up to {:.4e} s for this loop)",
+            MAX_DELAY_TURNS * 2.0 * PI / w_hi
+        )));
+    }
+    Ok(())
+}
+
+/// An interval of the grid awaiting refinement, ordered by how far it is from resolved.
+struct Pending {
+    score: f64,
+    wl: f64,
+    ll: c64,
+    wr: f64,
+    lr: c64,
+}
+
+impl PartialEq for Pending {
+    fn eq(&self, o: &Self) -> bool {
+        self.score.total_cmp(&o.score).is_eq()
+    }
+}
+impl Eq for Pending {}
+impl PartialOrd for Pending {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for Pending {
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        self.score.total_cmp(&o.score)
+    }
+}
+
+/// How unresolved an interval is: its phase change in units of 10° or its magnitude change in units
+/// of 0.1 neper, whichever is larger (> 1 means it must be split); 0 when it is too narrow to split.
+fn unresolved(wl: f64, ll: c64, wr: f64, lr: c64) -> f64 {
+    if wr - wl <= 1e-13 * wr {
+        return 0.0;
+    }
+    let dphi = (lr / ll).arg().abs();
+    let dmag = (lr.norm().ln() - ll.norm().ln()).abs();
+    let score = (dphi / 10f64.to_radians()).max(dmag / 0.1);
+    if score.is_nan() {
+        // A pole or an overflow at an end: split once more to locate it, but only just.
+        1.0 + f64::EPSILON
+    } else {
+        score
+    }
+}
+
+/// Samples L on [w_lo, w_hi] (100 points/decade, at most 20,000), then splits the least resolved
+/// interval (phase change over 10° or magnitude change over 0.1 neper) at its geometric mean, worst
+/// first, until every interval is resolved or [`MAX_SAMPLES`] evaluations are spent: so no crossing
+/// hides between samples where L is resolvable, and noise-level parts cannot eat memory and time.
 fn sample(lp: &mut Loop, w_lo: f64, w_hi: f64) -> Result<Grid> {
     let decades = (w_hi / w_lo).log10().max(0.1);
-    let n0 = ((decades * 100.0).ceil() as usize).max(20);
+    let n0 = ((decades * 100.0).ceil() as usize).clamp(20, 20_000);
     let base = crate::freqresp::logspace(w_lo.log10(), w_hi.log10(), n0);
-    let mut w = Vec::with_capacity(2 * n0);
-    let mut l = Vec::with_capacity(2 * n0);
-    let first = lp.at(base[0])?;
-    w.push(base[0]);
-    l.push(first);
-    for &wb in &base[1..] {
-        let lb = lp.at(wb)?;
-        // Depth-first bisection between the last accepted point and wb.
-        let mut stack = vec![(wb, lb, 0u32)];
-        while let Some(&(wr, lr, depth)) = stack.last() {
-            let (wl, ll) = (*w.last().unwrap_or(&wr), *l.last().unwrap_or(&lr));
-            let dphi = (lr / ll).arg().abs();
-            let dmag = (lr.norm().ln() - ll.norm().ln()).abs();
-            if depth < 40 && (dphi > 10f64.to_radians() || dmag > 0.1) && wr - wl > 1e-14 * wr {
-                let wm = (wl * wr).sqrt();
-                let lm = lp.at(wm)?;
-                stack.push((wm, lm, depth + 1));
-                // The right half is re-examined after the left one is accepted.
-                let n = stack.len();
-                stack[n - 2].2 = depth + 1;
-            } else {
-                w.push(wr);
-                l.push(lr);
-                stack.pop();
+    let mut pts: Vec<(f64, c64)> = Vec::with_capacity(2 * n0);
+    for &w in &base {
+        pts.push((w, lp.at(w)?));
+    }
+    let mut heap = BinaryHeap::new();
+    for p in pts.windows(2) {
+        let score = unresolved(p[0].0, p[0].1, p[1].0, p[1].1);
+        if score > 1.0 {
+            heap.push(Pending {
+                score,
+                wl: p[0].0,
+                ll: p[0].1,
+                wr: p[1].0,
+                lr: p[1].1,
+            });
+        }
+    }
+    let mut spent = 0;
+    while let Some(iv) = heap.pop() {
+        if spent >= MAX_SAMPLES {
+            break;
+        }
+        let wm = (iv.wl * iv.wr).sqrt();
+        let lm = lp.at(wm)?;
+        spent += 1;
+        pts.push((wm, lm));
+        for (wl, ll, wr, lr) in [(iv.wl, iv.ll, wm, lm), (wm, lm, iv.wr, iv.lr)] {
+            let score = unresolved(wl, ll, wr, lr);
+            if score > 1.0 {
+                heap.push(Pending { score, wl, ll, wr, lr });
             }
         }
     }
-    Ok(Grid { w, l })
+    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    Ok(Grid {
+        w: pts.iter().map(|p| p.0).collect(),
+        l: pts.iter().map(|p| p.1).collect(),
+    })
+}
+
+/// The widest run of samples with |L| = 1 to [`UNIT_GAIN_TOL`] that spans at least three samples
+/// and 0.1 % in frequency, as index range: there the loop is all-pass.
+fn unit_gain_band(g: &Grid) -> Option<(usize, usize)> {
+    let on = |k: usize| (g.l[k].norm() - 1.0).abs() <= UNIT_GAIN_TOL;
+    let mut best: Option<(usize, usize)> = None;
+    let mut k = 0;
+    while k < g.w.len() {
+        if !on(k) {
+            k += 1;
+            continue;
+        }
+        let start = k;
+        while k + 1 < g.w.len() && on(k + 1) {
+            k += 1;
+        }
+        if k >= start + 2 && g.w[k] >= 1.001 * g.w[start] {
+            let wider = best.is_none_or(|(a, b)| g.w[k] / g.w[start] > g.w[b] / g.w[a]);
+            if wider {
+                best = Some((start, k));
+            }
+        }
+        k += 1;
+    }
+    best
 }
 
 /// Every gain margin and phase margin of the SISO loop `l` (MATLAB `allmargin`), exact with delays.
 pub fn allmargin(l: &StateSpace) -> Result<AllMargins> {
+    Ok(allmargin_counted(l)?.0)
+}
+
+/// [`allmargin`] and the number of evaluations of L it took.
+fn allmargin_counted(l: &StateSpace) -> Result<(AllMargins, usize)> {
     let mut lp = Loop::new(l)?;
     let (w_lo, w_hi) = search_range(l, &mut lp)?;
     let g = sample(&mut lp, w_lo, w_hi)?;
-    let stable = nyquist_stable(l)?;
+    let (stable, nyquist_evals) = nyquist_counted(l)?;
     let mut gain_margins = Vec::new();
     let mut phase_margins = Vec::new();
 
@@ -219,7 +373,14 @@ pub fn allmargin(l: &StateSpace) -> Result<AllMargins> {
         }
     }
     let tol = |a: f64, b: f64| 1e-15 * a.abs().max(b.abs());
+    let band = unit_gain_band(&g);
+    let in_band = |k: usize| band.is_some_and(|(a, b)| k + 1 >= a && k <= b);
     for k in 0..g.w.len() - 1 {
+        if !lp.budget_left() {
+            return Err(LtiError::Numerical(format!(
+                "margins: the crossings were not resolved within {MAX_EVALUATIONS} evaluations of L"
+            )));
+        }
         let (wa, wb) = (g.w[k], g.w[k + 1]);
         let (la, lb) = (g.l[k], g.l[k + 1]);
         // Phase crossover: Im L changes sign where Re L < 0 (sin(arg L) is bounded and smooth there).
@@ -241,8 +402,8 @@ pub fn allmargin(l: &StateSpace) -> Result<AllMargins> {
                 });
             }
         }
-        // Gain crossover: ln|L| changes sign.
-        if (la.norm() > 1.0) != (lb.norm() > 1.0) {
+        // Gain crossover: ln|L| changes sign (not inside an all-pass band, where it is rounding).
+        if (la.norm() > 1.0) != (lb.norm() > 1.0) && !in_band(k) {
             let wc = brent_root(|w| lp.at_or_inf(w).norm().ln(), wa, wb, tol(wa, wb));
             let v = lp.at(wc)?;
             let pm = (-v).arg();
@@ -262,13 +423,15 @@ pub fn allmargin(l: &StateSpace) -> Result<AllMargins> {
             .map(|p| p.delay_margin_s)
             .fold(f64::INFINITY, f64::min)
     };
-    Ok(AllMargins {
+    let all = AllMargins {
         gain_margins,
         phase_margins,
         delay_margin_s,
         stable,
         w_range_rad_s: (w_lo, w_hi),
-    })
+        unit_gain_band_rad_s: band.map(|(a, b)| (g.w[a], g.w[b])),
+    };
+    Ok((all, lp.evals + nyquist_evals))
 }
 
 /// The gain and phase margins of smallest magnitude (MATLAB `margin` semantics: min |GM in dB|, min |PM|).
@@ -367,6 +530,11 @@ fn disk_from_alpha(alpha: f64, w: f64) -> DiskMargin {
 /// discrete loops), indented to the right of open-loop poles on the axis, must equal the number of
 /// open-loop poles in the right half-plane (outside the unit circle).
 pub fn nyquist_stable(l: &StateSpace) -> Result<bool> {
+    Ok(nyquist_counted(l)?.0)
+}
+
+/// [`nyquist_stable`] and the number of evaluations of L it took.
+fn nyquist_counted(l: &StateSpace) -> Result<(bool, usize)> {
     let mut lp = Loop::new(l)?;
     let dt = lp.dt;
     let poles = pole_summary(l)?;
@@ -447,19 +615,24 @@ pub fn nyquist_stable(l: &StateSpace) -> Result<bool> {
         let n0 = 400usize;
         let mut tprev = 0.0;
         let Ok(v0) = lp.at_s(pt(0.0)) else {
-            return Ok(false);
+            return Ok((false, lp.evals));
         };
         if !add(v0, &mut prev, &mut total) {
-            return Ok(false);
+            return Ok((false, lp.evals));
         }
         let mut fprev = 1.0 + v0;
         for k in 1..=n0 {
             let t = k as f64 / n0 as f64;
             let mut stack = vec![(t, 0u32)];
             while let Some(&(tr, depth)) = stack.last() {
+                if !lp.budget_left() {
+                    return Err(LtiError::Numerical(format!(
+                        "Nyquist test: the winding of 1 + L was not resolved within {MAX_EVALUATIONS} evaluations"
+                    )));
+                }
                 let v = match lp.at_s(pt(tr)) {
                     Ok(v) => v,
-                    Err(_) => return Ok(false),
+                    Err(_) => return Ok((false, lp.evals)),
                 };
                 let f = 1.0 + v;
                 if (f / fprev).arg().abs() > PI / 6.0 && depth < 50 {
@@ -467,7 +640,7 @@ pub fn nyquist_stable(l: &StateSpace) -> Result<bool> {
                     continue;
                 }
                 if !add(v, &mut prev, &mut total) {
-                    return Ok(false);
+                    return Ok((false, lp.evals));
                 }
                 tprev = tr;
                 fprev = f;
@@ -479,9 +652,9 @@ pub fn nyquist_stable(l: &StateSpace) -> Result<bool> {
     let w_int = winding.round();
     if (winding - w_int).abs() > 0.25 {
         // 1 + L passes (numerically) through 0 or the tail did not settle: marginal at best.
-        return Ok(false);
+        return Ok((false, lp.evals));
     }
-    Ok(w_int as i64 == unstable as i64)
+    Ok((w_int as i64 == unstable as i64, lp.evals))
 }
 
 /// One piece of the upper half of the Nyquist contour, parametrized by t ∈ [0, 1].
@@ -591,6 +764,120 @@ mod tests {
         assert!(nyquist_stable(&tf1(&[10.0, 30.0], &[1.0, 7.0, -8.0], 0.0)).unwrap());
         // L = 2/(s−1)·1/(s+8): char. poly s² + 7s − 6, unstable.
         assert!(!nyquist_stable(&tf1(&[2.0], &[1.0, 7.0, -8.0], 0.0)).unwrap());
+    }
+
+    /// A random n-state loop (seeded): Gaussian A, B, C like a careless design iteration, gain
+    /// spread over decades; about half are closed-loop unstable, some open-loop unstable.
+    fn random_loop(n: usize, seed: u64) -> StateSpace {
+        use rand::{Rng, SeedableRng};
+        let mut r = rand::rngs::StdRng::seed_from_u64(seed);
+        let mut g = || {
+            // Box–Muller normal deviates.
+            let (u, v): (f64, f64) = (r.gen_range(1e-12..1.0), r.gen_range(0.0..1.0));
+            (-2.0 * u.ln()).sqrt() * (2.0 * PI * v).cos()
+        };
+        let a = Mat::from_fn(n, n, |_, _| g());
+        let b = Mat::from_fn(n, 1, |_, _| g());
+        let k = 10f64.powf(2.0 * g());
+        let c = Mat::from_fn(1, n, |_, _| k * g());
+        if seed % 2 == 0 {
+            return StateSpace::new(a, b, c, Mat::zeros(1, 1), 0.0).unwrap();
+        }
+        // Odd seeds: an all-pole loop k/Π(s − p) of relative degree n (poles at random
+        // frequencies, some lightly damped, some unstable) in companion form, hidden by a dense
+        // orthogonal change of coordinates: far above the poles its computed response is rounding
+        // noise, where unbounded bisection used to run away.
+        let mut den = crate::poly::Poly::one();
+        let mut m = 0;
+        while m < n {
+            let w = 10f64.powf(1.5 * g());
+            if m + 1 < n && g() > 0.0 {
+                let z = 10f64.powf(-2.0 + 1.5 * g().abs().min(1.5));
+                let zeta = if g() > 1.5 { -z } else { z };
+                den = &den * &crate::poly::Poly::new(vec![1.0, 2.0 * zeta * w, w * w]);
+                m += 2;
+            } else {
+                den = &den * &crate::poly::Poly::new(vec![1.0, w * g().signum()]);
+                m += 1;
+            }
+        }
+        let lead = k * den.coeff_of_power(0).abs().max(1e-300);
+        let base = tf1(&[lead], &den.coeffs, 0.0);
+        let h = Mat::from_fn(n, n, |_, _| g());
+        let q = h.qr().compute_Q();
+        let a = q.transpose() * &base.a * &q;
+        let b = q.transpose() * &base.b;
+        let c = &base.c * &q;
+        StateSpace::new(a, b, c, Mat::zeros(1, 1), 0.0).unwrap()
+    }
+
+    #[test]
+    fn random_loops_finish_within_the_budget() {
+        let mut worst = (0usize, 0.0f64);
+        let mut errors = Vec::new();
+        for seed in 0..200u64 {
+            let n = if seed % 20 == 19 { 50 } else { 6 };
+            let l = random_loop(n, seed);
+            let t0 = std::time::Instant::now();
+            let r = allmargin_counted(&l);
+            let dt = t0.elapsed().as_secs_f64();
+            // Either margins or a clear error; never a hang.
+            if let Err(e) = &r {
+                errors.push((seed, e.to_string()));
+            }
+            if let Ok((all, evals)) = &r {
+                assert!(*evals <= 2 * MAX_EVALUATIONS, "seed {seed}: {evals} evaluations");
+                worst.0 = worst.0.max(*evals);
+                for pm in &all.phase_margins {
+                    let v = FreqEvaluator::new(&l).unwrap().eval(c64::new(0.0, pm.w_rad_s)).unwrap()[(0, 0)];
+                    assert!(
+                        (v.norm() - 1.0).abs() < 1e-8,
+                        "seed {seed}: |L| = {} at a crossover",
+                        v.norm()
+                    );
+                }
+            }
+            worst.1 = worst.1.max(dt);
+            assert!(dt < 1.0, "seed {seed} (n = {n}) took {dt} s");
+        }
+        eprintln!(
+            "random loops: worst {} evaluations, worst {:.3} s, errors {errors:?}",
+            worst.0, worst.1
+        );
+        assert!(errors.len() <= 10, "{errors:?}");
+    }
+
+    #[test]
+    fn all_pass_loop_is_one_band_not_crossovers() {
+        let l = tf1(&[1.0, -1.0], &[1.0, 1.0], 0.0);
+        let all = allmargin(&l).unwrap();
+        assert!(all.phase_margins.len() <= 2, "{:?}", all.phase_margins);
+        let (a, b) = all.unit_gain_band_rad_s.expect("all-pass band");
+        assert!(
+            a <= all.w_range_rad_s.0 * 1.01 && b >= all.w_range_rad_s.1 * 0.99,
+            "{a} {b}"
+        );
+        // An ordinary loop has none.
+        assert!(allmargin(&tf1(&[3.0], &[1.0, 3.0, 2.0, 0.0], 0.0))
+            .unwrap()
+            .unit_gain_band_rad_s
+            .is_none());
+    }
+
+    #[test]
+    fn delays_are_validated() {
+        // 1e4 s of delay on a 1 rad/s loop: thousands of phase turns over the band -> error.
+        let l = tf1(&[2.0], &[1.0, 1.0], 1e4);
+        let e = allmargin(&l).unwrap_err().to_string();
+        assert!(e.contains("too long") && e.contains("at most"), "{e}");
+        // A tiny delay (1e-300 s) is outside the searchable range: an error naming it, no overflow.
+        let l = tf1(&[2.0], &[1.0, 1.0], 1e-300);
+        assert!(allmargin(&l).is_err());
+        // A long but resolvable delay works and is quick.
+        let t0 = std::time::Instant::now();
+        let l = tf1(&[0.5], &[1.0, 1.0], 50.0);
+        assert!(allmargin(&l).is_ok());
+        assert!(t0.elapsed().as_secs_f64() < 1.0);
     }
 
     #[test]

@@ -72,13 +72,23 @@ fn sigma_max(ev: &FreqEvaluator, w: f64) -> Result<f64> {
 
 fn sigma_max_of(g: &Mat<c64>) -> Result<f64> {
     if g.nrows() == 1 || g.ncols() == 1 {
+        // Euclidean norm scaled by the largest entry, so gains near 1e300 do not overflow when squared.
+        let mut big = 0.0f64;
+        for j in 0..g.ncols() {
+            for i in 0..g.nrows() {
+                big = big.max(g[(i, j)].norm());
+            }
+        }
+        if big == 0.0 || !big.is_finite() {
+            return Ok(big);
+        }
         let mut s = 0.0;
         for j in 0..g.ncols() {
             for i in 0..g.nrows() {
-                s += g[(i, j)].norm_sqr();
+                s += (g[(i, j)] / big).norm_sqr();
             }
         }
-        return Ok(s.sqrt());
+        return Ok(big * s.sqrt());
     }
     let sv = g
         .singular_values()
@@ -94,8 +104,61 @@ fn sigma_max_real(d: &Mat<f64>) -> Result<f64> {
     sigma_max_of(&g)
 }
 
-/// The two-step algorithm for a continuous model without imaginary-axis poles (eigenvalues `eig`).
+/// The two-step algorithm for a continuous model without imaginary-axis poles (eigenvalues `eig`),
+/// on a copy scaled so that coefficients of any finite size (1e±300) stay representable: the states
+/// balanced as the frequency evaluator balances them (D⁻¹AD, D⁻¹B, CD), and the outputs divided by
+/// a power of two near the initial gain estimate, so the Hamiltonian is built at γ ≈ 1 instead of
+/// squaring γ = 1e300 into an overflow. Both scalings are exact in floating point; the norm is
+/// multiplied back at the end.
 fn linf_continuous(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
+    let (n, ny, nu) = (sys.nx(), sys.ny(), sys.nu());
+    if n == 0 || ny == 0 || nu == 0 {
+        return linf_scaled(sys, eig);
+    }
+    let dsc = crate::freqresp::system_scaling(&sys.a, &sys.b, &sys.c);
+    let a = Mat::from_fn(n, n, |i, j| sys.a[(i, j)] * dsc[j] / dsc[i]);
+    let b = Mat::from_fn(n, nu, |i, j| sys.b[(i, j)] / dsc[i]);
+    let c = Mat::from_fn(ny, n, |i, j| sys.c[(i, j)] * dsc[j]);
+    let balanced = StateSpace::new(a, b, c, sys.d.clone(), 0.0)?;
+    // Initial gain estimate: D, ω = 0 and the poles' frequencies.
+    let ev = FreqEvaluator::new_hessenberg(&balanced)?;
+    let mut g0 = sigma_max_real(&sys.d)?;
+    let mut freqs = vec![0.0];
+    freqs.extend(
+        eig.iter()
+            .filter(|p| p.im >= 0.0)
+            .map(|p| if p.im > 0.0 { p.im } else { p.norm() }),
+    );
+    for w in freqs {
+        if let Ok(v) = sigma_max(&ev, w) {
+            if v.is_finite() {
+                g0 = g0.max(v);
+            } else {
+                return Err(LtiError::Numerical(format!(
+                    "the gain at {w} rad/s overflows the floating-point range (|G| > 1.8e308): the norm is out of range"
+                )));
+            }
+        }
+    }
+    if !(g0 > 0.0 && g0.is_finite()) {
+        return linf_scaled(&balanced, eig);
+    }
+    let k = 2f64.powi(g0.log2().round() as i32);
+    let mut scaled = balanced;
+    scaled.c = &scaled.c * (1.0 / k);
+    scaled.d = &scaled.d * (1.0 / k);
+    let (g, w) = linf_scaled(&scaled, eig)?;
+    let g = g * k;
+    if !g.is_finite() {
+        return Err(LtiError::Numerical(
+            "the H∞/L∞ norm exceeds the floating-point range (1.8e308)".into(),
+        ));
+    }
+    Ok((g, w))
+}
+
+/// [`linf_continuous`] on an already scaled model.
+fn linf_scaled(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
     let (n, ny, nu) = (sys.nx(), sys.ny(), sys.nu());
     let d_gain = sigma_max_real(&sys.d)?;
     if n == 0 || ny == 0 || nu == 0 {
@@ -362,4 +425,63 @@ pub fn h2_norm(sys: &StateSpace) -> Result<f64> {
         )));
     }
     Ok(tr.sqrt())
+}
+
+#[cfg(test)]
+mod edge_tests {
+    use super::*;
+    use crate::expr::parse_model;
+
+    #[test]
+    fn slow_stable_pole_is_not_an_integrator() {
+        // 1/((s + 1e-5)(s + 100)): peak at ω = 0, 1/(1e-5·100) = 1000.
+        for text in ["1/((s+1e-5)*(s+100))", "1/(s^2+100.00001*s+1e-3)"] {
+            let sys = parse_model(text).unwrap();
+            let (n, w) = hinf_norm(&sys).unwrap();
+            assert!((n - 1000.0).abs() < 1e-8 * 1000.0, "{text}: {n} at {w}");
+            assert!(pole_summary(&sys).unwrap().origin == 0);
+        }
+        // A true integrator and a double integrator are still integrators.
+        assert_eq!(pole_summary(&parse_model("1/(s*(s+100))").unwrap()).unwrap().origin, 1);
+        assert_eq!(
+            pole_summary(&parse_model("1/(s^2*(s+100))").unwrap()).unwrap().origin,
+            2
+        );
+        // Rotated (non-permutable) realization of a double integrator next to a pole at -3.
+        let a0 = [[0.0, 1.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, -3.0]];
+        let q = [[0.6, 0.0, 0.8], [0.0, 1.0, 0.0], [-0.8, 0.0, 0.6]]; // orthogonal
+        let m = |i: usize, j: usize| {
+            (0..3)
+                .map(|k| (0..3).map(|l| q[k][i] * a0[k][l] * q[l][j]).sum::<f64>())
+                .sum::<f64>()
+        };
+        let a = Mat::from_fn(3, 3, m);
+        let sys = StateSpace::new(
+            a,
+            Mat::from_fn(3, 1, |_, _| 1.0),
+            Mat::from_fn(1, 3, |_, _| 1.0),
+            Mat::zeros(1, 1),
+            0.0,
+        )
+        .unwrap();
+        assert_eq!(pole_summary(&sys).unwrap().origin, 2);
+    }
+
+    #[test]
+    fn extreme_gains_give_the_right_norm() {
+        for (text, want) in [
+            ("1e300/(s+1)", 1e300),
+            ("1e-300/(s+1)", 1e-300),
+            ("1e300*(s+2)/(s+1)", 2e300),
+            ("1e200/((s+1e-5)*(s+100))", 1e203),
+        ] {
+            let sys = parse_model(text).unwrap();
+            let (n, _) = hinf_norm(&sys).unwrap();
+            assert!((n - want).abs() <= 1e-8 * want, "{text}: {n:e} vs {want:e}");
+        }
+        // Beyond the range: a clear error, never inf for a stable model.
+        let sys = parse_model("1e300/((s+1e-10)*(s+1))").unwrap();
+        let e = hinf_norm(&sys).unwrap_err().to_string();
+        assert!(e.contains("range"), "{e}");
+    }
 }

@@ -1,0 +1,255 @@
+//! Expressions of high order become accurate models: the realization built from the expression tree
+//! is checked against the expression evaluated factor by factor at s = jω (`Expr::eval`, independent
+//! of any realization), and poles against the factors' known roots.
+
+use skyloop_lti::analysis::poles;
+use skyloop_lti::expr::{parse, parse_model};
+use skyloop_lti::freqresp::evalfr;
+use skyloop_lti::margins::allmargin;
+use skyloop_lti::norms::hinf_norm;
+use skyloop_lti::{c64, StateSpace};
+use std::collections::HashMap;
+
+const TOL: f64 = 1e-9;
+
+fn reference(text: &str, w: f64) -> c64 {
+    parse(text).unwrap().eval(c64::new(0.0, w), &HashMap::new()).unwrap()
+}
+
+fn model_at(sys: &StateSpace, w: f64) -> c64 {
+    evalfr(sys, c64::new(0.0, w)).unwrap()[(0, 0)]
+}
+
+fn logspace(a: f64, b: f64, n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|k| 10f64.powf(a + (b - a) * k as f64 / (n - 1) as f64))
+        .collect()
+}
+
+/// Worst relative error of the model's response over a grid.
+fn response_error(text: &str, sys: &StateSpace, lo: f64, hi: f64) -> f64 {
+    let e = response_error_inner(text, sys, lo, hi);
+    eprintln!("response error (relative) {e:e} for order {}", sys.nx());
+    e
+}
+
+fn response_error_inner(text: &str, sys: &StateSpace, lo: f64, hi: f64) -> f64 {
+    logspace(lo, hi, 400)
+        .into_iter()
+        .map(|w| {
+            let (g, r) = (model_at(sys, w), reference(text, w));
+            (g - r).norm() / r.norm()
+        })
+        .fold(0.0, f64::max)
+}
+
+/// Each expected pole matched by a distinct computed pole, to `TOL` relative.
+fn poles_error(sys: &StateSpace, want: &[c64]) -> f64 {
+    let mut got = poles(sys).unwrap();
+    assert_eq!(got.len(), want.len());
+    let mut worst = 0.0f64;
+    for w in want {
+        let (k, d) = got
+            .iter()
+            .enumerate()
+            .map(|(k, z)| (k, (z - w).norm()))
+            .fold((0, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a });
+        worst = worst.max(d / w.norm());
+        got.remove(k);
+    }
+    eprintln!("pole error (relative) {worst:e}");
+    worst
+}
+
+/// Peak of |expression(jω)| by a dense grid and golden-section refinement (the reference H∞ norm).
+fn reference_peak(text: &str, lo: f64, hi: f64) -> f64 {
+    let f = |w: f64| reference(text, w).norm();
+    let grid = logspace(lo, hi, 4000);
+    let mut best = (0usize, f(grid[0]));
+    for (k, &w) in grid.iter().enumerate() {
+        let v = f(w);
+        if v > best.1 {
+            best = (k, v);
+        }
+    }
+    let mut peak = best.1.max(f(0.0));
+    let (mut a, mut b) = (grid[best.0.saturating_sub(1)], grid[(best.0 + 1).min(grid.len() - 1)]);
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    for _ in 0..200 {
+        let (x1, x2) = (b - g * (b - a), a + g * (b - a));
+        if f(x1) > f(x2) {
+            b = x2;
+        } else {
+            a = x1;
+        }
+        peak = peak.max(f(x1)).max(f(x2));
+    }
+    peak
+}
+
+/// Every reported gain crossover lies on |L| = 1 and its phase margin matches arg L there.
+fn check_margins(text: &str, sys: &StateSpace, expected_crossovers: usize) {
+    let all = allmargin(sys).unwrap();
+    assert_eq!(
+        all.phase_margins.len(),
+        expected_crossovers,
+        "{text}: {:?}",
+        all.phase_margins
+    );
+    for pm in &all.phase_margins {
+        let l = reference(text, pm.w_rad_s);
+        assert!((l.norm() - 1.0).abs() < TOL, "{text}: |L| = {} at crossover", l.norm());
+        let want = (-l).arg().to_degrees();
+        assert!(
+            (pm.pm_deg - want).abs() < TOL * 180.0,
+            "{text}: PM {} vs {want}",
+            pm.pm_deg
+        );
+    }
+    for gm in &all.gain_margins {
+        let l = reference(text, gm.w_rad_s);
+        assert!(
+            l.im.abs() < TOL * l.norm() && l.re < 0.0,
+            "{text}: phase crossover off -180°: {l}"
+        );
+        assert!((gm.gm_db + 20.0 * l.norm().log10()).abs() < TOL * gm.gm_db.abs().max(1.0));
+    }
+}
+
+#[test]
+fn power_25_at_1_hz_and_power_60() {
+    let t = "1/(s+1)^25";
+    let sys = parse_model(t).unwrap();
+    let w = 2.0 * std::f64::consts::PI;
+    let (g, r) = (model_at(&sys, w), reference(t, w));
+    assert!((g - r).norm() < TOL * r.norm(), "{g} vs {r}");
+
+    // K/(s+1)^60: |L| = 1 at ω = √(K^(1/30) − 1), PM = 180° − 60·atan ω (closed form).
+    let t = "10/(s+1)^60";
+    let sys = parse_model(t).unwrap();
+    assert_eq!(sys.nx(), 60);
+    let e = response_error(t, &sys, -2.0, 2.0);
+    assert!(e < TOL, "response error {e:e}");
+    let want = vec![c64::new(-1.0, 0.0); 60];
+    let pe = poles_error(&sys, &want);
+    assert!(pe < TOL, "pole error {pe:e}");
+    let (n, _) = hinf_norm(&sys).unwrap();
+    assert!((n - 10.0).abs() < TOL * 10.0, "H∞ {n}");
+    check_margins(t, &sys, 1);
+    let wc = (10f64.powf(1.0 / 30.0) - 1.0).sqrt();
+    let all = allmargin(&sys).unwrap();
+    assert!((all.phase_margins[0].w_rad_s - wc).abs() < TOL * wc);
+}
+
+#[test]
+fn norm_of_power_40_is_finite() {
+    let sys = parse_model("1/(s+1)^40").unwrap();
+    let (n, w) = hinf_norm(&sys).unwrap();
+    assert!((n - 1.0).abs() < TOL && w == 0.0, "{n} at {w}");
+}
+
+#[test]
+fn sum_of_30_first_order_terms_is_stable() {
+    let t: String = (1..=30).map(|k| format!("{k}/(s+{k})")).collect::<Vec<_>>().join(" + ");
+    let sys = parse_model(&t).unwrap();
+    let want: Vec<c64> = (1..=30).map(|k| c64::new(-(k as f64), 0.0)).collect();
+    assert!(poles_error(&sys, &want) < TOL);
+    assert!(response_error(&t, &sys, -2.0, 3.0) < TOL);
+    let (n, _) = hinf_norm(&sys).unwrap();
+    assert!((n - 30.0).abs() < TOL * 30.0, "H∞ {n}");
+}
+
+#[test]
+fn sum_of_60_distinct_poles() {
+    let t: String = (1..=60)
+        .map(|k| format!("{}/(s+{})", 1.0 + 0.1 * k as f64, 0.5 * 1.07f64.powi(k)))
+        .collect::<Vec<_>>()
+        .join(" + ");
+    let sys = parse_model(&t).unwrap();
+    assert_eq!(sys.nx(), 60);
+    let want: Vec<c64> = (1..=60).map(|k| c64::new(-0.5 * 1.07f64.powi(k), 0.0)).collect();
+    assert!(poles_error(&sys, &want) < TOL);
+    let e = response_error(&t, &sys, -2.0, 3.0);
+    assert!(e < TOL, "response error {e:e}");
+    let (n, _) = hinf_norm(&sys).unwrap();
+    let r = reference_peak(&t, -3.0, 3.0);
+    eprintln!("H-inf relative error {:e}", (n - r).abs() / r);
+    assert!((n - r).abs() < TOL * r, "H∞ {n} vs {r}");
+    // Loop 0.05·Σ: one gain crossover.
+    let tl = format!("0.05*({t})");
+    check_margins(&tl, &parse_model(&tl).unwrap(), 1);
+}
+
+/// Π over 30 lightly damped pairs w²/(s² + 2ζws + w²) with zeros at some of them: order 60.
+fn product_60() -> (String, Vec<c64>) {
+    let mut t = String::from("1.2");
+    let mut p = Vec::new();
+    for k in 0..30 {
+        let w = 0.3 * 1.12f64.powi(k);
+        let z = 0.05 + 0.01 * k as f64;
+        if k % 3 == 0 {
+            t += &format!("*({:.17e}*s+1)", 1.0 / (2.5 * w));
+        }
+        t += &format!("*{:.17e}/(s^2+{:.17e}*s+{:.17e})", w * w, 2.0 * z * w, w * w);
+        let (re, im) = (-z * w, w * (1.0 - z * z).sqrt());
+        p.push(c64::new(re, im));
+        p.push(c64::new(re, -im));
+    }
+    (t, p)
+}
+
+#[test]
+fn product_of_60_distinct_poles() {
+    let (t, want) = product_60();
+    let sys = parse_model(&t).unwrap();
+    assert_eq!(sys.nx(), 60);
+    let pe = poles_error(&sys, &want);
+    assert!(pe < TOL, "pole error {pe:e}");
+    let e = response_error(&t, &sys, -2.0, 2.5);
+    assert!(e < TOL, "response error {e:e}");
+    let (n, _) = hinf_norm(&sys).unwrap();
+    let r = reference_peak(&t, -2.0, 2.5);
+    eprintln!("H-inf relative error {:e}", (n - r).abs() / r);
+    assert!((n - r).abs() < TOL * r, "H∞ {n} vs {r}");
+    check_margins(&t, &sys, allmargin(&sys).unwrap().phase_margins.len());
+}
+
+#[test]
+fn power_of_a_complex_pair() {
+    let t = "1/(s^2+0.4*s+1)^30";
+    let sys = parse_model(t).unwrap();
+    let want: Vec<c64> = (0..60)
+        .map(|k| c64::new(-0.2, if k % 2 == 0 { 0.96f64.sqrt() } else { -(0.96f64.sqrt()) }))
+        .collect();
+    let pe = poles_error(&sys, &want);
+    assert!(pe < TOL, "pole error {pe:e}");
+    let e = response_error(t, &sys, -1.0, 0.5);
+    assert!(e < TOL, "response error {e:e}");
+}
+
+#[test]
+fn feedback_form_and_quotients() {
+    let s = |w: f64| c64::new(0.0, w);
+    for t in [
+        "(10/(s*(s+2)))/(1 + (10/(s*(s+2)))*(1/(0.1*s+1)))",
+        "(1/(s+1))/(1 + 1/(s+1))",
+        "(s+3)/(s+1)/((s+2)/(s+5))",
+        "1/(1 + 1/(s+1) + 1/(s+2))",
+        "(s + 1/(s+1))/(s+2)^2",
+    ] {
+        let sys = parse_model(t).unwrap();
+        for w in [0.01, 0.3, 1.0, 7.0, 100.0] {
+            let (g, r) = (model_at(&sys, w), reference(t, w));
+            assert!((g - r).norm() < 1e-12 * r.norm().max(1e-300), "{t} at {w}: {g} vs {r}");
+        }
+        let _ = s;
+    }
+    // The feedback form keeps each state once: 2 + 1.
+    assert_eq!(
+        parse_model("(10/(s*(s+2)))/(1 + (10/(s*(s+2)))*(1/(0.1*s+1)))")
+            .unwrap()
+            .nx(),
+        3
+    );
+    assert_eq!(parse_model("(1/(s+1))/(1 + 1/(s+1))").unwrap().nx(), 1);
+}
