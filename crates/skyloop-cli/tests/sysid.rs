@@ -140,7 +140,7 @@ fn log_info_lists_fields_and_refuses_garbage() {
 
 /// y is K/(τs+1) with K = 2, τ = 0.05 s driven by a held chirp, discretized exactly (ZOH) at 1 kHz.
 fn first_order_csv() -> PathBuf {
-    let (dt, k, tau) = (0.001, 2.0, 0.05);
+    let (dt, k, tau): (f64, f64, f64) = (0.001, 2.0, 0.05);
     let a = (-dt / tau).exp();
     let n = 20_000;
     let mut s = String::from("time_s,u,y\n");
