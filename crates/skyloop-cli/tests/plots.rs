@@ -150,3 +150,39 @@ fn norm_of_a_first_order_lag() {
     assert!(v["h2"].is_null());
     assert_eq!(skyloop(&["norm", "1/(s+"]).status.code(), Some(2));
 }
+
+#[test]
+fn closed_loop_step_keeps_a_loop_delay_exact() {
+    // L = 2·e^{−0.5 s}/(s+1): T(0) = 2/3, and nothing moves before the 0.5 s delay has passed.
+    let r = skyloop(&["step", "2*exp(-0.5*s)/(s+1)", "--closed-loop", "--tfinal", "20", "--json"]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&r.stdout).expect("json");
+    let t: Vec<f64> = v["models"][0]["t_s"].as_array().expect("t").iter().map(|x| x.as_f64().expect("t")).collect();
+    let y: Vec<f64> = v["models"][0]["y"][0][0].as_array().expect("y").iter().map(|x| x.as_f64().expect("y")).collect();
+    for (tk, yk) in t.iter().zip(&y) {
+        if *tk < 0.5 {
+            assert!(yk.abs() < 1e-12, "y({tk}) = {yk} before the delay");
+        }
+    }
+    assert!((y[y.len() - 1] - 2.0 / 3.0).abs() < 1e-3, "final {}", y[y.len() - 1]);
+}
+
+#[test]
+fn show_forms_and_pade() {
+    let r = skyloop(&["show", "2*exp(-0.1*s)*(s+3)/(s*(s^2+2*s+5))", "--form", "zpk"]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let text = String::from_utf8_lossy(&r.stdout);
+    assert!(text.contains("input delay [s]  = [0.1]"), "{text}");
+    assert!(text.contains("2*exp(-0.1*s)*(s+3)/(s*(s^2+2*s+5))"), "{text}");
+    let r = skyloop(&["show", "-1/(s+1)", "--form", "tf"]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert!(String::from_utf8_lossy(&r.stdout).contains("-1/(s+1)"));
+    assert_eq!(skyloop(&["show", "1/(s+1)", "--form", "abc"]).status.code(), Some(2));
+    let r = skyloop(&["pade", "exp(-0.1*s)/(s+1)", "--order", "2", "--json"]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&r.stdout).expect("json");
+    assert_eq!(v["a"].as_array().expect("a").len(), 3);
+    let r = skyloop(&["pade", "exp(-0.1*s)/(s+1)", "--order", "0"]);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("--order 0"));
+}

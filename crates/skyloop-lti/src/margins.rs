@@ -508,18 +508,18 @@ pub fn diskmargin(l: &StateSpace) -> Result<DiskMargin> {
 }
 
 fn disk_from_alpha(alpha: f64, w: f64) -> DiskMargin {
+    // From α = 2 on, the disk holds every gain from 0 to ∞ (MATLAB: GM = [0 Inf]). An α a few ulps
+    // below 2 (the loop 1/s) must not turn into a finite ±319 dB.
+    let unbounded = alpha >= 2.0 * (1.0 - 1e-9);
     let low = (2.0 - alpha) / (2.0 + alpha);
     let high = (2.0 + alpha) / (2.0 - alpha);
     DiskMargin {
         alpha,
-        gain_db: [
-            if low > 0.0 {
-                20.0 * low.log10()
-            } else {
-                f64::NEG_INFINITY
-            },
-            if high > 0.0 { 20.0 * high.log10() } else { f64::INFINITY },
-        ],
+        gain_db: if unbounded {
+            [f64::NEG_INFINITY, f64::INFINITY]
+        } else {
+            [20.0 * low.log10(), 20.0 * high.log10()]
+        },
         phase_deg: (2.0 * (alpha / 2.0).atan()).to_degrees(),
         w_rad_s: w,
     }

@@ -228,3 +228,19 @@ fn badly_scaled_stable_model_has_a_finite_hinf_norm() {
     assert!((g - unscaled).abs() <= 1e-8 * unscaled, "{g} vs {unscaled}");
     assert!(skyloop_lti::norms::h2_norm(&sys).expect("h2").is_finite());
 }
+
+/// Disk margins at the edges: α = 2 for an integrator (gain margin [0, ∞), so ±∞ dB, not ±319 dB),
+/// α = 6 for the static loop L = 2 (S = 1/3, |S − 1/2| = 1/6), and a finite pair below α = 2.
+#[test]
+fn disk_margin_edge_cases_are_infinite_where_the_disk_holds_every_gain() {
+    let dm = diskmargin(&skyloop_lti::expr::parse_model("1/s").expect("model")).expect("dm");
+    assert!((dm.alpha - 2.0).abs() < 1e-9, "{}", dm.alpha);
+    assert_eq!(dm.gain_db, [f64::NEG_INFINITY, f64::INFINITY]);
+    let dm = diskmargin(&skyloop_lti::expr::parse_model("2").expect("model")).expect("dm");
+    assert!((dm.alpha - 6.0).abs() < 1e-9, "{}", dm.alpha);
+    assert_eq!(dm.gain_db, [f64::NEG_INFINITY, f64::INFINITY]);
+    // L = 1/(s(s+1)(s+2)): finite, symmetric in dB.
+    let dm = diskmargin(&skyloop_lti::expr::parse_model("1/(s*(s+1)*(s+2))").expect("model")).expect("dm");
+    assert!(dm.alpha < 2.0 && dm.gain_db[1].is_finite());
+    assert!((dm.gain_db[0] + dm.gain_db[1]).abs() < 1e-9);
+}

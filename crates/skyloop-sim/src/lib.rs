@@ -1,5 +1,6 @@
 //! skyloop-sim.
 pub mod cascade;
+pub mod delayed_loop;
 pub mod disturbance;
 pub mod error;
 pub mod geometry;

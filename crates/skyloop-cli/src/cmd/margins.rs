@@ -60,6 +60,8 @@ pub fn run(a: Args) -> skyloop::Result<()> {
     let opt = |x: f64, unit: &str| {
         if x.is_finite() {
             format!("{x:.4} {unit}")
+        } else if x < 0.0 {
+            "-inf".to_string()
         } else {
             "inf".to_string()
         }

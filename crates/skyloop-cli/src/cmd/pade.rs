@@ -17,20 +17,12 @@ pub struct Args {
     json: bool,
 }
 
-/// Highest order accepted: beyond it the approximant's coefficients span more than double precision
-/// resolves and add nothing a user can measure.
-const MAX_ORDER: usize = 20;
-
 /// Replaces the delays and prints the result.
 pub fn run(a: Args) -> skyloop::Result<()> {
-    if !(1..=MAX_ORDER).contains(&a.order) {
-        return Err(skyloop::Error::Input(format!(
-            "--order {} is outside 1..={MAX_ORDER}",
-            a.order
-        )));
-    }
     let sys = skyloop::model::load_model(&a.model)?;
-    let r = sys.pade(a.order);
+    let r = sys
+        .try_pade(a.order)
+        .map_err(|e| skyloop::Error::Input(format!("--order {}: {e}", a.order)))?;
     if a.json {
         return output::print_json(&skyloop::lti::json::LtiJson::from_ss(&r));
     }

@@ -1,6 +1,7 @@
 //! `skyloop step MODEL.. --out FILE [--closed-loop] [--tfinal S] [--json]`: unit-step responses,
 //! plotted overlaid; with `--closed-loop` each SISO model is a loop transfer L and the response is
-//! that of T = L/(1 + L).
+//! that of T = L/(1 + L), with a loop delay kept exact (a delay-line simulation,
+//! `skyloop::sim::delayed_loop`).
 
 use serde::Serialize;
 use skyloop::lti::StateSpace;
@@ -44,9 +45,11 @@ pub fn run(a: Args) -> skyloop::Result<()> {
     if a.out.is_none() && !a.json {
         return Err("nothing to do: give --out FILE.svg|.png and/or --json".into());
     }
-    let mut models: Vec<(String, StateSpace)> = Vec::new();
+    // (label, model whose step is shown, the delayed loop transfer when the loop is closed around a delay).
+    let mut models: Vec<(String, StateSpace, Option<StateSpace>)> = Vec::new();
     for m in &a.models {
         let mut sys = skyloop::model::load_model(m)?;
+        let mut delayed = None;
         if a.closed_loop {
             if sys.ny() != 1 || sys.nu() != 1 {
                 return Err(format!(
@@ -57,16 +60,24 @@ pub fn run(a: Args) -> skyloop::Result<()> {
                 .into());
             }
             let unity = StateSpace::gain(skyloop::lti::Mat::identity(1, 1), sys.dt)?;
-            sys = skyloop::lti::interconnect::feedback(&sys, &unity, -1.0).map_err(|e| format!("{m}: {e}"))?;
+            if sys.has_delay() && sys.is_continuous() {
+                // The response is simulated with the exact delay (a delay line); the Padé closed loop
+                // only sets the time scale of the automatic grid.
+                let rational = sys.try_pade(3)?;
+                let cl = skyloop::lti::interconnect::feedback(&rational, &unity, -1.0).map_err(|e| format!("{m}: {e}"))?;
+                delayed = Some(std::mem::replace(&mut sys, cl));
+            } else {
+                sys = skyloop::lti::interconnect::feedback(&sys, &unity, -1.0).map_err(|e| format!("{m}: {e}"))?;
+            }
         }
-        models.push((m.clone(), sys));
+        models.push((m.clone(), sys, delayed));
     }
     // One final time for all, so the curves share the axis: the longest of the automatic ones.
     let tfinal = match a.tfinal {
         Some(t) => t,
         None => {
             let mut t: f64 = 0.0;
-            for (m, sys) in &models {
+            for (m, sys, _) in &models {
                 let g = skyloop::lti::timeresp::auto_grid(sys, None).map_err(|e| format!("{m}: {e}"))?;
                 t = t.max(g[g.len() - 1]);
             }
@@ -75,9 +86,15 @@ pub fn run(a: Args) -> skyloop::Result<()> {
     };
     let mut results = Vec::new();
     let mut traces = Vec::new();
-    for (m, sys) in &models {
+    for (m, sys, delayed) in &models {
         let grid = skyloop::lti::timeresp::auto_grid(sys, Some(tfinal)).map_err(|e| format!("{m}: {e}"))?;
-        let r = skyloop::lti::timeresp::step(sys, Some(&grid)).map_err(|e| format!("{m}: {e}"))?;
+        let r = match delayed {
+            Some(l) => skyloop::lti::timeresp::TimeResponse {
+                y: vec![vec![skyloop::sim::delayed_loop::closed_loop_step(l, &grid).map_err(|e| format!("{m}: {e}"))?]],
+                t_s: grid,
+            },
+            None => skyloop::lti::timeresp::step(sys, Some(&grid)).map_err(|e| format!("{m}: {e}"))?,
+        };
         for (i, row) in r.y.iter().enumerate() {
             for (j, y) in row.iter().enumerate() {
                 traces.push(Trace {
