@@ -169,14 +169,15 @@ fn rational(sys: &StateSpace, order: usize) -> StateSpace {
 }
 
 /// Runs the whole pipeline of a checked spec.
-pub fn design(spec: &DesignSpec) -> Result<DesignResult> {
+pub fn design(spec: &DesignSpec) -> crate::error::Result<DesignResult> {
     let plant = spec.load_model("plant.model", &spec.plant.model)?;
     if plant.ny() != 1 || plant.nu() != 1 {
         return Err(LtiError::Dimension(format!(
             "plant.model: the design pipeline handles SISO loops, the plant is {}x{}",
             plant.ny(),
             plant.nu()
-        )));
+        ))
+        .into());
     }
     let pade = spec.plant.pade_order;
     let plant_rational = rational(&plant, pade);
@@ -221,12 +222,10 @@ pub fn design(spec: &DesignSpec) -> Result<DesignResult> {
             let c = load("synthesis.controller", &syn.controller)?
                 .ok_or_else(|| LtiError::InvalidArgument("synthesis.controller: missing".into()))?;
             if c.ny() != 1 || c.nu() != 1 {
-                return Err(LtiError::Dimension("synthesis.controller: must be SISO".into()));
+                return Err(LtiError::Dimension("synthesis.controller: must be SISO".into()).into());
             }
             if c.has_delay() {
-                return Err(LtiError::Unsupported(
-                    "synthesis.controller: must not have delays".into(),
-                ));
+                return Err(LtiError::Unsupported("synthesis.controller: must not have delays".into()).into());
             }
             (c, None)
         }
@@ -261,7 +260,8 @@ pub fn design(spec: &DesignSpec) -> Result<DesignResult> {
                     "reduction.order: {} is not below the controller order {}",
                     r.order,
                     synthesized.nx()
-                )));
+                ))
+                .into());
             }
             let red = balred(&synthesized, r.order, method)
                 .map_err(|e| LtiError::InvalidArgument(format!("reduction: {e}")))?;
@@ -280,7 +280,8 @@ pub fn design(spec: &DesignSpec) -> Result<DesignResult> {
                 if !(g > 0.0 && g.is_finite()) {
                     return Err(LtiError::Numerical(format!(
                         "boost.crossover_hz: the loop gain at {f} Hz is {g}, cannot scale it to 1"
-                    )));
+                    ))
+                    .into());
                 }
                 1.0 / g
             }
