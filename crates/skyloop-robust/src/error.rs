@@ -98,3 +98,62 @@ impl From<LinalgError> for RobustError {
 
 /// Result alias used across skyloop-robust.
 pub type Result<T> = std::result::Result<T, RobustError>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn display_names_the_quantities() {
+        let e = RobustError::Infeasible {
+            gamma: 0.5,
+            reason: "coupling condition fails".into(),
+        };
+        assert_eq!(
+            e.to_string(),
+            "no controller achieves gamma <= 5.000000e-1: coupling condition fails"
+        );
+        let e = RobustError::NotStabilizable {
+            system: "(A, B2)",
+            mode: c64::new(2.0, -1.0),
+        };
+        assert_eq!(
+            e.to_string(),
+            "(A, B2) is not stabilizable: the mode at 2.000000-1.000000i cannot be moved by its inputs"
+        );
+        let e = RobustError::NotDetectable {
+            system: "(C2, A)",
+            mode: c64::new(0.0, 3.0),
+        };
+        assert!(
+            e.to_string().contains("not detectable: the mode at 0.000000+3.000000i"),
+            "{e}"
+        );
+        let e = RobustError::RankDeficient {
+            matrix: "D21",
+            sigma_min: 1e-12,
+        };
+        assert!(
+            e.to_string()
+                .starts_with("D21 is rank deficient (smallest singular value 1.000e-12)"),
+            "{e}"
+        );
+        assert!(e.to_string().contains("sensor-noise"), "{e}");
+    }
+
+    #[test]
+    fn linalg_causes_survive_through_lti() {
+        let e = RobustError::from(LinalgError::NoSolution("care: no stabilizing solution".into()));
+        assert!(
+            matches!(&e, RobustError::Lti(LtiError::Linalg(LinalgError::NoSolution(_)))),
+            "{e:?}"
+        );
+        assert_eq!(
+            e.to_string(),
+            "numerical failure: no solution: care: no stabilizing solution"
+        );
+        // Dimension and argument errors keep their LTI meaning.
+        let e = RobustError::from(LinalgError::Dimension("A is 2x3".into()));
+        assert!(matches!(e, RobustError::Lti(LtiError::Dimension(_))), "{e:?}");
+    }
+}
