@@ -28,14 +28,20 @@ pub enum LtiError {
     /// A file could not be read or written.
     #[error("{0}")]
     Io(String),
+    /// A dense matrix computation of skyloop-linalg failed (no convergence, singular matrix, no
+    /// stabilizing solution); the linalg cause is kept so callers can match on it.
+    #[error("numerical failure: {0}")]
+    Linalg(#[source] skyloop_linalg::LinalgError),
 }
 
+/// Dimension and argument errors keep their LTI meaning; every other linalg failure becomes
+/// [`LtiError::Linalg`] with the linalg error intact.
 impl From<skyloop_linalg::LinalgError> for LtiError {
     fn from(e: skyloop_linalg::LinalgError) -> Self {
         match e {
             skyloop_linalg::LinalgError::Dimension(m) => LtiError::Dimension(m),
             skyloop_linalg::LinalgError::InvalidArgument(m) => LtiError::InvalidArgument(m),
-            other => LtiError::Numerical(other.to_string()),
+            other => LtiError::Linalg(other),
         }
     }
 }

@@ -16,6 +16,8 @@
 //! Discrete-time plants go through the bilinear map (`skyloop_lti::discretize` Tustin d2c/c2d),
 //! which preserves stability and the H∞ norm.
 
+use crate::error::Result;
+use crate::error::RobustError;
 use crate::linutil::{
     balance_states, hcat, inv, max_real_eig, sigma_max, spectral_radius, sym_min_eig, uncontrollable_unstable_mode,
     vcat,
@@ -23,13 +25,14 @@ use crate::linutil::{
 use faer::{Mat, MatRef, Side};
 use skyloop_linalg::riccati::care;
 use skyloop_lti::discretize::{c2d, d2c, Method};
-use skyloop_lti::error::Result;
-use skyloop_lti::{LtiError, StateSpace};
+use skyloop_lti::StateSpace;
 
 /// Options of the γ iteration.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HinfOptions {
     /// Search range for γ (lower, upper); an infinite upper bound means "find one by doubling".
+    /// A finite upper bound is hard: the returned γ never exceeds it, and when no verified
+    /// controller exists at or below it the synthesis fails with [`RobustError::Infeasible`].
     pub gamma_range: (f64, f64),
     /// Relative tolerance of the bisection on γ.
     pub rel_tol: f64,
@@ -66,21 +69,26 @@ pub fn hinfsyn(p: &StateSpace, nmeas: usize, ncon: usize) -> Result<HinfSolution
 }
 
 /// H∞ synthesis: finds (nearly) the smallest γ and a stabilizing K with ‖lft(P,K)‖∞ ≤ γ.
+///
+/// Errors name the cause: [`RobustError::RankDeficient`] for a singular D12/D21,
+/// [`RobustError::NotStabilizable`] / [`RobustError::NotDetectable`] with the offending mode, and
+/// [`RobustError::Infeasible`] when no controller achieves γ ≤ the upper end of the range (or any
+/// γ up to 1e12, or no verified controller could be built near the γ the bisection found).
 pub fn hinfsyn_with(p: &StateSpace, nmeas: usize, ncon: usize, opts: &HinfOptions) -> Result<HinfSolution> {
     p.validate()?;
     if p.has_delay() {
-        return Err(LtiError::Unsupported(
+        return Err(RobustError::Unsupported(
             "hinfsyn needs a rational plant: replace the delays by Padé approximants first".into(),
         ));
     }
     let (lo_opt, hi_opt) = opts.gamma_range;
     if !(lo_opt >= 0.0 && hi_opt > lo_opt) || lo_opt.is_nan() || hi_opt.is_nan() {
-        return Err(LtiError::InvalidArgument(format!(
+        return Err(RobustError::InvalidArgument(format!(
             "gamma range must satisfy 0 <= min < max, got ({lo_opt}, {hi_opt})"
         )));
     }
     if !(opts.rel_tol > 0.0 && opts.rel_tol < 1.0) {
-        return Err(LtiError::InvalidArgument(format!(
+        return Err(RobustError::InvalidArgument(format!(
             "relative tolerance must be in (0, 1), got {}",
             opts.rel_tol
         )));
@@ -95,9 +103,10 @@ pub fn hinfsyn_with(p: &StateSpace, nmeas: usize, ncon: usize, opts: &HinfOption
     let mut last_fail = String::new();
     let mut hi = if hi_opt.is_finite() {
         if np.riccati_pair(hi_opt, &mut last_fail)?.is_none() {
-            return Err(LtiError::Numerical(format!(
-                "no controller achieves gamma <= {hi_opt} (upper end of the range): {last_fail}"
-            )));
+            return Err(structural_cause(p, nmeas, ncon).unwrap_or(RobustError::Infeasible {
+                gamma: hi_opt,
+                reason: format!("upper end of the range: {last_fail}"),
+            }));
         }
         hi_opt
     } else {
@@ -109,7 +118,10 @@ pub fn hinfsyn_with(p: &StateSpace, nmeas: usize, ncon: usize, opts: &HinfOption
             lo = lo.max(g);
             g *= 4.0;
             if g > 1e12 {
-                return Err(diagnose(p, nmeas, ncon, &last_fail));
+                return Err(structural_cause(p, nmeas, ncon).unwrap_or(RobustError::Infeasible {
+                    gamma: 1e12,
+                    reason: format!("{last_fail}; P12 or P21 may have zeros on the imaginary axis"),
+                }));
             }
         }
     };
@@ -123,11 +135,17 @@ pub fn hinfsyn_with(p: &StateSpace, nmeas: usize, ncon: usize, opts: &HinfOption
     }
 
     // The central controller's Z = (I − γ⁻²YX)⁻¹ is singular at γ_opt: back off a little, verify,
-    // and back off more if the verified closed loop misses its γ.
+    // and back off more if the verified closed loop misses its γ — but never above a finite upper
+    // end of the range, which is a hard bound.
     let mut backoff = 1e-3;
     let mut why = String::new();
+    let mut tried = f64::NAN;
     for _ in 0..12 {
-        let gamma = hi * (1.0 + backoff);
+        let gamma = (hi * (1.0 + backoff)).min(hi_opt);
+        if gamma == tried {
+            break;
+        }
+        tried = gamma;
         if let Some(rp) = np.riccati_pair(gamma, &mut why)? {
             match np.controller(gamma, &rp) {
                 Ok(k) => {
@@ -155,32 +173,32 @@ pub fn hinfsyn_with(p: &StateSpace, nmeas: usize, ncon: usize, opts: &HinfOption
         }
         backoff *= 3.0;
     }
-    Err(LtiError::Numerical(format!(
-        "could not build a verified controller near gamma = {hi:.6e}: {why}"
-    )))
+    Err(RobustError::Infeasible {
+        gamma: tried,
+        reason: format!("could not build a verified controller near gamma = {hi:.6e}: {why}"),
+    })
 }
 
-/// Explains why no γ works: an unstabilizable/undetectable mode when there is one.
-fn diagnose(p: &StateSpace, nmeas: usize, ncon: usize, last_fail: &str) -> LtiError {
+/// Explains why no γ works when the cause is structural: an unstabilizable mode of (A, B2) or an
+/// undetectable mode of (C2, A); `None` when both pairs pass the PBH test.
+fn structural_cause(p: &StateSpace, nmeas: usize, ncon: usize) -> Option<RobustError> {
     let (p1, m1) = (p.ny() - nmeas, p.nu() - ncon);
     let b2 = p.b.get(.., m1..).to_owned();
     let at = p.a.transpose().to_owned();
     let c2t = p.c.get(p1.., ..).transpose().to_owned();
-    if let Ok(Some(lam)) = uncontrollable_unstable_mode(p.a.as_ref(), b2.as_ref()) {
-        return LtiError::Unsupported(format!(
-            "(A, B2) is not stabilizable: the mode at {:.6}{:+.6}i cannot be moved by the controls",
-            lam.re, lam.im
-        ));
+    if let Ok(Some(mode)) = uncontrollable_unstable_mode(p.a.as_ref(), b2.as_ref()) {
+        return Some(RobustError::NotStabilizable {
+            system: "(A, B2)",
+            mode,
+        });
     }
-    if let Ok(Some(lam)) = uncontrollable_unstable_mode(at.as_ref(), c2t.as_ref()) {
-        return LtiError::Unsupported(format!(
-            "(C2, A) is not detectable: the mode at {:.6}{:+.6}i is not seen by the measurements",
-            lam.re, lam.im
-        ));
+    if let Ok(Some(mode)) = uncontrollable_unstable_mode(at.as_ref(), c2t.as_ref()) {
+        return Some(RobustError::NotDetectable {
+            system: "(C2, A)",
+            mode,
+        });
     }
-    LtiError::Numerical(format!(
-        "no gamma up to 1e12 is achievable ({last_fail}); P12 or P21 may have zeros on the imaginary axis"
-    ))
+    None
 }
 
 /// Discrete-time synthesis through the bilinear (Tustin) map of skyloop-lti: it maps the unit disk
@@ -232,10 +250,10 @@ impl Normalized {
     fn new(p: &StateSpace, nmeas: usize, ncon: usize) -> Result<Self> {
         let (ny, nu) = (p.ny(), p.nu());
         if nmeas == 0 || ncon == 0 {
-            return Err(LtiError::InvalidArgument("nmeas and ncon must be at least 1".into()));
+            return Err(RobustError::InvalidArgument("nmeas and ncon must be at least 1".into()));
         }
         if nmeas >= ny || ncon >= nu {
-            return Err(LtiError::Dimension(format!(
+            return Err(RobustError::Dimension(format!(
                 "the plant has {ny} outputs and {nu} inputs: nmeas = {nmeas} and ncon = {ncon} leave no \
                  performance outputs or disturbance inputs"
             )));
@@ -253,36 +271,34 @@ impl Normalized {
         let scale = p.d.norm_max().max(p.b.norm_max()).max(p.c.norm_max()).max(1.0);
 
         if p1 < m2 {
-            return Err(LtiError::Unsupported(format!(
+            return Err(RobustError::Unsupported(format!(
                 "D12 ({p1}x{m2}) cannot have full column rank: need at least as many performance outputs as controls"
             )));
         }
         if m1 < p2 {
-            return Err(LtiError::Unsupported(format!(
+            return Err(RobustError::Unsupported(format!(
                 "D21 ({p2}x{m1}) cannot have full row rank: need at least as many disturbances as measurements"
             )));
         }
         let svd12 = d12
             .svd()
-            .map_err(|_| LtiError::Numerical("SVD of D12 did not converge".into()))?;
+            .map_err(|_| RobustError::Numerical("SVD of D12 did not converge".into()))?;
         let s12: Vec<f64> = (0..m2).map(|i| svd12.S()[i]).collect();
         if s12[m2 - 1] <= 1e-10 * scale {
-            return Err(LtiError::Unsupported(format!(
-                "D12 is rank deficient (smallest singular value {:.3e}): every control must act on a \
-                 performance output directly (add a control weight)",
-                s12[m2 - 1]
-            )));
+            return Err(RobustError::RankDeficient {
+                matrix: "D12",
+                sigma_min: s12[m2 - 1],
+            });
         }
         let svd21 = d21
             .svd()
-            .map_err(|_| LtiError::Numerical("SVD of D21 did not converge".into()))?;
+            .map_err(|_| RobustError::Numerical("SVD of D21 did not converge".into()))?;
         let s21: Vec<f64> = (0..p2).map(|i| svd21.S()[i]).collect();
         if s21[p2 - 1] <= 1e-10 * scale {
-            return Err(LtiError::Unsupported(format!(
-                "D21 is rank deficient (smallest singular value {:.3e}): every measurement needs its own \
-                 noise input (add a sensor-noise weight)",
-                s21[p2 - 1]
-            )));
+            return Err(RobustError::RankDeficient {
+                matrix: "D21",
+                sigma_min: s21[p2 - 1],
+            });
         }
         // z̃ = Θᵀz with Θ = [U⊥ U1] puts the range of D12 last; u = V·S⁻¹·ũ makes that block I.
         let u12 = svd12.U();
@@ -423,14 +439,14 @@ impl Normalized {
         let dk12 = m12
             .llt(Side::Lower)
             .map_err(|_| {
-                LtiError::Numerical("I - D1121 (g^2 I - D1111'D1111)^-1 D1121' is not positive definite".into())
+                RobustError::Numerical("I - D1121 (g^2 I - D1111'D1111)^-1 D1121' is not positive definite".into())
             })?
             .L()
             .to_owned();
         let dk21 = m21
             .llt(Side::Lower)
             .map_err(|_| {
-                LtiError::Numerical("I - D1112' (g^2 I - D1111 D1111')^-1 D1112 is not positive definite".into())
+                RobustError::Numerical("I - D1112' (g^2 I - D1111 D1111')^-1 D1112 is not positive definite".into())
             })?
             .L()
             .transpose()
@@ -463,6 +479,12 @@ impl Normalized {
         let dk = &dk11 * &mk;
 
         // Undo the scalings: u = tu·ũ, ỹ = ty·y.
-        StateSpace::new(ak, &bk * &self.ty, &self.tu * &ck, &self.tu * &dk * &self.ty, 0.0)
+        Ok(StateSpace::new(
+            ak,
+            &bk * &self.ty,
+            &self.tu * &ck,
+            &self.tu * &dk * &self.ty,
+            0.0,
+        )?)
     }
 }

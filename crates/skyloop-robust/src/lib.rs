@@ -1,4 +1,5 @@
 //! skyloop-robust.
+pub mod error;
 pub mod hinfsyn;
 mod linutil;
 pub mod mixsyn;
@@ -6,3 +7,5 @@ pub mod mu;
 pub mod musyn;
 pub mod ncfsyn;
 pub mod uncertainty;
+
+pub use error::{Result, RobustError};

@@ -1,9 +1,9 @@
 //! Small dense helpers shared by the synthesis modules (block assembly, checked inverses, spectra).
 
+use crate::error::Result;
+use crate::error::RobustError;
 use faer::linalg::solvers::DenseSolveCore;
 use faer::{Mat, MatRef, Side};
-use skyloop_lti::error::Result;
-use skyloop_lti::LtiError;
 
 /// Stacks blocks side by side; every block must have the same number of rows (`rows` is used when all are empty).
 pub(crate) fn hcat(blocks: &[MatRef<f64>], rows: usize) -> Mat<f64> {
@@ -35,7 +35,7 @@ pub(crate) fn singular_values(m: MatRef<f64>) -> Result<Vec<f64>> {
         return Ok(Vec::new());
     }
     m.singular_values()
-        .map_err(|_| LtiError::Numerical("SVD did not converge".into()))
+        .map_err(|_| RobustError::Numerical("SVD did not converge".into()))
 }
 
 /// Largest singular value (0 for an empty matrix).
@@ -52,7 +52,7 @@ pub(crate) fn inv(m: MatRef<f64>, what: &str) -> Result<Mat<f64>> {
     let s = singular_values(m)?;
     let (smax, smin) = (s[0], s[n - 1]);
     if !(smin > 1e-13 * smax.max(f64::MIN_POSITIVE)) {
-        return Err(LtiError::Numerical(format!(
+        return Err(RobustError::Numerical(format!(
             "{what} is singular (condition number {:.3e})",
             smax / smin
         )));
@@ -69,7 +69,7 @@ pub(crate) fn sym_min_eig(m: MatRef<f64>) -> Result<f64> {
     let s = Mat::from_fn(n, n, |i, j| 0.5 * (m[(i, j)] + m[(j, i)]));
     let ev = s
         .self_adjoint_eigenvalues(Side::Lower)
-        .map_err(|_| LtiError::Numerical("symmetric eigenvalues did not converge".into()))?;
+        .map_err(|_| RobustError::Numerical("symmetric eigenvalues did not converge".into()))?;
     Ok(ev[0])
 }
 
@@ -80,7 +80,7 @@ pub(crate) fn spectral_radius(m: MatRef<f64>) -> Result<f64> {
     }
     let ev = m
         .eigenvalues()
-        .map_err(|_| LtiError::Numerical("eigenvalues did not converge".into()))?;
+        .map_err(|_| RobustError::Numerical("eigenvalues did not converge".into()))?;
     Ok(ev.iter().map(|l| l.norm()).fold(0.0, f64::max))
 }
 
@@ -91,7 +91,7 @@ pub(crate) fn max_real_eig(m: MatRef<f64>) -> Result<f64> {
     }
     let ev = m
         .eigenvalues()
-        .map_err(|_| LtiError::Numerical("eigenvalues did not converge".into()))?;
+        .map_err(|_| RobustError::Numerical("eigenvalues did not converge".into()))?;
     Ok(ev.iter().map(|l| l.re).fold(f64::NEG_INFINITY, f64::max))
 }
 
@@ -107,7 +107,7 @@ pub(crate) fn uncontrollable_unstable_mode(a: MatRef<f64>, b: MatRef<f64>) -> Re
     let scale = a.norm_max().max(b.norm_max()).max(1.0);
     let ev = a
         .eigenvalues()
-        .map_err(|_| LtiError::Numerical("eigenvalues did not converge".into()))?;
+        .map_err(|_| RobustError::Numerical("eigenvalues did not converge".into()))?;
     for lam in ev {
         if lam.re < -1e-8 * scale {
             continue;
@@ -121,7 +121,7 @@ pub(crate) fn uncontrollable_unstable_mode(a: MatRef<f64>, b: MatRef<f64>) -> Re
         });
         let s = m
             .singular_values()
-            .map_err(|_| LtiError::Numerical("SVD did not converge".into()))?;
+            .map_err(|_| RobustError::Numerical("SVD did not converge".into()))?;
         if s[n - 1] <= 1e-9 * scale {
             return Ok(Some(lam));
         }

@@ -4,9 +4,10 @@
 //! With e = r − G·u the closed loop is z = [W1·S; W2·K·S; W3·T]·r for u = K·e, so K is a
 //! negative-feedback controller in the skyloop convention (u = C·(r − y), C = K).
 
+use crate::error::Result;
+use crate::error::RobustError;
 use crate::hinfsyn::{hinfsyn_with, HinfOptions, HinfSolution};
-use skyloop_lti::error::Result;
-use skyloop_lti::{LtiError, Mat, StateSpace};
+use skyloop_lti::{Mat, StateSpace};
 
 /// Augmented plant P = [W1, −W1·G; 0, W2; 0, W3·G; I, −G] with inputs [w; u] and outputs
 /// [z1; z2; z3; e]; a missing weight drops its output block. Weights must be proper and delay free.
@@ -18,7 +19,7 @@ pub fn augw(
 ) -> Result<StateSpace> {
     g.validate()?;
     if g.has_delay() {
-        return Err(LtiError::Unsupported(
+        return Err(RobustError::Unsupported(
             "augw needs a rational plant: replace the delays by Padé approximants first".into(),
         ));
     }
@@ -36,19 +37,19 @@ pub fn augw(
             Some(w) => {
                 w.validate()?;
                 if w.nu() != nin {
-                    return Err(LtiError::Dimension(format!(
+                    return Err(RobustError::Dimension(format!(
                         "{name} must have {nin} inputs, has {}",
                         w.nu()
                     )));
                 }
                 if w.dt != g.dt {
-                    return Err(LtiError::InvalidArgument(format!(
+                    return Err(RobustError::InvalidArgument(format!(
                         "{name} has sample time {} but the plant has {}",
                         w.dt, g.dt
                     )));
                 }
                 if w.has_delay() {
-                    return Err(LtiError::Unsupported(format!(
+                    return Err(RobustError::Unsupported(format!(
                         "{name} has a delay; weights must be rational"
                     )));
                 }
@@ -59,7 +60,7 @@ pub fn augw(
         ws.push(w);
     }
     if ws.iter().all(|w| w.ny() == 0) {
-        return Err(LtiError::InvalidArgument("augw needs at least one weight".into()));
+        return Err(RobustError::InvalidArgument("augw needs at least one weight".into()));
     }
     let (w1, w2, w3) = (ws[0], ws[1], ws[2]);
     let (ng, n1, n2, n3) = (g.nx(), w1.nx(), w2.nx(), w3.nx());
@@ -109,7 +110,7 @@ pub fn augw(
     c.get_mut(re.clone(), ..ng).copy_from(-&g.c);
     d.get_mut(re.clone(), ..ny).copy_from(Mat::<f64>::identity(ny, ny));
     d.get_mut(re, ny..).copy_from(-&g.d);
-    StateSpace::new(a, b, c, d, g.dt)
+    Ok(StateSpace::new(a, b, c, d, g.dt)?)
 }
 
 /// Mixed-sensitivity H∞ design: K minimizing ‖[W1·S; W2·K·S; W3·T]‖∞, for u = K·(r − y).

@@ -11,13 +11,14 @@
 //!   K∞ = (A + BF + γ²L⁻ᵀZCᵀ(C + DF), γ²L⁻ᵀZCᵀ, BᵀX, −Dᵀ).
 //! The returned full controller C = −W1·K∞·W2 is for negative feedback u = C·(r − y), L = P·C.
 
+use crate::error::Result;
+use crate::error::RobustError;
 use crate::linutil::{balance_states, inv, max_real_eig, spectral_radius, uncontrollable_unstable_mode};
 use faer::linalg::solvers::Solve;
 use skyloop_linalg::riccati::care;
-use skyloop_lti::error::Result;
 use skyloop_lti::interconnect::{lft_lower, series};
 use skyloop_lti::norms::hinf_norm;
-use skyloop_lti::{LtiError, Mat, StateSpace};
+use skyloop_lti::{Mat, StateSpace};
 
 /// Options of [`ncfsyn`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -60,14 +61,14 @@ pub fn ncfsyn(
     opts: &NcfOptions,
 ) -> Result<NcfSolution> {
     if !(opts.factor > 1.0) || !opts.factor.is_finite() {
-        return Err(LtiError::InvalidArgument(format!(
+        return Err(RobustError::InvalidArgument(format!(
             "factor must be a finite number > 1, got {}",
             opts.factor
         )));
     }
     p.validate()?;
     if p.dt != 0.0 {
-        return Err(LtiError::Unsupported(
+        return Err(RobustError::Unsupported(
             "ncfsyn works in continuous time; design continuous and discretize the controller".into(),
         ));
     }
@@ -99,7 +100,7 @@ pub fn ncfsyn(
     let (k_inf, gamma_min) = ncfsyn_shaped(&ps, opts.factor)?;
     let gamma = four_block_norm(&ps, &k_inf)?;
     if !(gamma <= opts.factor * gamma_min * (1.0 + 1e-3)) {
-        return Err(LtiError::Numerical(format!(
+        return Err(RobustError::Numerical(format!(
             "the central controller misses its level: 4-block norm {gamma:.6} > {:.6} (factor x gamma_min)",
             opts.factor * gamma_min
         )));
@@ -123,14 +124,14 @@ pub fn ncfsyn(
 
 fn check_weight(w: &StateSpace, n: usize, name: &str) -> Result<()> {
     if w.nu() != n || w.ny() != n {
-        return Err(LtiError::Dimension(format!(
+        return Err(RobustError::Dimension(format!(
             "{name} must be {n}x{n} to match the plant, is {}x{}",
             w.ny(),
             w.nu()
         )));
     }
     if w.dt != 0.0 {
-        return Err(LtiError::Unsupported(format!("{name} must be continuous time")));
+        return Err(RobustError::Unsupported(format!("{name} must be continuous time")));
     }
     Ok(())
 }
@@ -139,14 +140,14 @@ fn check_weight(w: &StateSpace, n: usize, name: &str) -> Result<()> {
 pub fn ncfsyn_shaped(ps: &StateSpace, factor: f64) -> Result<(StateSpace, f64)> {
     ps.validate()?;
     if ps.has_delay() {
-        return Err(LtiError::Unsupported(
+        return Err(RobustError::Unsupported(
             "the shaped plant has delays: replace them by Padé approximants".into(),
         ));
     }
     let ps = &balance_states(ps)?;
     let (n, ny, nu) = (ps.nx(), ps.ny(), ps.nu());
     if n == 0 {
-        return Err(LtiError::Unsupported("the shaped plant has no states".into()));
+        return Err(RobustError::Unsupported("the shaped plant has no states".into()));
     }
     let ct = ps.c.transpose().to_owned();
     let (a, b, c, d) = (&ps.a, &ps.b, &ps.c, &ps.d);
@@ -158,23 +159,13 @@ pub fn ncfsyn_shaped(ps: &StateSpace, factor: f64) -> Result<(StateSpace, f64)> 
     let qx = c.transpose() * &ri * c;
     let x = match care(ar.as_ref(), b.as_ref(), qx.as_ref(), s.as_ref(), None) {
         Ok(sol) => sol.x,
-        Err(e) => {
-            return Err(diagnose(
-                ps,
-                format!("control Riccati equation of the shaped plant: {e}"),
-            ))
-        }
+        Err(e) => return Err(diagnose(ps, "control Riccati equation of the shaped plant", e)),
     };
     let art = ar.transpose().to_owned();
     let qz = b * &si * b.transpose();
     let z = match care(art.as_ref(), ct.as_ref(), qz.as_ref(), r.as_ref(), None) {
         Ok(sol) => sol.x,
-        Err(e) => {
-            return Err(diagnose(
-                ps,
-                format!("filter Riccati equation of the shaped plant: {e}"),
-            ))
-        }
+        Err(e) => return Err(diagnose(ps, "filter Riccati equation of the shaped plant", e)),
     };
     let xz = &x * &z;
     let gamma_min = (1.0 + spectral_radius(xz.as_ref())?).sqrt();
@@ -189,7 +180,7 @@ pub fn ncfsyn_shaped(ps: &StateSpace, factor: f64) -> Result<(StateSpace, f64)> 
     // eigenvalues (1 − γ² + λ(XZ)) stay away from 0 for γ > γ_min; the caller verifies the loop.
     let bk = l.transpose().full_piv_lu().solve(&z * c.transpose() * g2);
     if !bk.norm_max().is_finite() {
-        return Err(LtiError::Numerical("(1 - gamma^2) I + X Z is singular".into()));
+        return Err(RobustError::Numerical("(1 - gamma^2) I + X Z is singular".into()));
     }
     let ak = a + b * &f + &bk * (c + d * &f);
     let ck = b.transpose() * &x;
@@ -198,23 +189,24 @@ pub fn ncfsyn_shaped(ps: &StateSpace, factor: f64) -> Result<(StateSpace, f64)> 
     Ok((k, gamma_min))
 }
 
-/// Explains a Riccati failure: an unstabilizable or undetectable mode when there is one.
-fn diagnose(ps: &StateSpace, fallback: String) -> LtiError {
+/// Explains a Riccati failure: an unstabilizable or undetectable mode when there is one, else the
+/// Riccati failure itself.
+fn diagnose(ps: &StateSpace, equation: &'static str, source: skyloop_linalg::LinalgError) -> RobustError {
     let at = ps.a.transpose().to_owned();
     let ct = ps.c.transpose().to_owned();
-    if let Ok(Some(l)) = uncontrollable_unstable_mode(ps.a.as_ref(), ps.b.as_ref()) {
-        return LtiError::Unsupported(format!(
-            "the shaped plant is not stabilizable: mode {:.6}{:+.6}i is not reached by its inputs",
-            l.re, l.im
-        ));
+    if let Ok(Some(mode)) = uncontrollable_unstable_mode(ps.a.as_ref(), ps.b.as_ref()) {
+        return RobustError::NotStabilizable {
+            system: "the shaped plant (A, B)",
+            mode,
+        };
     }
-    if let Ok(Some(l)) = uncontrollable_unstable_mode(at.as_ref(), ct.as_ref()) {
-        return LtiError::Unsupported(format!(
-            "the shaped plant is not detectable: mode {:.6}{:+.6}i is not seen at its outputs",
-            l.re, l.im
-        ));
+    if let Ok(Some(mode)) = uncontrollable_unstable_mode(at.as_ref(), ct.as_ref()) {
+        return RobustError::NotDetectable {
+            system: "the shaped plant (C, A)",
+            mode,
+        };
     }
-    LtiError::Numerical(fallback)
+    RobustError::Riccati { equation, source }
 }
 
 /// The 4-block system [I; K](I − Ps·K)⁻¹[I Ps] for positive feedback u = K·y, as lft(G, K) of the
@@ -222,7 +214,7 @@ fn diagnose(ps: &StateSpace, fallback: String) -> LtiError {
 pub fn four_block(ps: &StateSpace, k_pos: &StateSpace) -> Result<StateSpace> {
     let (n, ny, nu) = (ps.nx(), ps.ny(), ps.nu());
     if k_pos.ny() != nu || k_pos.nu() != ny {
-        return Err(LtiError::Dimension(format!(
+        return Err(RobustError::Dimension(format!(
             "controller must be {nu}x{ny} for a {ny}x{nu} plant, is {}x{}",
             k_pos.ny(),
             k_pos.nu()
@@ -245,7 +237,7 @@ pub fn four_block(ps: &StateSpace, k_pos: &StateSpace) -> Result<StateSpace> {
     d.get_mut(ny..ny + nu, ny + nu..)
         .copy_from(Mat::<f64>::identity(nu, nu));
     let g = StateSpace::new(ps.a.clone(), b, c, d, ps.dt)?;
-    lft_lower(&g, k_pos)
+    Ok(lft_lower(&g, k_pos)?)
 }
 
 /// ‖[I; K](I − Ps·K)⁻¹[I Ps]‖∞ for positive feedback K; +∞ when K does not stabilize Ps.

@@ -2,8 +2,9 @@
 
 use serde_json::Value;
 use skyloop_lti::json::LtiJson;
-use skyloop_lti::{LtiError, Mat, StateSpace};
+use skyloop_lti::{Mat, StateSpace};
 use skyloop_robust::hinfsyn::{hinfsyn, hinfsyn_with, HinfOptions};
+use skyloop_robust::RobustError;
 
 fn fixture(name: &str) -> Value {
     let path = format!("{}/tests/fixtures/hinf/{name}", env!("CARGO_MANIFEST_DIR"));
@@ -70,13 +71,38 @@ fn simple_plant(d12: f64, d21: f64) -> StateSpace {
 #[test]
 fn rank_deficient_d12_is_a_clear_error() {
     let e = hinfsyn(&simple_plant(0.0, 1.0), 1, 1).unwrap_err();
-    assert!(matches!(&e, LtiError::Unsupported(m) if m.contains("D12")), "{e}");
+    assert!(
+        matches!(e, RobustError::RankDeficient { matrix: "D12", sigma_min } if sigma_min.abs() < 1e-12),
+        "{e}"
+    );
+    let msg = e.to_string();
+    assert!(
+        msg.contains("D12 is rank deficient") && msg.contains("smallest singular value"),
+        "{msg}"
+    );
 }
 
 #[test]
 fn rank_deficient_d21_is_a_clear_error() {
     let e = hinfsyn(&simple_plant(1.0, 0.0), 1, 1).unwrap_err();
-    assert!(matches!(&e, LtiError::Unsupported(m) if m.contains("D21")), "{e}");
+    assert!(
+        matches!(e, RobustError::RankDeficient { matrix: "D21", sigma_min } if sigma_min.abs() < 1e-12),
+        "{e}"
+    );
+    assert!(e.to_string().contains("sensor-noise weight"), "{e}");
+}
+
+/// A nearly (not exactly) singular D12: σ_min is reported as the value it has.
+#[test]
+fn rank_deficient_d12_reports_its_sigma_min() {
+    let e = hinfsyn(&simple_plant(1e-12, 1.0), 1, 1).unwrap_err();
+    match e {
+        RobustError::RankDeficient { matrix, sigma_min } => {
+            assert_eq!(matrix, "D12");
+            assert!((sigma_min - 1e-12).abs() < 1e-15, "{sigma_min}");
+        }
+        other => panic!("expected RankDeficient, got {other}"),
+    }
 }
 
 #[test]
@@ -91,7 +117,75 @@ fn unstabilizable_plant_is_a_clear_error() {
     )
     .expect("plant");
     let e = hinfsyn(&p, 1, 1).unwrap_err();
-    assert!(e.to_string().contains("stabilizable"), "{e}");
+    match &e {
+        RobustError::NotStabilizable { system, mode } => {
+            assert_eq!(*system, "(A, B2)");
+            assert!((mode.re - 2.0).abs() < 1e-9 && mode.im.abs() < 1e-9, "{mode}");
+        }
+        other => panic!("expected NotStabilizable, got {other}"),
+    }
+    let msg = e.to_string();
+    assert!(
+        msg.contains("not stabilizable") && msg.contains("2.000000+0.000000i"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn undetectable_plant_is_a_clear_error() {
+    // Second state unstable and not seen by y (C2 is zero there); both states reached by u.
+    let p = StateSpace::from_rows(
+        &[vec![-1.0, 0.0], vec![0.0, 2.0]],
+        &[vec![1.0, 1.0], vec![1.0, 1.0]],
+        &[vec![1.0, 1.0], vec![1.0, 0.0]],
+        &[vec![0.0, 1.0], vec![1.0, 0.0]],
+        0.0,
+    )
+    .expect("plant");
+    let e = hinfsyn(&p, 1, 1).unwrap_err();
+    match &e {
+        RobustError::NotDetectable { system, mode } => {
+            assert_eq!(*system, "(C2, A)");
+            assert!((mode.re - 2.0).abs() < 1e-9 && mode.im.abs() < 1e-9, "{mode}");
+        }
+        other => panic!("expected NotDetectable, got {other}"),
+    }
+    assert!(e.to_string().contains("not detectable"), "{e}");
+}
+
+/// An upper end of the γ range is a hard bound: below the optimum the synthesis fails with
+/// `Infeasible` at that γ, and just above the optimum the returned γ never exceeds it (or the
+/// synthesis fails as infeasible), however much the controller's back-off would like to.
+#[test]
+fn gamma_upper_bound_is_hard() {
+    let f = fixture("hinfsyn_random.json");
+    let p = plant(&f["cases"][0]["plant"]);
+    let opt = hinfsyn(&p, 1, 1).expect("unbounded synthesis").gamma;
+    let below = HinfOptions {
+        gamma_range: (0.0, 0.5 * opt),
+        ..HinfOptions::default()
+    };
+    let e = hinfsyn_with(&p, 1, 1, &below).unwrap_err();
+    assert!(
+        matches!(e, RobustError::Infeasible { gamma, .. } if gamma == 0.5 * opt),
+        "{e}"
+    );
+    assert!(e.to_string().contains("gamma"), "{e}");
+    for factor in [1.0002, 1.0005, 1.002, 1.1] {
+        let bound = factor * opt / (1.0 + 1e-3);
+        let opts = HinfOptions {
+            gamma_range: (0.0, bound),
+            ..HinfOptions::default()
+        };
+        match hinfsyn_with(&p, 1, 1, &opts) {
+            Ok(sol) => {
+                assert!(sol.gamma <= bound, "gamma {} above the bound {bound}", sol.gamma);
+                assert!(sol.closed_loop_norm <= sol.gamma * (1.0 + 1e-3));
+            }
+            Err(RobustError::Infeasible { gamma, .. }) => assert!(gamma <= bound, "{gamma} > {bound}"),
+            Err(e) => panic!("factor {factor}: {e}"),
+        }
+    }
 }
 
 #[test]
@@ -101,9 +195,12 @@ fn gamma_range_without_solution_is_an_error() {
         gamma_range: (0.0, 0.5),
         ..HinfOptions::default()
     };
-    assert!(hinfsyn_with(&p, 1, 1, &opts).is_err());
-    assert!(hinfsyn(&p, 0, 1).is_err());
-    assert!(hinfsyn(&p, 2, 1).is_err());
+    assert!(matches!(
+        hinfsyn_with(&p, 1, 1, &opts),
+        Err(RobustError::Infeasible { gamma, .. }) if gamma == 0.5
+    ));
+    assert!(matches!(hinfsyn(&p, 0, 1), Err(RobustError::InvalidArgument(_))));
+    assert!(matches!(hinfsyn(&p, 2, 1), Err(RobustError::Dimension(_))));
 }
 
 /// The discrete path against the continuous one: Tustin (skyloop-lti c2d) maps closed loops onto

@@ -4,6 +4,7 @@ use serde_json::Value;
 use skyloop_lti::json::LtiJson;
 use skyloop_lti::{Mat, StateSpace};
 use skyloop_robust::ncfsyn::{four_block_norm, ncfmargin, ncfsyn, ncfsyn_shaped, NcfOptions};
+use skyloop_robust::RobustError;
 
 fn fixture(name: &str) -> Value {
     let path = format!("{}/tests/fixtures/hinf/{name}", env!("CARGO_MANIFEST_DIR"));
@@ -79,7 +80,10 @@ fn bad_factor_and_undetectable_plant_are_errors() {
         factor: 0.9,
         ..NcfOptions::default()
     };
-    assert!(ncfsyn(&p, None, None, &o).is_err());
+    assert!(matches!(
+        ncfsyn(&p, None, None, &o),
+        Err(RobustError::InvalidArgument(_))
+    ));
     let bad = StateSpace::from_rows(
         &[vec![1.0, 0.0], vec![0.0, -1.0]],
         &[vec![1.0], vec![1.0]],
@@ -89,5 +93,53 @@ fn bad_factor_and_undetectable_plant_are_errors() {
     )
     .expect("P");
     let e = ncfsyn(&bad, None, None, &NcfOptions::default()).unwrap_err();
-    assert!(e.to_string().contains("detectable"), "{e}");
+    match &e {
+        RobustError::NotDetectable { mode, .. } => {
+            assert!((mode.re - 1.0).abs() < 1e-9 && mode.im.abs() < 1e-9, "{mode}")
+        }
+        other => panic!("expected NotDetectable, got {other}"),
+    }
+    assert!(e.to_string().contains("not detectable"), "{e}");
+}
+
+#[test]
+fn unstabilizable_shaped_plant_is_an_error() {
+    // The unstable mode at 1 is not reached by the input.
+    let bad = StateSpace::from_rows(
+        &[vec![1.0, 0.0], vec![0.0, -1.0]],
+        &[vec![0.0], vec![1.0]],
+        &[vec![1.0, 1.0]],
+        &[vec![0.0]],
+        0.0,
+    )
+    .expect("P");
+    let e = ncfsyn(&bad, None, None, &NcfOptions::default()).unwrap_err();
+    assert!(
+        matches!(e, RobustError::NotStabilizable { mode, .. } if (mode.re - 1.0).abs() < 1e-9),
+        "{e}"
+    );
+    assert!(e.to_string().contains("not stabilizable"), "{e}");
+}
+
+/// Lightly damped-to-zero modes at ±i whose input and output gains (1e-8 each) pass the PBH test
+/// at its tolerance, but whose product 1e-16 leaves the Hamiltonian with eigenvalues on the
+/// imaginary axis to working precision: the CARE failure itself is reported, with linalg's cause.
+#[test]
+fn riccati_without_stabilizing_solution_is_reported() {
+    let p = StateSpace::from_rows(
+        &[vec![0.0, 1.0], vec![-1.0, 0.0]],
+        &[vec![0.0], vec![1e-8]],
+        &[vec![1e-8, 0.0]],
+        &[vec![0.0]],
+        0.0,
+    )
+    .expect("P");
+    let e = ncfsyn(&p, None, None, &NcfOptions::default()).unwrap_err();
+    match &e {
+        RobustError::Riccati { equation, source } => {
+            assert!(equation.contains("Riccati equation of the shaped plant"), "{equation}");
+            assert!(matches!(source, skyloop_linalg::LinalgError::NoSolution(_)), "{source}");
+        }
+        other => panic!("expected Riccati, got {other:?}"),
+    }
 }

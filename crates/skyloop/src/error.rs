@@ -12,6 +12,9 @@ pub enum Error {
     /// Models and classical analysis.
     #[error(transparent)]
     Lti(#[from] skyloop_lti::LtiError),
+    /// Robust synthesis and analysis (H∞, loop shaping, μ): infeasible γ, unstabilizable modes, ...
+    #[error(transparent)]
+    Robust(#[from] skyloop_robust::RobustError),
     /// System identification and log reading.
     #[error(transparent)]
     Sysid(#[from] skyloop_sysid::SysidError),

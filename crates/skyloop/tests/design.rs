@@ -12,8 +12,8 @@ const BICOPTER: &str = include_str!("../../../examples/bicopter.toml");
 /// The paper's reduced controller, eq. (12).
 const EQ12: &str = "24.02*(s+54.01)*(s+0.2474)*(s^2+139.3*s+26240)/(s*(s^2+24.14*s+8544)*(s^2+232.4*s+70410))";
 
-fn spec(text: &str) -> skyloop_lti::error::Result<DesignSpec> {
-    DesignSpec::from_toml_str(text, Path::new("."))
+fn spec(text: &str) -> skyloop::Result<DesignSpec> {
+    Ok(DesignSpec::from_toml_str(text, Path::new("."))?)
 }
 
 #[test]

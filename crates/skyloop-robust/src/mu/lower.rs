@@ -14,10 +14,10 @@
 //! a real destabilizing δ). This gives a valid but often weak bound (mixed μ lower bounds are
 //! discontinuous; Young & Doyle's mixed power iteration is not implemented).
 
+use crate::error::Result;
+use crate::error::RobustError;
 use crate::uncertainty::blocks::{BlockKind, BlockStructure};
 use faer::{c64, Mat, MatRef};
-use skyloop_lti::error::Result;
-use skyloop_lti::LtiError;
 
 /// A lower bound with the perturbation that proves it.
 #[derive(Debug, Clone)]
@@ -178,7 +178,7 @@ fn power_iteration(
 /// Eigenvalues of a square complex matrix.
 fn eigenvalues(x: MatRef<c64>) -> Result<Vec<c64>> {
     x.eigenvalues()
-        .map_err(|e| LtiError::Numerical(format!("eigenvalues in the mu lower bound failed: {e:?}")))
+        .map_err(|e| RobustError::Numerical(format!("eigenvalues in the mu lower bound failed: {e:?}")))
 }
 
 /// The block-diagonal Q (Δ-shaped: M cols × M rows) aligned with the vectors a (M-row space) and
@@ -375,7 +375,7 @@ pub fn lower_bound_vectors(
     let mut best_start = (Vec::new(), Vec::new());
     for (b0, w0) in starts {
         if b0.len() != m.ncols() || w0.len() != m.ncols() {
-            return Err(LtiError::Dimension(format!(
+            return Err(RobustError::Dimension(format!(
                 "power-iteration start vectors must have length {}",
                 m.ncols()
             )));

@@ -16,11 +16,11 @@
 use super::bfgs::{bfgs_update, descent, identity, scale};
 use super::hermitian::{top_eigen, Workspace};
 use super::upper::DScales;
+use crate::error::Result;
+use crate::error::RobustError;
 use crate::uncertainty::blocks::{BlockKind, BlockStructure};
 use faer::linalg::solvers::DenseSolveCore;
 use faer::{c64, Mat, MatRef, Side};
-use skyloop_lti::error::Result;
-use skyloop_lti::LtiError;
 
 /// A certified mixed-μ upper bound with the scalings that prove it.
 #[derive(Debug, Clone)]
@@ -79,7 +79,7 @@ fn expm_hermitian(e: &Mat<c64>) -> Result<Mat<c64>> {
     }
     let evd = e
         .self_adjoint_eigen(Side::Lower)
-        .map_err(|err| LtiError::Numerical(format!("eigen-decomposition of a D-scale generator failed: {err:?}")))?;
+        .map_err(|err| RobustError::Numerical(format!("eigen-decomposition of a D-scale generator failed: {err:?}")))?;
     let lam: Vec<f64> = (0..r).map(|k| evd.S().column_vector()[k].re).collect();
     let u = evd.U();
     Ok(Mat::from_fn(r, r, |p, q| {
@@ -136,7 +136,7 @@ fn h_matrix(b: MatRef<c64>, s: &BlockStructure, g: &[Mat<c64>]) -> Mat<c64> {
 fn eigen(h: &Mat<c64>) -> Result<(Vec<f64>, Mat<c64>)> {
     let evd = h
         .self_adjoint_eigen(Side::Lower)
-        .map_err(|e| LtiError::Numerical(format!("eigen-decomposition in the mixed mu bound failed: {e:?}")))?;
+        .map_err(|e| RobustError::Numerical(format!("eigen-decomposition in the mixed mu bound failed: {e:?}")))?;
     let n = h.nrows();
     let lam = (0..n).map(|i| evd.S().column_vector()[i].re).collect();
     Ok((lam, evd.U().to_owned()))
@@ -164,7 +164,7 @@ fn evaluate(b: MatRef<c64>, s: &BlockStructure, g: &[Mat<c64>], t: f64, ws: &mut
     };
     let top = lam.last().copied().unwrap_or(f64::NAN);
     if !top.is_finite() {
-        return Err(LtiError::Numerical(
+        return Err(RobustError::Numerical(
             "non-finite eigenvalue in the mixed mu bound".into(),
         ));
     }
@@ -321,12 +321,12 @@ pub fn mixed_upper_bound(
             dj.nrows() == r && dj.ncols() == r
         });
     if !fits {
-        return Err(LtiError::InvalidArgument(
+        return Err(RobustError::InvalidArgument(
             "the D-scales do not fit the block structure and M".into(),
         ));
     }
     if (0..m.ncols()).any(|j| (0..m.nrows()).any(|i| !(m[(i, j)].re.is_finite() && m[(i, j)].im.is_finite()))) {
-        return Err(LtiError::InvalidArgument("M has a non-finite entry".into()));
+        return Err(RobustError::InvalidArgument("M has a non-finite entry".into()));
     }
     if !(s.has_real() && complex.is_finite() && complex > 0.0) {
         return Ok(None);

@@ -17,10 +17,10 @@ pub use sweep::{
 };
 pub use upper::{osborne, upper_bound, upper_bound_from, DScales, UpperBound, UpperOptions};
 
+use crate::error::Result;
 use crate::uncertainty::blocks::BlockStructure;
 use faer::{c64, Mat, MatRef};
 use rand::{Rng, SeedableRng};
-use skyloop_lti::error::Result;
 
 /// Accuracy and effort settings for μ bounds.
 #[derive(Debug, Clone, Copy)]

@@ -2,10 +2,10 @@
 //! points, the robust stability margin and robust performance (main loop theorem).
 
 use super::{mu_from, mu_with, MuBounds, MuOptions};
+use crate::error::Result;
+use crate::error::RobustError;
 use crate::uncertainty::blocks::BlockStructure;
 use faer::{c64, Mat};
-use skyloop_lti::error::Result;
-use skyloop_lti::LtiError;
 
 /// The worst frequency of a sweep.
 #[derive(Debug, Clone)]
@@ -51,40 +51,45 @@ pub fn mu_sweep(responses: &[Mat<c64>], s: &BlockStructure, opts: &MuOptions) ->
 
 /// μ bounds of M(jω) on the grid `w_rad_s` (positive, increasing), then a golden-section refinement
 /// of the upper-bound peak between the neighbours of the worst grid point. `eval` returns M(jω).
-pub fn mu_frequency<F>(eval: F, w_rad_s: &[f64], s: &BlockStructure, opts: &MuOptions) -> Result<MuSweep>
+pub fn mu_frequency<F, E>(eval: F, w_rad_s: &[f64], s: &BlockStructure, opts: &MuOptions) -> Result<MuSweep>
 where
-    F: Fn(f64) -> Result<Mat<c64>>,
+    F: Fn(f64) -> std::result::Result<Mat<c64>, E>,
+    RobustError: From<E>,
 {
     Ok(mu_frequency_bounds(eval, w_rad_s, s, opts)?.0)
 }
 
 /// As [`mu_frequency`], also returning the bounds (with their D-scales and perturbations) at each
 /// grid frequency, which the D-step of μ-synthesis fits.
-pub fn mu_frequency_bounds<F>(
+pub fn mu_frequency_bounds<F, E>(
     eval: F,
     w_rad_s: &[f64],
     s: &BlockStructure,
     opts: &MuOptions,
 ) -> Result<(MuSweep, Vec<MuBounds>)>
 where
-    F: Fn(f64) -> Result<Mat<c64>>,
+    F: Fn(f64) -> std::result::Result<Mat<c64>, E>,
+    RobustError: From<E>,
 {
     if w_rad_s.is_empty() {
-        return Err(LtiError::InvalidArgument("the frequency grid is empty".into()));
+        return Err(RobustError::InvalidArgument("the frequency grid is empty".into()));
     }
     for (k, &w) in w_rad_s.iter().enumerate() {
         if !(w.is_finite() && w >= 0.0) {
-            return Err(LtiError::InvalidArgument(format!(
+            return Err(RobustError::InvalidArgument(format!(
                 "frequency {w} is not finite and >= 0"
             )));
         }
         if k > 0 && w <= w_rad_s[k - 1] {
-            return Err(LtiError::InvalidArgument(
+            return Err(RobustError::InvalidArgument(
                 "frequencies must be strictly increasing".into(),
             ));
         }
     }
-    let ms = w_rad_s.iter().map(|&w| eval(w)).collect::<Result<Vec<_>>>()?;
+    let ms = w_rad_s
+        .iter()
+        .map(|&w| eval(w))
+        .collect::<std::result::Result<Vec<_>, E>>()?;
     let bounds = mu_sweep(&ms, s, opts)?;
     let upper: Vec<f64> = bounds.iter().map(|b| b.upper).collect();
     let lower: Vec<f64> = bounds.iter().map(|b| b.lower).collect();
@@ -121,7 +126,7 @@ fn argmax(v: &[f64]) -> usize {
 }
 
 /// Golden-section search of the upper bound on [lo, hi] (in log frequency when lo > 0).
-fn refine_peak<F>(
+fn refine_peak<F, E>(
     eval: &F,
     lo: f64,
     hi: f64,
@@ -131,7 +136,8 @@ fn refine_peak<F>(
     peak: &mut MuPeak,
 ) -> Result<()>
 where
-    F: Fn(f64) -> Result<Mat<c64>>,
+    F: Fn(f64) -> std::result::Result<Mat<c64>, E>,
+    RobustError: From<E>,
 {
     let log = lo > 0.0;
     let (to, from) = (
@@ -208,7 +214,7 @@ pub fn robust_stability(sweep: &MuSweep) -> StabilityMargin {
 /// performance channels last (`n_perf_out` outputs z, `n_perf_in` inputs w); the structure is
 /// augmented with a full `n_perf_in × n_perf_out` block Δ_P, and robust performance (‖F_u(N,Δ)‖∞ < 1
 /// for all σ̄(Δ) ≤ 1) holds iff the returned μ stays below 1 (given nominal stability).
-pub fn robust_performance<F>(
+pub fn robust_performance<F, E>(
     eval: F,
     w_rad_s: &[f64],
     s: &BlockStructure,
@@ -217,7 +223,8 @@ pub fn robust_performance<F>(
     opts: &MuOptions,
 ) -> Result<MuSweep>
 where
-    F: Fn(f64) -> Result<Mat<c64>>,
+    F: Fn(f64) -> std::result::Result<Mat<c64>, E>,
+    RobustError: From<E>,
 {
     let aug = s.with_full_block(n_perf_in, n_perf_out)?;
     mu_frequency(eval, w_rad_s, &aug, opts)

@@ -13,11 +13,11 @@
 
 use super::bfgs::{bfgs_update, descent, identity, scale};
 use super::hermitian::{top_eigen, Workspace};
+use crate::error::Result;
+use crate::error::RobustError;
 use crate::uncertainty::blocks::{BlockKind, BlockStructure};
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat, MatRef, Side};
-use skyloop_lti::error::Result;
-use skyloop_lti::LtiError;
 
 /// D-scales for one block structure: D_L acts on M's rows, D_R on M's columns.
 #[derive(Debug, Clone, PartialEq)]
@@ -257,7 +257,7 @@ fn spectrum(b: MatRef<c64>, t: f64, ws: &mut Workspace) -> Result<Spectrum> {
     // The tridiagonal QR did not converge: the dense solver decides.
     let evd = gram
         .self_adjoint_eigen(Side::Lower)
-        .map_err(|e| LtiError::Numerical(format!("eigen-decomposition in the mu upper bound failed: {e:?}")))?;
+        .map_err(|e| RobustError::Numerical(format!("eigen-decomposition in the mu upper bound failed: {e:?}")))?;
     let n = gram.nrows();
     let lam: Vec<f64> = (0..n).map(|i| evd.S().column_vector()[i].re.max(0.0)).collect();
     let vecs = Mat::from_fn(n, n, |p, c| evd.U()[(p, n - 1 - c)]);
@@ -280,7 +280,7 @@ fn surrogate(b: MatRef<c64>, s: &BlockStructure, t: f64, sp: &Spectrum) -> Resul
     let sigma_max = top.sqrt();
     let np: usize = s.blocks().iter().map(n_params).sum();
     if !sigma_max.is_finite() {
-        return Err(LtiError::Numerical(
+        return Err(RobustError::Numerical(
             "non-finite singular value in the mu upper bound".into(),
         ));
     }
@@ -401,7 +401,7 @@ fn block_exponentials(s: &BlockStructure, theta: &[f64]) -> Result<Vec<Mat<c64>>
                         Some(te) => (te.lam.iter().rev().copied().collect::<Vec<f64>>(), te.vecs),
                         None => {
                             let evd = e.self_adjoint_eigen(Side::Lower).map_err(|err| {
-                                LtiError::Numerical(format!(
+                                RobustError::Numerical(format!(
                                     "eigen-decomposition of a D-scale generator failed: {err:?}"
                                 ))
                             })?;
@@ -480,7 +480,7 @@ pub fn upper_bound_from(
     for j in 0..m.ncols() {
         for i in 0..m.nrows() {
             if !(m[(i, j)].re.is_finite() && m[(i, j)].im.is_finite()) {
-                return Err(LtiError::InvalidArgument(format!("M[{i},{j}] is not finite")));
+                return Err(RobustError::InvalidArgument(format!("M[{i},{j}] is not finite")));
             }
         }
     }

@@ -10,14 +10,15 @@
 //! second-order sections with ω, ζ > 0 (stable and minimum phase by construction); the gain is the
 //! log-magnitude least-squares optimum. Frequencies are normalized by their geometric mean.
 
+use crate::error::Result;
+use crate::error::RobustError;
 use faer::linalg::solvers::SolveLstsq;
 use faer::{c64, Mat};
 use skyloop_linalg::lm::{self, LmOptions};
 use skyloop_linalg::LinalgError;
-use skyloop_lti::error::Result;
 use skyloop_lti::poly::Poly;
 use skyloop_lti::tf::TransferFunction;
-use skyloop_lti::{LtiError, StateSpace};
+use skyloop_lti::StateSpace;
 
 /// A fitted scaling d(s) = gain·Π(s − zᵢ)/Π(s − pᵢ).
 #[derive(Debug, Clone)]
@@ -48,20 +49,20 @@ impl DFit {
 pub fn fit_magnitude(w_rad_s: &[f64], mag: &[f64], order: usize) -> Result<DFit> {
     let n = w_rad_s.len();
     if mag.len() != n {
-        return Err(LtiError::Dimension(format!(
+        return Err(RobustError::Dimension(format!(
             "{n} frequencies but {} magnitudes",
             mag.len()
         )));
     }
     if n < 2 * order + 1 {
-        return Err(LtiError::InvalidArgument(format!(
+        return Err(RobustError::InvalidArgument(format!(
             "a fit of order {order} needs at least {} frequencies, got {n}",
             2 * order + 1
         )));
     }
     for k in 0..n {
         if !(w_rad_s[k].is_finite() && w_rad_s[k] > 0.0 && mag[k].is_finite() && mag[k] > 0.0) {
-            return Err(LtiError::InvalidArgument(format!(
+            return Err(RobustError::InvalidArgument(format!(
                 "D-scale data point {k} (w = {}, mag = {}) must be finite and > 0",
                 w_rad_s[k], mag[k]
             )));
@@ -121,7 +122,7 @@ pub fn fit_magnitude(w_rad_s: &[f64], mag: &[f64], order: usize) -> Result<DFit>
             }
         }
         if p.iter().chain(&q).any(|v| !v.is_finite()) {
-            return Err(LtiError::Numerical("the D-scale fit diverged".into()));
+            return Err(RobustError::Numerical("the D-scale fit diverged".into()));
         }
         for k in 0..n {
             // Q must stay positive on the data; a sign change means a poor fit, keep the weight sane.

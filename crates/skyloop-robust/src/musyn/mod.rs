@@ -29,13 +29,14 @@ pub mod scale;
 pub use dfit::{fit_magnitude, DFit};
 pub use scale::{fit_scaling, scaled_plant, Scalings};
 
+use crate::error::Result;
+use crate::error::RobustError;
 use crate::hinfsyn::{hinfsyn_with, HinfOptions};
 use crate::mu::{mu_frequency_bounds, MuBounds, MuOptions};
 use crate::uncertainty::blocks::{BlockKind, BlockStructure};
 use faer::c64;
-use skyloop_lti::error::Result;
 use skyloop_lti::freqresp::FreqEvaluator;
-use skyloop_lti::{LtiError, StateSpace};
+use skyloop_lti::StateSpace;
 
 /// Settings of the DK-iteration.
 #[derive(Debug, Clone)]
@@ -127,12 +128,12 @@ struct Layout {
 fn layout(p: &StateSpace, blocks: &BlockStructure, nmeas: usize, ncon: usize) -> Result<Layout> {
     let (nzd, nwd) = (blocks.m_rows(), blocks.m_cols());
     if nmeas == 0 || ncon == 0 {
-        return Err(LtiError::InvalidArgument(format!(
+        return Err(RobustError::InvalidArgument(format!(
             "musyn needs at least one measurement and one control (nmeas = {nmeas}, ncon = {ncon})"
         )));
     }
     if p.ny() < nzd + nmeas || p.nu() < nwd + ncon {
-        return Err(LtiError::Dimension(format!(
+        return Err(RobustError::Dimension(format!(
             "the plant is {}x{} but the uncertainty needs {nzd} outputs and {nwd} inputs besides \
              {nmeas} measurements and {ncon} controls",
             p.ny(),
@@ -141,7 +142,7 @@ fn layout(p: &StateSpace, blocks: &BlockStructure, nmeas: usize, ncon: usize) ->
     }
     let (nz, nw) = (p.ny() - nzd - nmeas, p.nu() - nwd - ncon);
     if (nz == 0) != (nw == 0) {
-        return Err(LtiError::Dimension(format!(
+        return Err(RobustError::Dimension(format!(
             "{nw} exogenous inputs but {nz} performance outputs: either both or neither must be present"
         )));
     }
@@ -176,23 +177,23 @@ fn auto_grid(p: &StateSpace) -> Result<Vec<f64>> {
 
 fn check_options(o: &MusynOptions) -> Result<()> {
     if o.max_iter == 0 {
-        return Err(LtiError::InvalidArgument("max_iter must be at least 1".into()));
+        return Err(RobustError::InvalidArgument("max_iter must be at least 1".into()));
     }
     if !(o.tol.is_finite() && o.tol >= 0.0) {
-        return Err(LtiError::InvalidArgument(format!(
+        return Err(RobustError::InvalidArgument(format!(
             "tol must be finite and >= 0, got {}",
             o.tol
         )));
     }
     for (k, &w) in o.w_rad_s.iter().enumerate() {
         if !(w.is_finite() && w > 0.0) || (k > 0 && w <= o.w_rad_s[k - 1]) {
-            return Err(LtiError::InvalidArgument(
+            return Err(RobustError::InvalidArgument(
                 "the frequency grid must be positive, finite and strictly increasing".into(),
             ));
         }
     }
     if !o.w_rad_s.is_empty() && o.w_rad_s.len() < 2 * o.d_order + 1 {
-        return Err(LtiError::InvalidArgument(format!(
+        return Err(RobustError::InvalidArgument(format!(
             "a D-fit of order {} needs at least {} frequencies, got {}",
             o.d_order,
             2 * o.d_order + 1,
@@ -217,7 +218,7 @@ fn analyse(p: &StateSpace, k: &StateSpace, lay: &Layout, w: &[f64], o: &MuOption
     let cl = crate::linutil::balance_states(&cl)?;
     let growth = crate::linutil::max_real_eig(cl.a.as_ref())?;
     if growth >= 0.0 {
-        return Err(LtiError::Numerical(format!(
+        return Err(RobustError::Numerical(format!(
             "the controller does not stabilize the plant (closed-loop pole with real part {growth:.3e})"
         )));
     }
@@ -291,6 +292,7 @@ fn maybe_reduce(p: &StateSpace, k: StateSpace, order: Option<usize>) -> StateSpa
         return k;
     };
     let stable = skyloop_lti::interconnect::lft_lower(p, &r.sys)
+        .map_err(RobustError::from)
         .and_then(|cl| crate::linutil::balance_states(&cl))
         .and_then(|cl| crate::linutil::max_real_eig(cl.a.as_ref()))
         .is_ok_and(|g| g < 0.0);
@@ -311,7 +313,7 @@ pub fn musyn(
 ) -> Result<MusynSolution> {
     p.validate()?;
     if p.dt != 0.0 || p.has_delay() {
-        return Err(LtiError::Unsupported(
+        return Err(RobustError::Unsupported(
             "musyn needs a continuous-time rational plant (discretize afterwards; Padé for delays)".into(),
         ));
     }
@@ -384,7 +386,7 @@ pub fn musyn(
         let sc = scale::expand(&lay.full, &ds)?;
         pd = scaled_plant(p, &sc, nmeas, ncon)?;
     }
-    let (bi, controller) = best.ok_or_else(|| LtiError::Numerical("no DK-iteration succeeded".into()))?;
+    let (bi, controller) = best.ok_or_else(|| RobustError::Numerical("no DK-iteration succeeded".into()))?;
     Ok(MusynSolution {
         controller,
         mu_peak: iterations[bi].mu_peak,

@@ -2,13 +2,14 @@
 //! and the scaled plant diag(D_L, I)·P·diag(D_R⁻¹, I) of the K-step.
 
 use super::dfit::{fit_magnitude, DFit};
+use crate::error::Result;
+use crate::error::RobustError;
 use crate::uncertainty::blocks::{BlockKind, BlockStructure};
 use faer::{c64, Mat};
-use skyloop_lti::error::Result;
 use skyloop_lti::interconnect::{append, series};
 use skyloop_lti::poly::Poly;
 use skyloop_lti::tf::TransferFunction;
-use skyloop_lti::{LtiError, StateSpace};
+use skyloop_lti::StateSpace;
 
 /// Fits |d(jω)| = `mag` by a stable, minimum-phase, biproper d(s) of order ≤ `order` (lower orders
 /// are tried when a fit fails). Missing zeros or poles of the fit are placed at −100·max(ω), where
@@ -21,7 +22,7 @@ pub fn fit_scaling(w_rad_s: &[f64], mag: &[f64], order: usize) -> Result<StateSp
             Err(e) => last = Some(e),
         }
     }
-    Err(last.unwrap_or_else(|| LtiError::InvalidArgument("no D-scale data to fit".into())))
+    Err(last.unwrap_or_else(|| RobustError::InvalidArgument("no D-scale data to fit".into())))
 }
 
 fn biproper(f: &DFit, w_rad_s: &[f64]) -> Result<StateSpace> {
@@ -38,14 +39,14 @@ fn biproper(f: &DFit, w_rad_s: &[f64]) -> Result<StateSpace> {
     }
     let num = Poly::from_roots(&zeros).scale(gain);
     let den = Poly::from_roots(&poles);
-    skyloop_lti::convert::tf_to_ss(&TransferFunction::siso(num, den, 0.0)?)
+    Ok(skyloop_lti::convert::tf_to_ss(&TransferFunction::siso(num, den, 0.0)?)?)
 }
 
 /// The inverse of a square biproper system (D invertible): (A − B D⁻¹ C, B D⁻¹, −D⁻¹ C, D⁻¹).
 pub fn inverse(d: &StateSpace) -> Result<StateSpace> {
     use faer::linalg::solvers::Solve;
     if d.ny() != d.nu() {
-        return Err(LtiError::Dimension(format!(
+        return Err(RobustError::Dimension(format!(
             "only square systems can be inverted, got {}x{}",
             d.ny(),
             d.nu()
@@ -59,14 +60,14 @@ pub fn inverse(d: &StateSpace) -> Result<StateSpace> {
         .flat_map(|i| (0..n).map(move |j| (i, j)))
         .fold(0.0_f64, |m, (i, j)| m.max(check[(i, j)].abs()));
     if err.is_nan() || err >= 1e-8 {
-        return Err(LtiError::Numerical(
+        return Err(RobustError::Numerical(
             "the scaling's feedthrough is singular: it has no proper inverse".into(),
         ));
     }
     let b_dinv = &d.b * &dinv;
     let a = &d.a - &b_dinv * &d.c;
     let c = -(&dinv * &d.c);
-    StateSpace::new(a, b_dinv, c, dinv, d.dt)
+    Ok(StateSpace::new(a, b_dinv, c, dinv, d.dt)?)
 }
 
 /// Per-channel scalings of one structure: `left[k]` scales M's row k (z), `right[k]` M's column
@@ -96,14 +97,14 @@ pub fn expand(s: &BlockStructure, per_channel: &[StateSpace]) -> Result<Scalings
     let counts = block_channels(s);
     let total: usize = counts.iter().sum();
     if per_channel.len() != total {
-        return Err(LtiError::Dimension(format!(
+        return Err(RobustError::Dimension(format!(
             "the structure has {total} scaling channels, got {} scalings",
             per_channel.len()
         )));
     }
     for (k, d) in per_channel.iter().enumerate() {
         if d.ny() != 1 || d.nu() != 1 || d.dt != 0.0 || d.has_delay() {
-            return Err(LtiError::InvalidArgument(format!(
+            return Err(RobustError::InvalidArgument(format!(
                 "scaling {k} must be a continuous-time SISO system without delay"
             )));
         }
@@ -143,7 +144,7 @@ fn diagonal(parts: &[StateSpace], extra: usize) -> Result<StateSpace> {
 /// performance block). Every scaling must be stable, minimum phase and biproper.
 pub fn scaled_plant(p: &StateSpace, sc: &Scalings, nmeas: usize, ncon: usize) -> Result<StateSpace> {
     if sc.left.len() + nmeas != p.ny() || sc.right.len() + ncon != p.nu() {
-        return Err(LtiError::Dimension(format!(
+        return Err(RobustError::Dimension(format!(
             "scalings for {} outputs and {} inputs (+ {nmeas} measurements, {ncon} controls) do not fit a {}x{} plant",
             sc.left.len(),
             sc.right.len(),
@@ -154,7 +155,7 @@ pub fn scaled_plant(p: &StateSpace, sc: &Scalings, nmeas: usize, ncon: usize) ->
     let rinv = sc.right.iter().map(inverse).collect::<Result<Vec<_>>>()?;
     let dl = diagonal(&sc.left, nmeas)?;
     let dr = diagonal(&rinv, ncon)?;
-    series(&series(&dr, p)?, &dl)
+    Ok(series(&series(&dr, p)?, &dl)?)
 }
 
 #[cfg(test)]

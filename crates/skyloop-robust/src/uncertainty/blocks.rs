@@ -3,8 +3,8 @@
 //! Conventions follow MATLAB's `mussv`: block j of Δ is `rows × cols`, and the matrix M analysed
 //! against Δ (singularity of I − MΔ) has Σ cols rows and Σ rows columns.
 
-use skyloop_lti::error::Result;
-use skyloop_lti::LtiError;
+use crate::error::Result;
+use crate::error::RobustError;
 
 /// What kind of uncertainty one block of Δ is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -67,7 +67,7 @@ impl BlockStructure {
     /// Builds a structure; every block must have positive dimensions and there must be at least one.
     pub fn new(blocks: Vec<BlockKind>) -> Result<Self> {
         if blocks.is_empty() {
-            return Err(LtiError::InvalidArgument(
+            return Err(RobustError::InvalidArgument(
                 "a block structure needs at least one block".into(),
             ));
         }
@@ -75,7 +75,9 @@ impl BlockStructure {
         let (mut r, mut c) = (0, 0);
         for b in &blocks {
             if b.rows() == 0 || b.cols() == 0 {
-                return Err(LtiError::InvalidArgument(format!("block {b:?} has a zero dimension")));
+                return Err(RobustError::InvalidArgument(format!(
+                    "block {b:?} has a zero dimension"
+                )));
             }
             row_off.push(r);
             col_off.push(c);
@@ -97,7 +99,7 @@ impl BlockStructure {
         for (k, raw) in spec.split(',').enumerate() {
             let t = raw.trim().to_ascii_lowercase();
             let bad = || {
-                LtiError::InvalidArgument(format!(
+                RobustError::InvalidArgument(format!(
                     "block {} '{}' is not one of fMxN, cMxN, cNr, rN (N, M positive integers)",
                     k + 1,
                     raw.trim()
@@ -174,7 +176,7 @@ impl BlockStructure {
     /// Checks that an `nr × nc` matrix M fits this structure.
     pub fn check_matrix(&self, nr: usize, nc: usize) -> Result<()> {
         if nr != self.m_rows() || nc != self.m_cols() {
-            return Err(LtiError::Dimension(format!(
+            return Err(RobustError::Dimension(format!(
                 "the block structure needs M of size {}x{}, got {nr}x{nc}",
                 self.m_rows(),
                 self.m_cols()

@@ -2,9 +2,10 @@
 //! a δ or Δ of unit size so that an uncertain system is an LFT of a nominal model and blkdiag(Δ).
 
 use super::blocks::BlockKind;
+use crate::error::Result;
+use crate::error::RobustError;
 use faer::c64;
-use skyloop_lti::error::Result;
-use skyloop_lti::{LtiError, StateSpace};
+use skyloop_lti::StateSpace;
 
 /// An uncertain real parameter p ∈ [lower, upper] with nominal value p(δ = 0) = nominal.
 #[derive(Debug, Clone, PartialEq)]
@@ -23,12 +24,12 @@ impl UReal {
     /// p ∈ [lower, upper] around `nominal` (lower ≤ nominal ≤ upper, lower < upper).
     pub fn range(name: &str, nominal: f64, lower: f64, upper: f64) -> Result<Self> {
         if !(nominal.is_finite() && lower.is_finite() && upper.is_finite()) {
-            return Err(LtiError::InvalidArgument(format!(
+            return Err(RobustError::InvalidArgument(format!(
                 "ureal {name}: values must be finite"
             )));
         }
         if !(lower <= nominal && nominal <= upper && lower < upper) {
-            return Err(LtiError::InvalidArgument(format!(
+            return Err(RobustError::InvalidArgument(format!(
                 "ureal {name}: need lower <= nominal <= upper and lower < upper, got {lower}, {nominal}, {upper}"
             )));
         }
@@ -43,7 +44,7 @@ impl UReal {
     /// p = nominal·(1 ± percent/100); `percent` > 0.
     pub fn percent(name: &str, nominal: f64, percent: f64) -> Result<Self> {
         if !(percent.is_finite() && percent > 0.0) || nominal == 0.0 {
-            return Err(LtiError::InvalidArgument(format!(
+            return Err(RobustError::InvalidArgument(format!(
                 "ureal {name}: percentage uncertainty needs percent > 0 and a non-zero nominal"
             )));
         }
@@ -94,7 +95,7 @@ impl UComplex {
     /// A disc of radius `radius` > 0 around `nominal`.
     pub fn new(name: &str, nominal: c64, radius: f64) -> Result<Self> {
         if !(radius.is_finite() && radius > 0.0 && nominal.re.is_finite() && nominal.im.is_finite()) {
-            return Err(LtiError::InvalidArgument(format!(
+            return Err(RobustError::InvalidArgument(format!(
                 "ucomplex {name}: need a finite nominal and radius > 0"
             )));
         }
@@ -132,14 +133,14 @@ impl ULtiDyn {
     /// A `rows × cols` dynamic uncertainty with an optional SISO weight.
     pub fn new(name: &str, rows: usize, cols: usize, weight: Option<StateSpace>) -> Result<Self> {
         if rows == 0 || cols == 0 {
-            return Err(LtiError::InvalidArgument(format!(
+            return Err(RobustError::InvalidArgument(format!(
                 "ultidyn {name}: dimensions must be positive"
             )));
         }
         if let Some(w) = &weight {
             w.validate()?;
             if w.ny() != 1 || w.nu() != 1 {
-                return Err(LtiError::Dimension(format!(
+                return Err(RobustError::Dimension(format!(
                     "ultidyn {name}: the weight must be SISO, got {}x{}",
                     w.ny(),
                     w.nu()

@@ -2,9 +2,9 @@
 //! real stable dynamic blocks with ‖Δ‖∞ ≤ 1.
 
 use super::blocks::{BlockKind, BlockStructure};
+use crate::error::Result;
 use faer::{c64, Mat};
 use rand::Rng;
-use skyloop_lti::error::Result;
 use skyloop_lti::StateSpace;
 
 /// A random constant Δ (M cols × M rows) in the structure's unit ball: complex scalars uniform
@@ -78,7 +78,7 @@ pub fn sample_ltidyn<R: Rng>(
     on_boundary: bool,
 ) -> Result<StateSpace> {
     if !(w_min_rad_s > 0.0 && w_max_rad_s >= w_min_rad_s && w_max_rad_s.is_finite()) || rows == 0 || cols == 0 {
-        return Err(skyloop_lti::LtiError::InvalidArgument(
+        return Err(crate::error::RobustError::InvalidArgument(
             "sample_ltidyn: need positive dimensions and 0 < w_min <= w_max < inf".into(),
         ));
     }
@@ -89,13 +89,13 @@ pub fn sample_ltidyn<R: Rng>(
     let scale = if smax > 0.0 { r / smax } else { 0.0 };
     let d0 = Mat::<f64>::from_fn(rows, cols, |i, j| g[(i, j)] * scale);
     // (a − s)/(a + s) = −1 + 2a/(s + a) on each input channel.
-    StateSpace::new(
+    Ok(StateSpace::new(
         Mat::from_fn(cols, cols, |i, j| if i == j { -a } else { 0.0 }),
         Mat::from_fn(cols, cols, |i, j| if i == j { 1.0 } else { 0.0 }),
         Mat::from_fn(rows, cols, |i, j| 2.0 * a * d0[(i, j)]),
         Mat::from_fn(rows, cols, |i, j| -d0[(i, j)]),
         0.0,
-    )
+    )?)
 }
 
 #[cfg(test)]

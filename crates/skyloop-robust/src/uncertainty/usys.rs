@@ -5,11 +5,12 @@
 
 use super::blocks::{BlockKind, BlockStructure};
 use super::sample::sample_ltidyn;
+use crate::error::Result;
+use crate::error::RobustError;
 use faer::Mat;
 use rand::Rng;
-use skyloop_lti::error::Result;
 use skyloop_lti::interconnect::{append, lft_upper};
-use skyloop_lti::{LtiError, StateSpace};
+use skyloop_lti::StateSpace;
 
 /// A nominal interconnection M and the structure of Δ closing its upper channels.
 #[derive(Debug, Clone, PartialEq)]
@@ -27,7 +28,7 @@ impl UncertainSystem {
     pub fn new(m: StateSpace, blocks: BlockStructure, names: Vec<String>) -> Result<Self> {
         m.validate()?;
         if m.ny() < blocks.m_rows() || m.nu() < blocks.m_cols() {
-            return Err(LtiError::Dimension(format!(
+            return Err(RobustError::Dimension(format!(
                 "the LFT system has {} outputs and {} inputs, fewer than the {} and {} uncertainty channels",
                 m.ny(),
                 m.nu(),
@@ -36,7 +37,7 @@ impl UncertainSystem {
             )));
         }
         if names.len() != blocks.len() {
-            return Err(LtiError::Dimension(format!(
+            return Err(RobustError::Dimension(format!(
                 "{} names for {} uncertainty blocks",
                 names.len(),
                 blocks.len()
@@ -64,7 +65,7 @@ impl UncertainSystem {
         on_boundary: bool,
     ) -> Result<StateSpace> {
         let delta = self.sample_delta_system(rng, w_min_rad_s, w_max_rad_s, on_boundary)?;
-        lft_upper(&self.m, &delta)
+        Ok(lft_upper(&self.m, &delta)?)
     }
 
     /// The random real Δ system that [`UncertainSystem::sample`] closes the upper channels with.
@@ -110,9 +111,9 @@ impl UncertainSystem {
                 Some(d) => append(&d, &part)?,
             });
         }
-        let delta = delta.ok_or_else(|| LtiError::InvalidArgument("empty block structure".into()))?;
+        let delta = delta.ok_or_else(|| RobustError::InvalidArgument("empty block structure".into()))?;
         if self.m.dt != 0.0 && delta.nx() > 0 {
-            return Err(LtiError::Unsupported(
+            return Err(RobustError::Unsupported(
                 "dynamic uncertainty samples are continuous time only".into(),
             ));
         }
@@ -141,7 +142,7 @@ impl UncertainSystem {
 fn diagonal_weight(w: &StateSpace, n: usize) -> Result<StateSpace> {
     w.validate()?;
     if w.dt != 0.0 {
-        return Err(LtiError::Unsupported(
+        return Err(RobustError::Unsupported(
             "uncertainty weights must be continuous time".into(),
         ));
     }
@@ -149,14 +150,14 @@ fn diagonal_weight(w: &StateSpace, n: usize) -> Result<StateSpace> {
         return Ok(w.clone());
     }
     if w.ny() != 1 || w.nu() != 1 {
-        return Err(LtiError::Dimension(format!(
+        return Err(RobustError::Dimension(format!(
             "the weight must be SISO or {n}x{n}, got {}x{}",
             w.ny(),
             w.nu()
         )));
     }
     let k = w.nx();
-    StateSpace::new(
+    Ok(StateSpace::new(
         Mat::from_fn(
             n * k,
             n * k,
@@ -166,13 +167,13 @@ fn diagonal_weight(w: &StateSpace, n: usize) -> Result<StateSpace> {
         Mat::from_fn(n, n * k, |i, j| if j / k == i { w.c[(0, j % k)] } else { 0.0 }),
         Mat::from_fn(n, n, |i, j| if i == j { w.d[(0, 0)] } else { 0.0 }),
         0.0,
-    )
+    )?)
 }
 
 fn check_plain(g: &StateSpace) -> Result<()> {
     g.validate()?;
     if g.dt != 0.0 || g.has_delay() {
-        return Err(LtiError::Unsupported(
+        return Err(RobustError::Unsupported(
             "multiplicative uncertainty needs a continuous model without delays (apply pade first)".into(),
         ));
     }

@@ -1,8 +1,9 @@
 //! First-order weights in the style of MATLAB's `makeweight`.
 
+use crate::error::Result;
+use crate::error::RobustError;
 use faer::Mat;
-use skyloop_lti::error::Result;
-use skyloop_lti::{LtiError, StateSpace};
+use skyloop_lti::StateSpace;
 
 /// First-order weight W(s) = (hf·s + dc·a)/(s + a) with |W(0)| = dc, |W(j·crossover_rad_s)| = 1
 /// and |W(j∞)| = hf; dc and hf positive and on opposite sides of 1 (continuous time).
@@ -19,26 +20,26 @@ pub fn makeweight_mag(dc: f64, w_rad_s: f64, mag: f64, hf: f64) -> Result<StateS
         (hf, "high-frequency gain"),
     ] {
         if !(v.is_finite() && v > 0.0) {
-            return Err(LtiError::InvalidArgument(format!(
+            return Err(RobustError::InvalidArgument(format!(
                 "makeweight: {name} must be finite and > 0, got {v}"
             )));
         }
     }
     if !((dc < mag && mag < hf) || (hf < mag && mag < dc)) {
-        return Err(LtiError::InvalidArgument(format!(
+        return Err(RobustError::InvalidArgument(format!(
             "makeweight: the magnitude {mag} must lie strictly between the dc gain {dc} and the high-frequency gain {hf}"
         )));
     }
     // |hf·jω + dc·a|² = mag²|jω + a|²  ⇒  a² (dc² − mag²) = ω² (mag² − hf²).
     let a = w_rad_s * ((mag * mag - hf * hf) / (dc * dc - mag * mag)).sqrt();
     // W = hf + a (dc − hf)/(s + a).
-    StateSpace::new(
+    Ok(StateSpace::new(
         Mat::from_fn(1, 1, |_, _| -a),
         Mat::from_fn(1, 1, |_, _| 1.0),
         Mat::from_fn(1, 1, |_, _| a * (dc - hf)),
         Mat::from_fn(1, 1, |_, _| hf),
         0.0,
-    )
+    )?)
 }
 
 #[cfg(test)]

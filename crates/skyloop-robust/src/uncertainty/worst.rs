@@ -14,10 +14,11 @@
 //! about 10^k times above or below ω₀ (phases within 1e-12 rad are realized as real constants).
 
 use super::blocks::{BlockKind, BlockStructure};
+use crate::error::Result;
+use crate::error::RobustError;
 use faer::{c64, Mat, MatRef};
-use skyloop_lti::error::Result;
 use skyloop_lti::interconnect::append;
-use skyloop_lti::{LtiError, StateSpace};
+use skyloop_lti::StateSpace;
 use std::f64::consts::PI;
 
 /// A realized perturbation and what the realization had to drop.
@@ -46,12 +47,12 @@ pub fn realize_perturbation_detailed(
     w0_rad_s: f64,
 ) -> Result<RealizedPerturbation> {
     if !(w0_rad_s.is_finite() && w0_rad_s >= 0.0) {
-        return Err(LtiError::InvalidArgument(format!(
+        return Err(RobustError::InvalidArgument(format!(
             "realize_perturbation: the frequency {w0_rad_s} rad/s must be finite and >= 0"
         )));
     }
     if delta.nrows() != s.m_cols() || delta.ncols() != s.m_rows() {
-        return Err(LtiError::Dimension(format!(
+        return Err(RobustError::Dimension(format!(
             "realize_perturbation: the block structure needs Δ of size {}x{}, got {}x{}",
             s.m_cols(),
             s.m_rows(),
@@ -63,7 +64,7 @@ pub fn realize_perturbation_detailed(
         for i in 0..delta.nrows() {
             let z = delta[(i, j)];
             if !(z.re.is_finite() && z.im.is_finite()) {
-                return Err(LtiError::InvalidArgument(format!(
+                return Err(RobustError::InvalidArgument(format!(
                     "realize_perturbation: Δ({i},{j}) = {z} is not finite"
                 )));
             }
@@ -82,7 +83,7 @@ pub fn realize_perturbation_detailed(
     for q in 0..delta.ncols() {
         for p in 0..delta.nrows() {
             if !inside[(p, q)] && delta[(p, q)].norm() > 1e-12 * scale.max(f64::MIN_POSITIVE) {
-                return Err(LtiError::InvalidArgument(format!(
+                return Err(RobustError::InvalidArgument(format!(
                     "realize_perturbation: Δ({p},{q}) = {} lies outside the block diagonal",
                     delta[(p, q)]
                 )));
@@ -99,7 +100,7 @@ pub fn realize_perturbation_detailed(
             BlockKind::RealScalar { repeat } => {
                 let d = repeated_scalar(&sub, j)?;
                 if d.im.abs() > 1e-9 * d.norm().max(f64::MIN_POSITIVE) {
-                    return Err(LtiError::InvalidArgument(format!(
+                    return Err(RobustError::InvalidArgument(format!(
                         "realize_perturbation: block {} is real but Δ has the complex value {d}",
                         j + 1
                     )));
@@ -151,7 +152,7 @@ fn repeated_scalar(sub: &Mat<c64>, j: usize) -> Result<c64> {
         for p in 0..sub.nrows() {
             let want = if p == q { d } else { c64::new(0.0, 0.0) };
             if (sub[(p, q)] - want).norm() > tol {
-                return Err(LtiError::InvalidArgument(format!(
+                return Err(RobustError::InvalidArgument(format!(
                     "realize_perturbation: block {} is a repeated scalar δ·I but Δ is not a multiple of I there",
                     j + 1
                 )));
@@ -174,7 +175,7 @@ fn allpass_parts(c: c64, w0_rad_s: f64, j: usize) -> Result<(Option<f64>, f64)> 
     }
     if w0_rad_s == 0.0 {
         if phi.abs() > 1e-9 && (PI - phi.abs()) > 1e-9 {
-            return Err(LtiError::InvalidArgument(format!(
+            return Err(RobustError::InvalidArgument(format!(
                 "realize_perturbation: block {} has the complex value {c} at ω₀ = 0, where a real-rational Δ is real",
                 j + 1
             )));
@@ -196,11 +197,11 @@ fn allpass_parts(c: c64, w0_rad_s: f64, j: usize) -> Result<(Option<f64>, f64)> 
 
 /// A SISO stable system with value `c` at jω₀ and constant gain |c|.
 fn siso_allpass(c: c64, w0_rad_s: f64, j: usize) -> Result<StateSpace> {
-    match allpass_parts(c, w0_rad_s, j)? {
-        (None, g) => StateSpace::gain(Mat::from_fn(1, 1, |_, _| g), 0.0),
+    Ok(match allpass_parts(c, w0_rad_s, j)? {
+        (None, g) => StateSpace::gain(Mat::from_fn(1, 1, |_, _| g), 0.0)?,
         // g·(a − s)/(a + s) = −g + 2a·g/(s + a).
-        (Some(a), g) => StateSpace::from_rows(&[vec![-a]], &[vec![1.0]], &[vec![2.0 * a * g]], &[vec![-g]], 0.0),
-    }
+        (Some(a), g) => StateSpace::from_rows(&[vec![-a]], &[vec![1.0]], &[vec![2.0 * a * g]], &[vec![-g]], 0.0)?,
+    })
 }
 
 /// The phase θ that puts arg(uᵢ) + θ and arg(vh_q) − θ farthest from multiples of π: the middle of
@@ -238,7 +239,7 @@ fn full_block(sub: &Mat<c64>, rows: usize, cols: usize, w0_rad_s: f64, j: usize)
         for q in 0..cols {
             for p in 0..rows {
                 if sub[(p, q)].im.abs() > tol {
-                    return Err(LtiError::InvalidArgument(format!(
+                    return Err(RobustError::InvalidArgument(format!(
                         "realize_perturbation: block {} is complex at ω₀ = 0, where a real-rational Δ is real",
                         j + 1
                     )));
@@ -250,7 +251,7 @@ fn full_block(sub: &Mat<c64>, rows: usize, cols: usize, w0_rad_s: f64, j: usize)
     }
     let svd = sub
         .svd()
-        .map_err(|_| LtiError::Numerical("realize_perturbation: SVD of a full block did not converge".into()))?;
+        .map_err(|_| RobustError::Numerical("realize_perturbation: SVD of a full block did not converge".into()))?;
     let k = rows.min(cols);
     let sig: Vec<f64> = (0..k).map(|i| svd.S()[i].re).collect();
     let s1 = sig[0];

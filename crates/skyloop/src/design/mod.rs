@@ -190,16 +190,17 @@ fn rational(sys: &StateSpace, order: usize) -> StateSpace {
 /// assert_eq!(last.order, 5);
 /// assert!((last.margins.phase_margin_deg - 65.9).abs() < 0.1);
 /// assert!((last.margins.gain_margin_db - 7.25).abs() < 0.01);
-/// # Ok::<(), skyloop::lti::LtiError>(())
+/// # Ok::<(), skyloop::Error>(())
 /// ```
-pub fn design(spec: &DesignSpec) -> Result<DesignResult> {
+pub fn design(spec: &DesignSpec) -> crate::error::Result<DesignResult> {
     let plant = spec.load_model("plant.model", &spec.plant.model)?;
     if plant.ny() != 1 || plant.nu() != 1 {
         return Err(LtiError::Dimension(format!(
             "plant.model: the design pipeline handles SISO loops, the plant is {}x{}",
             plant.ny(),
             plant.nu()
-        )));
+        ))
+        .into());
     }
     let pade = spec.plant.pade_order;
     let plant_rational = rational(&plant, pade);
@@ -244,12 +245,10 @@ pub fn design(spec: &DesignSpec) -> Result<DesignResult> {
             let c = load("synthesis.controller", &syn.controller)?
                 .ok_or_else(|| LtiError::InvalidArgument("synthesis.controller: missing".into()))?;
             if c.ny() != 1 || c.nu() != 1 {
-                return Err(LtiError::Dimension("synthesis.controller: must be SISO".into()));
+                return Err(LtiError::Dimension("synthesis.controller: must be SISO".into()).into());
             }
             if c.has_delay() {
-                return Err(LtiError::Unsupported(
-                    "synthesis.controller: must not have delays".into(),
-                ));
+                return Err(LtiError::Unsupported("synthesis.controller: must not have delays".into()).into());
             }
             (c, None)
         }
@@ -284,7 +283,8 @@ pub fn design(spec: &DesignSpec) -> Result<DesignResult> {
                     "reduction.order: {} is not below the controller order {}",
                     r.order,
                     synthesized.nx()
-                )));
+                ))
+                .into());
             }
             let red = balred(&synthesized, r.order, method)
                 .map_err(|e| LtiError::InvalidArgument(format!("reduction: {e}")))?;
@@ -303,7 +303,8 @@ pub fn design(spec: &DesignSpec) -> Result<DesignResult> {
                 if !(g > 0.0 && g.is_finite()) {
                     return Err(LtiError::Numerical(format!(
                         "boost.crossover_hz: the loop gain at {f} Hz is {g}, cannot scale it to 1"
-                    )));
+                    ))
+                    .into());
                 }
                 1.0 / g
             }
