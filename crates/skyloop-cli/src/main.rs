@@ -16,7 +16,35 @@ struct Cli {
     command: cmd::Command,
 }
 
+/// The message of the last panic, kept by the hook instead of printed: a library may catch its own
+/// panics (a third-party parser), and those must not reach the user's terminal.
+static LAST_PANIC: std::sync::Mutex<Option<String>> = std::sync::Mutex::new(None);
+
+/// A reader that closed stdout early (`| head`) ends the program quietly; a full disk
+/// (`> /dev/full`) is an error with status 2; other panics are only recorded (see `main`).
+fn quiet_panics() {
+    std::panic::set_hook(Box::new(|info| {
+        let msg = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("unknown cause");
+        if msg.contains("failed printing to stdout") {
+            if msg.contains("Broken pipe") || msg.contains("os error 32") {
+                std::process::exit(0);
+            }
+            eprintln!("error: cannot write to stdout: {msg}");
+            std::process::exit(2);
+        }
+        if let Ok(mut last) = LAST_PANIC.lock() {
+            *last = Some(msg.to_string());
+        }
+    }));
+}
+
 fn main() {
+    quiet_panics();
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {
@@ -25,8 +53,17 @@ fn main() {
             std::process::exit(code);
         }
     };
-    if let Err(e) = cmd::run(cli.command) {
-        eprintln!("error: {e}");
-        std::process::exit(2);
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(move || cmd::run(cli.command))) {
+        Ok(Ok(())) => {}
+        Ok(Err(e)) => {
+            eprintln!("error: {e}");
+            std::process::exit(2);
+        }
+        // A panic is a bug of ours: one line naming it, exit status 2, no backtrace.
+        Err(_) => {
+            let msg = LAST_PANIC.lock().ok().and_then(|m| m.clone()).unwrap_or_default();
+            eprintln!("error: internal error (please report it): {msg}");
+            std::process::exit(2);
+        }
     }
 }

@@ -98,3 +98,36 @@ fn bad_model_json_exits_2() {
     assert_eq!(code, 2);
     assert!(err.contains("different delays"), "{err}");
 }
+
+/// A reader that stops early (`| head`) ends the program quietly with status 0; a full disk is an
+/// error with status 2 and one line on stderr, never a Rust panic message.
+#[test]
+fn closed_or_full_stdout_is_handled_without_a_panic() {
+    use std::process::{Command, Stdio};
+    let mut child = Command::new(env!("CARGO_BIN_EXE_skyloop"))
+        .args(["freqresp", "1/(s+1)", "--logspace-hz", "0.01,100,20000"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    // Close the read end at once: every later write sees a broken pipe.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("wait");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(out.status.code() == Some(0), "status {:?}: {err}", out.status);
+    if std::path::Path::new("/dev/full").exists() {
+        let full = std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .expect("/dev/full");
+        let out = Command::new(env!("CARGO_BIN_EXE_skyloop"))
+            .args(["show", "1/(s+1)"])
+            .stdout(full)
+            .output()
+            .expect("run");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(err.starts_with("error: ") && !err.contains("panicked"), "{err}");
+    }
+}

@@ -154,11 +154,28 @@ fn norm_of_a_first_order_lag() {
 #[test]
 fn closed_loop_step_keeps_a_loop_delay_exact() {
     // L = 2·e^{−0.5 s}/(s+1): T(0) = 2/3, and nothing moves before the 0.5 s delay has passed.
-    let r = skyloop(&["step", "2*exp(-0.5*s)/(s+1)", "--closed-loop", "--tfinal", "20", "--json"]);
+    let r = skyloop(&[
+        "step",
+        "2*exp(-0.5*s)/(s+1)",
+        "--closed-loop",
+        "--tfinal",
+        "20",
+        "--json",
+    ]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     let v: serde_json::Value = serde_json::from_slice(&r.stdout).expect("json");
-    let t: Vec<f64> = v["models"][0]["t_s"].as_array().expect("t").iter().map(|x| x.as_f64().expect("t")).collect();
-    let y: Vec<f64> = v["models"][0]["y"][0][0].as_array().expect("y").iter().map(|x| x.as_f64().expect("y")).collect();
+    let t: Vec<f64> = v["models"][0]["t_s"]
+        .as_array()
+        .expect("t")
+        .iter()
+        .map(|x| x.as_f64().expect("t"))
+        .collect();
+    let y: Vec<f64> = v["models"][0]["y"][0][0]
+        .as_array()
+        .expect("y")
+        .iter()
+        .map(|x| x.as_f64().expect("y"))
+        .collect();
     for (tk, yk) in t.iter().zip(&y) {
         if *tk < 0.5 {
             assert!(yk.abs() < 1e-12, "y({tk}) = {yk} before the delay");

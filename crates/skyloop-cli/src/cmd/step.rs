@@ -64,7 +64,8 @@ pub fn run(a: Args) -> skyloop::Result<()> {
                 // The response is simulated with the exact delay (a delay line); the Padé closed loop
                 // only sets the time scale of the automatic grid.
                 let rational = sys.try_pade(3)?;
-                let cl = skyloop::lti::interconnect::feedback(&rational, &unity, -1.0).map_err(|e| format!("{m}: {e}"))?;
+                let cl =
+                    skyloop::lti::interconnect::feedback(&rational, &unity, -1.0).map_err(|e| format!("{m}: {e}"))?;
                 delayed = Some(std::mem::replace(&mut sys, cl));
             } else {
                 sys = skyloop::lti::interconnect::feedback(&sys, &unity, -1.0).map_err(|e| format!("{m}: {e}"))?;
@@ -90,7 +91,9 @@ pub fn run(a: Args) -> skyloop::Result<()> {
         let grid = skyloop::lti::timeresp::auto_grid(sys, Some(tfinal)).map_err(|e| format!("{m}: {e}"))?;
         let r = match delayed {
             Some(l) => skyloop::lti::timeresp::TimeResponse {
-                y: vec![vec![skyloop::sim::delayed_loop::closed_loop_step(l, &grid).map_err(|e| format!("{m}: {e}"))?]],
+                y: vec![vec![
+                    skyloop::sim::delayed_loop::closed_loop_step(l, &grid).map_err(|e| format!("{m}: {e}"))?
+                ]],
                 t_s: grid,
             },
             None => skyloop::lti::timeresp::step(sys, Some(&grid)).map_err(|e| format!("{m}: {e}"))?,
