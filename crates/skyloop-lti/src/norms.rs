@@ -468,6 +468,16 @@ mod edge_tests {
     }
 
     #[test]
+    fn lightly_damped_stable_pair_has_a_finite_norm() {
+        // 1/(s² + 2ζs + 1) with ζ = 1e-10: peak ≈ 1/(2ζ) = 5e9, stable, so finite.
+        let sys = parse_model("1/(s^2+2e-10*s+1)").unwrap();
+        let (n, w) = hinf_norm(&sys).unwrap();
+        assert!((n - 5e9).abs() < 1e-6 * 5e9, "{n:e} at {w}");
+        // An undamped pair is on the axis.
+        assert!(hinf_norm(&parse_model("1/(s^2+1)").unwrap()).unwrap().0.is_infinite());
+    }
+
+    #[test]
     fn extreme_gains_give_the_right_norm() {
         for (text, want) in [
             ("1e300/(s+1)", 1e300),
