@@ -1573,6 +1573,15 @@ mod tests {
         let long = vec!["1"; 20_000].join("+");
         let msg = parse(&long).unwrap_err().to_string();
         assert!(msg.contains("too long"), "{msg}");
+        // The deepest accepted tree is walked without overflowing a test thread's 2 MB stack.
+        let deepest = vec!["1"; MAX_TREE_DEPTH].join("+");
+        assert_eq!(
+            parse(&deepest).unwrap().eval(c64::new(0.0, 1.0), &m).unwrap().re,
+            MAX_TREE_DEPTH as f64
+        );
+        assert_eq!(parse_model(&deepest).unwrap().d[(0, 0)], MAX_TREE_DEPTH as f64);
+        let products = vec!["1/(s+2)"; MAX_TREE_DEPTH / 2 - 1].join("*");
+        assert_eq!(parse_model(&products).unwrap().nx(), MAX_TREE_DEPTH / 2 - 1);
         let sum: String = (1..=500).map(|k| format!("1/(s+{k})")).collect::<Vec<_>>().join("+");
         assert_eq!(parse_model(&sum).unwrap().nx(), 500);
         // Orders beyond the bound are errors, also for the polynomial path.
