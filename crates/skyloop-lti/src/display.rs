@@ -100,7 +100,7 @@ impl fmt::Display for Poly {
         let mut first = true;
         for (i, &c) in self.coeffs.iter().enumerate() {
             let k = n - i;
-            if c == 0.0 && !(n == 0) {
+            if c == 0.0 && n != 0 {
                 continue;
             }
             let (sign, a) = if c < 0.0 { ("-", -c) } else { ("+", c) };

@@ -316,7 +316,8 @@ struct Fact {
 /// A realized sub-expression: a proper, delay-free SISO model times `e^(−delay·s)`.
 #[derive(Debug, Clone)]
 struct Sys {
-    g: StateSpace,
+    /// Boxed: keeps `Val` small, so the recursion over deep trees uses little stack.
+    g: Box<StateSpace>,
     delay: f64,
 }
 
@@ -432,7 +433,7 @@ fn to_sys(v: &Val) -> Result<Option<Sys>> {
     match v {
         Val::S(s) => Ok(Some(s.clone())),
         Val::F(f) if f.is_proper() => Ok(Some(Sys {
-            g: realize_fact(f)?,
+            g: Box::new(realize_fact(f)?),
             delay: f.delay,
         })),
         Val::F(_) => Ok(None),
@@ -471,7 +472,7 @@ fn add_val(a: &Val, b: &Val) -> Result<Step> {
     match (to_sys(a)?, to_sys(b)?) {
         (Some(sa), Some(sb)) => {
             let g = crate::interconnect::parallel(&sa.g, &sb.g)?;
-            Ok(Step::Done(Val::S(Sys { g, delay })))
+            Ok(Step::Done(Val::S(Sys { g: Box::new(g), delay })))
         }
         // A proper plus an improper term has a polynomial part: expand this node.
         _ => Ok(Step::Expand),
@@ -493,7 +494,7 @@ fn mul_val(a: &Val, b: &Val) -> Result<Step> {
     }
     match (to_sys(a)?, to_sys(b)?) {
         (Some(sa), Some(sb)) => Ok(Step::Done(Val::S(Sys {
-            g: series_upper(&sa.g, &sb.g)?,
+            g: Box::new(series_upper(&sa.g, &sb.g)?),
             delay: sa.delay + sb.delay,
         }))),
         _ => Ok(Step::Expand),
@@ -516,7 +517,7 @@ fn inv_val(v: &Val) -> Result<Option<Val>> {
             let c = &g.c * (-1.0 / d);
             let dd = Mat::from_fn(1, 1, |_, _| 1.0 / d);
             Ok(Some(Val::S(Sys {
-                g: StateSpace::new(a, b, c, dd, 0.0)?,
+                g: Box::new(StateSpace::new(a, b, c, dd, 0.0)?),
                 delay: -s.delay,
             })))
         }
@@ -778,7 +779,7 @@ fn realize_fact(f: &Fact) -> Result<StateSpace> {
             .map(|(i, _)| i)?;
         Some(reals.remove(i))
     };
-    z.sort_by(|a, b| b.degree().cmp(&a.degree()));
+    z.sort_by_key(|r| std::cmp::Reverse(r.degree()));
     let mut pending_real_zero: Option<Root> = None;
     let mut open_quadratics: Vec<(Poly, Den)> = Vec::new();
     for r in z {
@@ -1016,7 +1017,7 @@ impl Expr {
                                 // modes that cancel (e.g. (1/(s+1)) / (1 + 1/(s+1))); remove them.
                                 match (step, &ib) {
                                     (Step::Done(Val::S(s)), Val::S(_)) => Step::Done(Val::S(Sys {
-                                        g: crate::minreal::minreal(&s.g, None)?,
+                                        g: Box::new(crate::minreal::minreal(&s.g, None)?),
                                         delay: s.delay,
                                     })),
                                     (st, _) => st,
@@ -1134,7 +1135,10 @@ impl Expr {
         };
         cl.c = &cl.c * (1.0 / c);
         cl.d = &cl.d * (1.0 / c);
-        Ok(Some(Val::S(Sys { g: cl, delay: 0.0 })))
+        Ok(Some(Val::S(Sys {
+            g: Box::new(cl),
+            delay: 0.0,
+        })))
     }
 }
 
@@ -1569,6 +1573,15 @@ mod tests {
         let long = vec!["1"; 20_000].join("+");
         let msg = parse(&long).unwrap_err().to_string();
         assert!(msg.contains("too long"), "{msg}");
+        // The deepest accepted tree is walked without overflowing a test thread's 2 MB stack.
+        let deepest = vec!["1"; MAX_TREE_DEPTH].join("+");
+        assert_eq!(
+            parse(&deepest).unwrap().eval(c64::new(0.0, 1.0), &m).unwrap().re,
+            MAX_TREE_DEPTH as f64
+        );
+        assert_eq!(parse_model(&deepest).unwrap().d[(0, 0)], MAX_TREE_DEPTH as f64);
+        let products = vec!["1/(s+2)"; MAX_TREE_DEPTH / 2 - 1].join("*");
+        assert_eq!(parse_model(&products).unwrap().nx(), MAX_TREE_DEPTH / 2 - 1);
         let sum: String = (1..=500).map(|k| format!("1/(s+{k})")).collect::<Vec<_>>().join("+");
         assert_eq!(parse_model(&sum).unwrap().nx(), 500);
         // Orders beyond the bound are errors, also for the polynomial path.

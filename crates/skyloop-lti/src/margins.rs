@@ -851,7 +851,8 @@ mod tests {
     fn all_pass_loop_is_one_band_not_crossovers() {
         let l = tf1(&[1.0, -1.0], &[1.0, 1.0], 0.0);
         let all = allmargin(&l).unwrap();
-        assert!(all.phase_margins.len() <= 2, "{:?}", all.phase_margins);
+        eprintln!("all-pass: {all:?}");
+        assert!(all.phase_margins.is_empty(), "{:?}", all.phase_margins);
         let (a, b) = all.unit_gain_band_rad_s.expect("all-pass band");
         assert!(
             a <= all.w_range_rad_s.0 * 1.01 && b >= all.w_range_rad_s.1 * 0.99,

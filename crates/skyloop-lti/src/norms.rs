@@ -105,27 +105,34 @@ fn sigma_max_real(d: &Mat<f64>) -> Result<f64> {
 }
 
 /// The two-step algorithm for a continuous model without imaginary-axis poles (eigenvalues `eig`),
-/// on a copy scaled so that coefficients of any finite size (1e±300) stay representable: the states
-/// balanced as the frequency evaluator balances them (D⁻¹AD, D⁻¹B, CD), and the outputs divided by
-/// a power of two near the initial gain estimate, so the Hamiltonian is built at γ ≈ 1 instead of
-/// squaring γ = 1e300 into an overflow. Both scalings are exact in floating point; the norm is
-/// multiplied back at the end.
+/// on a copy scaled so that coefficients of any finite size (1e±300) stay representable: frequency
+/// scaled so the fastest pole is near 1 rad/s, the outputs divided by a power of two near the
+/// initial gain estimate (so the Hamiltonian is built at γ ≈ 1 instead of squaring γ = 1e300 into an
+/// overflow), and the states balanced as the frequency evaluator balances them (D⁻¹AD, D⁻¹B, CD).
+/// The scalings are powers of two, exact in floating point; norm and frequency are mapped back.
 fn linf_continuous(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
     let (n, ny, nu) = (sys.nx(), sys.ny(), sys.nu());
     if n == 0 || ny == 0 || nu == 0 {
         return linf_scaled(sys, eig);
     }
-    let dsc = crate::freqresp::system_scaling(&sys.a, &sys.b, &sys.c);
-    let a = Mat::from_fn(n, n, |i, j| sys.a[(i, j)] * dsc[j] / dsc[i]);
-    let b = Mat::from_fn(n, nu, |i, j| sys.b[(i, j)] / dsc[i]);
-    let c = Mat::from_fn(ny, n, |i, j| sys.c[(i, j)] * dsc[j]);
-    let balanced = StateSpace::new(a, b, c, sys.d.clone(), 0.0)?;
+    // Frequency scaling s = ω0·s̃ (Ã = A/ω0, B̃ = B/ω0): the peak gain is unchanged and is reached
+    // at ω/ω0; ω0 is the power of two nearest the largest pole magnitude.
+    let big = eig.iter().map(|p| p.norm()).fold(0.0, f64::max);
+    let w0 = if big > 0.0 && big.is_finite() {
+        2f64.powi(big.log2().round() as i32)
+    } else {
+        1.0
+    };
+    let eig0: Vec<c64> = eig.iter().map(|p| p / w0).collect();
+    let a = &sys.a * (1.0 / w0);
+    let b = &sys.b * (1.0 / w0);
+    let fs = StateSpace::new(a, b, sys.c.clone(), sys.d.clone(), 0.0)?;
     // Initial gain estimate: D, ω = 0 and the poles' frequencies.
-    let ev = FreqEvaluator::new_hessenberg(&balanced)?;
+    let ev = FreqEvaluator::new_hessenberg(&fs)?;
     let mut g0 = sigma_max_real(&sys.d)?;
     let mut freqs = vec![0.0];
     freqs.extend(
-        eig.iter()
+        eig0.iter()
             .filter(|p| p.im >= 0.0)
             .map(|p| if p.im > 0.0 { p.im } else { p.norm() }),
     );
@@ -135,26 +142,41 @@ fn linf_continuous(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
                 g0 = g0.max(v);
             } else {
                 return Err(LtiError::Numerical(format!(
-                    "the gain at {w} rad/s overflows the floating-point range (|G| > 1.8e308): the norm is out of range"
+                    "the gain at {:e} rad/s overflows the floating-point range (|G| > 1.8e308): the norm is out of range",
+                    w * w0
                 )));
             }
         }
     }
-    if !(g0 > 0.0 && g0.is_finite()) {
-        return linf_scaled(&balanced, eig);
+    let k = if g0 > 0.0 && g0.is_finite() {
+        2f64.powi(g0.log2().round() as i32)
+    } else {
+        1.0
+    };
+    // Output scaling to unit gain, then the states balanced (D⁻¹ÃD, D⁻¹B̃, C̃D/k).
+    let mut c = &fs.c * (1.0 / k);
+    // A uniform state scaling first (B/σ, C·σ with σ² ≈ ‖B‖/‖C‖): the imbalance may exceed what
+    // the per-state balancing below moves (its factors are capped at 1e±100).
+    let (nb, nc) = (fs.b.norm_l2(), c.norm_l2());
+    let mut b0 = fs.b.clone();
+    if nb > 0.0 && nc > 0.0 && nb.is_finite() && nc.is_finite() {
+        let sigma = 2f64.powi(((nb.log2() - nc.log2()) / 2.0).round() as i32);
+        b0 = &b0 * (1.0 / sigma);
+        c = &c * sigma;
     }
-    let k = 2f64.powi(g0.log2().round() as i32);
-    let mut scaled = balanced;
-    scaled.c = &scaled.c * (1.0 / k);
-    scaled.d = &scaled.d * (1.0 / k);
-    let (g, w) = linf_scaled(&scaled, eig)?;
+    let dsc = crate::freqresp::system_scaling(&fs.a, &b0, &c);
+    let a = Mat::from_fn(n, n, |i, j| fs.a[(i, j)] * dsc[j] / dsc[i]);
+    let b = Mat::from_fn(n, nu, |i, j| b0[(i, j)] / dsc[i]);
+    let c = Mat::from_fn(ny, n, |i, j| c[(i, j)] * dsc[j]);
+    let scaled = StateSpace::new(a, b, c, &sys.d * (1.0 / k), 0.0)?;
+    let (g, w) = linf_scaled(&scaled, &eig0)?;
     let g = g * k;
     if !g.is_finite() {
         return Err(LtiError::Numerical(
             "the H∞/L∞ norm exceeds the floating-point range (1.8e308)".into(),
         ));
     }
-    Ok((g, w))
+    Ok((g, w * w0))
 }
 
 /// [`linf_continuous`] on an already scaled model.
@@ -468,6 +490,16 @@ mod edge_tests {
     }
 
     #[test]
+    fn lightly_damped_stable_pair_has_a_finite_norm() {
+        // 1/(s² + 2ζs + 1) with ζ = 1e-10: peak ≈ 1/(2ζ) = 5e9, stable, so finite.
+        let sys = parse_model("1/(s^2+2e-10*s+1)").unwrap();
+        let (n, w) = hinf_norm(&sys).unwrap();
+        assert!((n - 5e9).abs() < 1e-6 * 5e9, "{n:e} at {w}");
+        // An undamped pair is on the axis.
+        assert!(hinf_norm(&parse_model("1/(s^2+1)").unwrap()).unwrap().0.is_infinite());
+    }
+
+    #[test]
     fn extreme_gains_give_the_right_norm() {
         for (text, want) in [
             ("1e300/(s+1)", 1e300),
@@ -478,6 +510,19 @@ mod edge_tests {
             let sys = parse_model(text).unwrap();
             let (n, _) = hinf_norm(&sys).unwrap();
             assert!((n - want).abs() <= 1e-8 * want, "{text}: {n:e} vs {want:e}");
+        }
+        // Extreme state-space coefficients (as LTI JSON may carry): right norm or a clear error.
+        for (a, b, c, want) in [
+            (-1e300, 1.0, 1.0, 1e-300),
+            (-1e-300, 1e-300, 1.0, 1.0),
+            (-1.0, 1e300, 1e-300, 1.0),
+            (-1e150, 1e150, 1e150, 1e150),
+        ] {
+            let sys = StateSpace::from_rows(&[vec![a]], &[vec![b]], &[vec![c]], &[vec![0.0]], 0.0).unwrap();
+            match hinf_norm(&sys) {
+                Ok((n, _)) => assert!((n - want).abs() <= 1e-8 * want, "a={a:e}: {n:e} vs {want:e}"),
+                Err(e) => assert!(e.to_string().contains("range"), "a={a:e}: {e}"),
+            }
         }
         // Beyond the range: a clear error, never inf for a stable model.
         let sys = parse_model("1e300/((s+1e-10)*(s+1))").unwrap();
