@@ -56,10 +56,7 @@ fn spafdr_10min_1khz(c: &mut Criterion) {
 }
 
 fn read_ulog_4mb(c: &mut Criterion) {
-    let p = Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../testdata/logs/sample.ulg"
-    ));
+    let p = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../testdata/logs/sample.ulg"));
     c.bench_function("read_sample_ulg_4mb", |b| {
         b.iter(|| Log::open(black_box(p), &OpenOptions::default()).unwrap())
     });

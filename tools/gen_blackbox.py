@@ -1,0 +1,117 @@
+#!/usr/bin/env python3
+"""Writes crates/skyloop-sysid/tests/fixtures/blackbox/orangebox.json: what orangebox decodes from the
+Betaflight logs in testdata/logs, as integers, for skyloop's own blackbox decoder to be checked against.
+
+Run: python3 -m venv /tmp/obvenv && /tmp/obvenv/bin/pip install "pip<24" && /tmp/obvenv/bin/pip install orangebox==0.5.0
+     /tmp/obvenv/bin/python tools/gen_blackbox.py
+
+Per session the fixture holds the main-frame field names, the number of main frames, per-field integer
+sums over all main frames, and the values of selected fields in selected frames (the first frames after
+I-frames, evenly spaced frames, and frames named in EXTRA_ITERATIONS).
+
+Known orangebox 0.5.0 behaviours, cross-checked by hand against the bytes (see the decoder's docs):
+- When a session's data starts with an event frame (`E`, as every btfl_all.bbl session does: a
+  LOGGING_RESUME event), orangebox's header reader swallows the data up to the first 0x0A byte and then
+  decodes P-frames against an empty history until it meets an I-frame. Those frames are garbage, so the
+  fixture starts at the first I-frame orangebox yields (`first_iteration`) and counts from there.
+- A session without data after its headers (only a disarm and a log-end event) makes orangebox fail
+  while splitting the file; such sessions are recorded with `error` and no frames.
+- The last frame of a session that ends without a log-end event is not yielded (orangebox looks at the
+  byte after it); `ended_by` says whether the session's frames ended on a log-end event or an exception.
+"""
+
+import json
+import logging
+import os
+import sys
+
+from orangebox import Parser
+
+logging.disable(logging.CRITICAL)
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+LOGS = os.path.join(ROOT, "testdata", "logs")
+OUT = os.path.join(ROOT, "crates", "skyloop-sysid", "tests", "fixtures", "blackbox", "orangebox.json")
+FILES = ["btfl_001.bbl", "LOG00037.BFL", "btfl_all.bbl"]
+SELECTED = (
+    ["loopIteration", "time"]
+    + [f"gyroADC[{i}]" for i in range(3)]
+    + [f"motor[{i}]" for i in range(4)]
+    + [f"axis{k}[{i}]" for k in "PIDF" for i in range(3)]
+    + [f"rcCommand[{i}]" for i in range(4)]
+    + [f"setpoint[{i}]" for i in range(4)]
+)
+# Frames (by loopIteration) worth pinning beyond the automatic choice: (file, session) -> iterations.
+EXTRA_ITERATIONS = {}
+
+
+def main_field_names(parser):
+    from orangebox.types import FrameType
+
+    return [f.name for f in parser.reader.field_defs[FrameType.INTRA]]
+
+
+def session_record(path, index):
+    rec = {"index": index}
+    try:
+        parser = Parser.load(path, index)
+        names = main_field_names(parser)
+    except Exception as e:  # noqa: BLE001 - orangebox raises bare exceptions
+        rec["error"] = type(e).__name__
+        return rec
+    rec["firmware"] = str(parser.headers.get("Firmware revision", ""))
+    rec["fields"] = names
+    n = len(names)
+    frames = []
+    kinds = []
+    ended_by = "log end"
+    try:
+        started = False
+        for f in parser.frames():
+            if not started:
+                if f.type.value != "I":
+                    continue
+                started = True
+            frames.append([int(v) for v in f.data[:n]])
+            kinds.append(f.type.value)
+    except Exception as e:  # noqa: BLE001
+        ended_by = type(e).__name__
+    rec["ended_by"] = ended_by
+    rec["frames"] = len(frames)
+    rec["i_frames"] = kinds.count("I")
+    if not frames:
+        return rec
+    rec["first_iteration"] = frames[0][0]
+    rec["sums"] = {name: sum(fr[i] for fr in frames) for i, name in enumerate(names)}
+    chosen = set()
+    i_positions = [k for k, t in enumerate(kinds) if t == "I"]
+    for k in i_positions[:12] + i_positions[len(i_positions) // 2 : len(i_positions) // 2 + 4] + i_positions[-4:]:
+        chosen.update(j for j in (k - 1, k, k + 1, k + 2) if 0 <= j < len(frames))
+    spaced = 150 if len(frames) > 5000 else 30
+    step = max(1, len(frames) // spaced)
+    chosen.update(range(0, len(frames), step))
+    chosen.add(len(frames) - 1)
+    extra = set(EXTRA_ITERATIONS.get((os.path.basename(path), index), []))
+    chosen.update(k for k, fr in enumerate(frames) if fr[0] in extra)
+    cols = [names.index(s) for s in SELECTED if s in names]
+    rec["selected_fields"] = [names[c] for c in cols]
+    rec["selected"] = [[k, kinds[k]] + [frames[k][c] for c in cols] for k in sorted(chosen)]
+    return rec
+
+
+def main():
+    out = {"generator": "tools/gen_blackbox.py with orangebox 0.5.0", "files": {}}
+    for name in FILES:
+        path = os.path.join(LOGS, name)
+        count = Parser.load(path).reader.log_count
+        out["files"][name] = {"sessions": [session_record(path, i) for i in range(1, count + 1)]}
+        print(name, [(s["index"], s.get("frames"), s.get("error")) for s in out["files"][name]["sessions"]], file=sys.stderr)
+    os.makedirs(os.path.dirname(OUT), exist_ok=True)
+    with open(OUT, "w") as f:
+        json.dump(out, f, separators=(",", ":"))
+        f.write("\n")
+    print(OUT, os.path.getsize(OUT), "bytes", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main()
