@@ -105,6 +105,64 @@ impl Builder {
     }
 }
 
+/// How long before the logger's start (the file header's time stamp) a message may be stamped and
+/// still count as data: a slow topic's last sample before logging began, µs.
+const PRE_START_US: u64 = 1_000_000;
+
+/// The file header's time stamp (the logger's start), µs; `None` when the file is too short.
+fn header_timestamp_us(path: &Path) -> Option<u64> {
+    use std::io::Read;
+    let mut head = [0u8; 16];
+    std::fs::File::open(path).ok()?.read_exact(&mut head).ok()?;
+    let mut t = [0u8; 8];
+    t.copy_from_slice(&head[8..16]);
+    Some(u64::from_le_bytes(t))
+}
+
+/// Which messages of one topic instance (time stamps in file order) are live: non-zero and later than
+/// every earlier one. Zeros come from topics never published; repeats are stale snapshots that the
+/// logger wrote again without the topic being updated.
+fn live_mask(t: &[u64]) -> Vec<bool> {
+    let mut best = 0u64;
+    t.iter()
+        .map(|&x| {
+            let live = x > 0 && x > best;
+            best = best.max(x);
+            live
+        })
+        .collect()
+}
+
+/// The log's data span (first, last time stamp), µs: from the earliest live message not stamped more
+/// than [`PRE_START_US`] before the logger started, to the latest live message of a topic instance
+/// with at least two live messages (a lone message's stamp cannot be checked against anything).
+/// tools/gen_ulog.py computes the same from pyulog's reading.
+fn data_span(builders: &[Builder], header_us: Option<u64>) -> Option<(u64, u64)> {
+    let lives: Vec<Vec<u64>> = builders
+        .iter()
+        .map(|b| {
+            live_mask(&b.time_us)
+                .into_iter()
+                .zip(&b.time_us)
+                .filter(|(l, _)| *l)
+                .map(|(_, &t)| t)
+                .collect()
+        })
+        .collect();
+    let max_live = lives.iter().flatten().copied().max()?;
+    let cut = header_us
+        .filter(|&s| s > 0 && s <= max_live)
+        .map_or(0, |s| s.saturating_sub(PRE_START_US));
+    let start = lives.iter().flatten().copied().filter(|&t| t >= cut).min()?;
+    let end = lives
+        .iter()
+        .filter(|l| l.len() >= 2)
+        .filter_map(|l| l.iter().copied().max())
+        .max()
+        .unwrap_or(max_live);
+    (end >= start).then_some((start, end))
+}
+
 /// Reads a ULog file.
 pub fn read_path(path: &Path) -> Result<Log> {
     let source = path.display().to_string();
@@ -146,41 +204,51 @@ pub fn read_path(path: &Path) -> Result<Log> {
             )))
         }
     };
-    // Topics that were never published are logged with time stamp 0: leave them out of the time origin.
-    let t0 = builders
-        .iter()
-        .filter_map(|b| b.time_us.iter().filter(|&&t| t > 0).min())
-        .min()
-        .copied()
-        .unwrap_or(0);
+    let header_us = header_timestamp_us(path);
+    let span = data_span(&builders, header_us)
+        .ok_or_else(|| SysidError::Log(format!("{source}: no data message carries a time stamp (all are zero)")))?;
+    let (t0, t_end) = span;
     let mut notes = Vec::new();
     let mut groups = Vec::with_capacity(builders.len());
     let mut last_t = 0.0f64;
-    let mut multi_topics: HashMap<String, u8> = HashMap::new();
-    for b in &builders {
-        let e = multi_topics.entry(b.name.clone()).or_insert(0);
-        *e = (*e).max(b.multi);
-    }
+    let mut stale = 0usize;
+    let mut stale_topics: Vec<String> = Vec::new();
     for b in builders {
-        if b.time_us.is_empty() {
-            continue;
-        }
-        let time_s: Vec<f64> = b
-            .time_us
-            .iter()
-            .map(|&t| (t.saturating_sub(t0)) as f64 * 1e-6)
-            .collect();
-        last_t = last_t.max(time_s.iter().copied().fold(0.0, f64::max));
         let name = if b.multi == 0 {
             b.name.clone()
         } else {
             format!("{}[{}]", b.name, b.multi)
         };
+        let keep: Vec<bool> = live_mask(&b.time_us)
+            .into_iter()
+            .zip(&b.time_us)
+            .map(|(live, &t)| live && t >= t0 && t <= t_end)
+            .collect();
+        let kept = keep.iter().filter(|&&k| k).count();
+        stale += b.time_us.len() - kept;
+        if kept == 0 {
+            if !b.time_us.is_empty() {
+                stale_topics.push(name);
+            }
+            continue;
+        }
+        let pick = |v: &[f64]| -> Vec<f64> { v.iter().zip(&keep).filter(|(_, &k)| k).map(|(x, _)| *x).collect() };
+        let time_s: Vec<f64> = b
+            .time_us
+            .iter()
+            .zip(&keep)
+            .filter(|(_, &k)| k)
+            .map(|(&t, _)| (t - t0) as f64 * 1e-6)
+            .collect();
+        last_t = last_t.max(time_s.last().copied().unwrap_or(0.0));
         let channels = b
             .names
             .into_iter()
             .zip(b.cols)
-            .map(|(name, values)| Channel { name, values })
+            .map(|(name, values)| Channel {
+                name,
+                values: pick(&values),
+            })
             .collect();
         groups.push(Group {
             prefix: Some(name.clone()),
@@ -188,6 +256,16 @@ pub fn read_path(path: &Path) -> Result<Log> {
             time_s,
             channels,
         });
+    }
+    if stale > 0 {
+        let mut note = format!(
+            "{stale} messages with stale time stamps (zero, repeating an earlier one, or outside the data span) were left out"
+        );
+        if !stale_topics.is_empty() {
+            stale_topics.truncate(12);
+            note.push_str(&format!("; topics with no other messages: {}", stale_topics.join(", ")));
+        }
+        notes.push(note);
     }
     groups.sort_by(|a, b| a.name.cmp(&b.name));
     match completeness {
