@@ -41,8 +41,40 @@ SELECTED = (
     + [f"rcCommand[{i}]" for i in range(4)]
     + [f"setpoint[{i}]" for i in range(4)]
 )
-# Frames (by loopIteration) worth pinning beyond the automatic choice: (file, session) -> iterations.
-EXTRA_ITERATIONS = {}
+# Stretches worth pinning beyond the automatic choice: (file, session) -> (from, to) in seconds after
+# the session's first main frame (the LOGGING_RESUME event that opens it). btfl_all.bbl session 35 at
+# 0.3589-0.3669 s is where blackbox-log 0.4.3 predicted a P-frame from the frame before an I-frame and
+# motor[1] wrapped to 4294967253 and nearby values.
+EXTRA_WINDOWS_S = {("btfl_all.bbl", 35): (0.340, 0.380)}
+
+
+def resume_time_us(path, index):
+    """The time of the LOGGING_RESUME event (E, 14) that opens a session's data, or None."""
+    data = open(path, "rb").read()
+    marker = b"H Product:Blackbox flight data recorder by Nicholas Sherlock\n"
+    starts = []
+    i = data.find(marker)
+    while i >= 0:
+        starts.append(i)
+        i = data.find(marker, i + 1)
+    pos = starts[index - 1]
+    while data[pos : pos + 1] == b"H":
+        pos = data.index(b"\n", pos) + 1
+    if data[pos : pos + 2] != b"E\x0e":
+        return None
+    pos += 2
+    values = []
+    for _ in range(2):
+        v, shift = 0, 0
+        while True:
+            b = data[pos]
+            pos += 1
+            v |= (b & 0x7F) << shift
+            shift += 7
+            if b < 0x80:
+                break
+        values.append(v)
+    return values[1]
 
 
 def main_field_names(parser):
@@ -91,8 +123,14 @@ def session_record(path, index):
     step = max(1, len(frames) // spaced)
     chosen.update(range(0, len(frames), step))
     chosen.add(len(frames) - 1)
-    extra = set(EXTRA_ITERATIONS.get((os.path.basename(path), index), []))
-    chosen.update(k for k, fr in enumerate(frames) if fr[0] in extra)
+    window = EXTRA_WINDOWS_S.get((os.path.basename(path), index))
+    t0 = resume_time_us(path, index) if window else None
+    if t0 is not None:
+        ti = names.index("time")
+        lo, hi = t0 + window[0] * 1e6, t0 + window[1] * 1e6
+        pinned = [k for k, fr in enumerate(frames) if lo <= fr[ti] <= hi]
+        rec["pinned"] = pinned
+        chosen.update(pinned)
     cols = [names.index(s) for s in SELECTED if s in names]
     rec["selected_fields"] = [names[c] for c in cols]
     rec["selected"] = [[k, kinds[k]] + [frames[k][c] for c in cols] for k in sorted(chosen)]

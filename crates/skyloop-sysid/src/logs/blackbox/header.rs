@@ -388,12 +388,19 @@ impl Header {
 
     /// How many iterations after `last` are intentionally not logged before the next logged one.
     pub fn skipped_after(&self, last: i64) -> i64 {
-        // The pattern repeats every I-interval, so the search is bounded by it.
-        let mut n = 0;
-        while n < i64::from(self.i_interval) && !self.logs_iteration(last.wrapping_add(1 + n)) {
-            n += 1;
+        // In closed form (a loop would cost up to an I-interval per frame on a hostile header): with
+        // r the next iteration's place in its I-interval, the pattern logs it when
+        // (r + num - 1) mod denom < num; otherwise the next logged one is where that sum wraps to 0,
+        // or the next I-frame, whichever comes first.
+        let i_int = i64::from(self.i_interval);
+        let (num, denom) = (i64::from(self.p_num), i64::from(self.p_denom));
+        let r = last.wrapping_add(1).rem_euclid(i_int);
+        let y = (r + num - 1).rem_euclid(denom);
+        if y < num {
+            0
+        } else {
+            (denom - y).min(i_int - r)
         }
-        n
     }
 }
 
@@ -443,6 +450,25 @@ mod tests {
         assert_eq!(h.skipped_after(0), 7);
         assert_eq!(h.skipped_after(248), 7);
         assert_eq!(h.data_start, h.data_start.min(400));
+        // The closed form agrees with stepping through the pattern.
+        for (p, i) in [
+            ("1/1", 32),
+            ("1/3", 32),
+            ("2/3", 32),
+            ("5/6", 32),
+            ("8", 256),
+            ("7", 10),
+            ("16", 16),
+        ] {
+            let h = header(p, i);
+            for last in 0..600i64 {
+                let mut n = 0;
+                while !h.logs_iteration(last + 1 + n) {
+                    n += 1;
+                }
+                assert_eq!(h.skipped_after(last), n, "P interval {p}, I interval {i}, after {last}");
+            }
+        }
     }
 
     #[test]
