@@ -99,7 +99,7 @@ impl Log {
         let bytes = std::fs::read(path).map_err(|e| SysidError::Io(format!("cannot read {}: {e}", path.display())))?;
         let name = path.display().to_string();
         match detect(&bytes) {
-            LogFormat::Ulog => ulog::read_path(path),
+            LogFormat::Ulog => ulog::read_bytes(&bytes, &name),
             LogFormat::Blackbox => blackbox::read_bytes(&bytes, &name, opts.session),
             LogFormat::Csv => {
                 let text = std::str::from_utf8(&bytes).map_err(|_| {

@@ -6,8 +6,11 @@
 use std::collections::HashMap;
 use std::path::Path;
 
+use px4_ulog::stream_parser::model::DropoutMessage;
 use px4_ulog::stream_parser::model::{DataMessage, FlattenedFieldType};
-use px4_ulog::stream_parser::{read_file_with_simple_callback, Message, SimpleCallbackResult};
+use px4_ulog::stream_parser::LogParser;
+
+mod guard;
 
 use super::{Channel, Group, Log, LogFormat};
 use crate::error::{Result, SysidError};
@@ -110,12 +113,9 @@ impl Builder {
 const PRE_START_US: u64 = 1_000_000;
 
 /// The file header's time stamp (the logger's start), µs; `None` when the file is too short.
-fn header_timestamp_us(path: &Path) -> Option<u64> {
-    use std::io::Read;
-    let mut head = [0u8; 16];
-    std::fs::File::open(path).ok()?.read_exact(&mut head).ok()?;
+fn header_timestamp_us(bytes: &[u8]) -> Option<u64> {
     let mut t = [0u8; 8];
-    t.copy_from_slice(&head[8..16]);
+    t.copy_from_slice(bytes.get(8..16)?);
     Some(u64::from_le_bytes(t))
 }
 
@@ -166,33 +166,62 @@ fn data_span(builders: &[Builder], header_us: Option<u64>) -> Option<(u64, u64)>
 /// Reads a ULog file.
 pub fn read_path(path: &Path) -> Result<Log> {
     let source = path.display().to_string();
-    let path_str = path
-        .to_str()
-        .ok_or_else(|| SysidError::Io(format!("{source}: path is not UTF-8")))?;
+    let bytes = std::fs::read(path).map_err(|e| SysidError::Io(format!("cannot read {source}: {e}")))?;
+    read_bytes(&bytes, &source)
+}
+
+/// How far px4-ulog got through the file.
+enum Outcome {
+    Complete,
+    Truncated,
+    Malformed(String),
+}
+
+/// Reads a ULog file's bytes; `source` names it in messages.
+pub fn read_bytes(bytes: &[u8], source: &str) -> Result<Log> {
+    let source = source.to_string();
     let mut by_key: HashMap<(String, u8), usize> = HashMap::new();
     let mut by_msg_id: HashMap<u16, usize> = HashMap::new();
     let mut builders: Vec<Builder> = Vec::new();
     let mut short = 0usize;
     let mut dropouts_ms = 0u64;
+    let safe = guard::safe_ranges(bytes);
+    // The guard keeps px4-ulog away from every record it is known to panic on; catch_unwind stays as
+    // a last line of defence (its panic message would still reach stderr, hence the guard).
     let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        read_file_with_simple_callback(path_str, &mut |m: &Message| {
-            match m {
-                Message::Data(msg) => {
-                    let idx = *by_msg_id.entry(msg.msg_id).or_insert_with(|| {
-                        let key = (msg.flattened_format.message_name.clone(), msg.multi_id.value());
-                        *by_key.entry(key).or_insert_with(|| {
-                            builders.push(Builder::new(msg));
-                            builders.len() - 1
-                        })
-                    });
-                    if !builders[idx].push(msg) {
-                        short += 1;
-                    }
-                }
-                Message::DropoutMessage(d) => dropouts_ms += d.duration_ms as u64,
-                _ => {}
+        let mut on_data = |msg: &DataMessage| {
+            let idx = *by_msg_id.entry(msg.msg_id).or_insert_with(|| {
+                let key = (msg.flattened_format.message_name.clone(), msg.multi_id.value());
+                *by_key.entry(key).or_insert_with(|| {
+                    builders.push(Builder::new(msg));
+                    builders.len() - 1
+                })
+            });
+            if !builders[idx].push(msg) {
+                short += 1;
             }
-            SimpleCallbackResult::KeepReading
+        };
+        let mut on_dropout = |d: &DropoutMessage| dropouts_ms += u64::from(d.duration_ms);
+        let mut parser = LogParser::default();
+        parser.set_data_message_callback(&mut on_data);
+        parser.set_dropout_message_callback(&mut on_dropout);
+        for (i, &(a, b)) in safe.ranges.iter().enumerate() {
+            if i > 0 {
+                // An appended section starts a fresh record stream.
+                parser.clear_leftover();
+            }
+            if let Err(e) = parser.consume_bytes(&bytes[a..b]) {
+                return if parser.in_data() {
+                    Ok(Outcome::Malformed(e.to_string()))
+                } else {
+                    Err(e.to_string())
+                };
+            }
+        }
+        Ok(match &safe.cut {
+            Some((at, why)) => Outcome::Malformed(format!("at byte {at}: {why}")),
+            None if parser.has_leftover() => Outcome::Truncated,
+            None => Outcome::Complete,
         })
     }));
     let completeness = match run {
@@ -204,7 +233,14 @@ pub fn read_path(path: &Path) -> Result<Log> {
             )))
         }
     };
-    let header_us = header_timestamp_us(path);
+    if builders.is_empty() {
+        if let Outcome::Malformed(why) = &completeness {
+            return Err(SysidError::Log(format!(
+                "{source}: not a readable ULog file: corrupt before any data ({why})"
+            )));
+        }
+    }
+    let header_us = header_timestamp_us(bytes);
     let span = data_span(&builders, header_us)
         .ok_or_else(|| SysidError::Log(format!("{source}: no data message carries a time stamp (all are zero)")))?;
     let (t0, t_end) = span;
@@ -269,11 +305,9 @@ pub fn read_path(path: &Path) -> Result<Log> {
     }
     groups.sort_by(|a, b| a.name.cmp(&b.name));
     match completeness {
-        px4_ulog::full_parser::Completeness::Complete => {}
-        px4_ulog::full_parser::Completeness::Truncated => {
-            notes.push(format!("log truncated mid-record: data read up to {last_t:.3} s"))
-        }
-        px4_ulog::full_parser::Completeness::MalformedRecord(r) => notes.push(format!(
+        Outcome::Complete => {}
+        Outcome::Truncated => notes.push(format!("log truncated mid-record: data read up to {last_t:.3} s")),
+        Outcome::Malformed(r) => notes.push(format!(
             "corrupt record after {last_t:.3} s ({r}); data before it was kept"
         )),
     }
