@@ -101,6 +101,13 @@ fn betaflight_channels_and_sessions() {
     let (_, sum) = log.series("axisP[0]+axisI[0]+axisD[0]+axisF[0]").unwrap();
     let (_, p) = log.channel("axisP[0]").unwrap();
     assert_eq!(sum.len(), p.len());
+    // loopIteration counts loop iterations: 8 per frame at "P interval:8" (blackbox-log counted 1).
+    let (_, it) = log.channel("loopIteration").unwrap();
+    assert_eq!(&it[..3], &[0.0, 8.0, 16.0]);
+    // GPS frames: position in degrees, time predicted from the main frames' (from 0.000124 s on).
+    let (t, lat) = log.channel("GPS_coord[0]").unwrap();
+    assert_eq!((t.len(), lat[0]), (86, 50.397491));
+    assert!((t[0] - 0.000124).abs() < 1e-9, "{}", t[0]);
     let e = log.series("gyroADC[7]").unwrap_err().to_string();
     assert!(e.contains("gyroADC[7]") && e.contains("similar: gyroADC[0]"), "{e}");
 

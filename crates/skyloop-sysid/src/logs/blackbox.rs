@@ -78,24 +78,31 @@ pub fn decode_session(bytes: &[u8], number: usize, source: &str) -> Result<RawSe
     })
 }
 
-/// How to turn a field's integers into the units [`Channel`] documents.
-fn scale_of(name: &str, h: &Header) -> Option<f64> {
+/// How a field's integers become the units [`Channel`] documents.
+#[derive(Clone, Copy)]
+enum Scale {
+    Times(f64),
+    // Dividing keeps decimal steps exact (50.397491°, not 50.397490999999995°).
+    Over(f64),
+}
+
+fn scale_of(name: &str, h: &Header) -> Option<Scale> {
     let base = name.split('[').next().unwrap_or(name);
     match base {
         // Betaflight and INAV log the gyro in deg/s times the gyro_scale float (1.0 on Betaflight 4).
-        "gyroADC" => Some(h.gyro_scale),
-        "accSmooth" => h.acc_1g.map(|g| 1.0 / g),
+        "gyroADC" => Some(Scale::Times(h.gyro_scale)),
+        "accSmooth" => h.acc_1g.map(Scale::Over),
         "vbatLatest" | "vbat" => match h.firmware {
-            Firmware::Betaflight(major, _) if major >= 4 => Some(0.01),
-            Firmware::Inav(_) => Some(0.01),
-            Firmware::Betaflight(3, minor) if minor >= 1 => Some(0.1),
+            Firmware::Betaflight(major, _) if major >= 4 => Some(Scale::Over(100.0)),
+            Firmware::Inav(_) => Some(Scale::Over(100.0)),
+            Firmware::Betaflight(3, minor) if minor >= 1 => Some(Scale::Over(10.0)),
             // Older firmware logs ADC counts: 3.3 V reference, 12 bits, vbatscale in 1/10 mV steps.
-            _ => h.vbat_scale.map(|s| 3.3 * s / 4095.0 / 10.0),
+            _ => h.vbat_scale.map(|s| Scale::Times(3.3 * s / 4095.0 / 10.0)),
         },
-        "amperageLatest" => Some(0.01),
-        "GPS_coord" => Some(1e-7),
-        "GPS_speed" => Some(0.01),
-        "GPS_ground_course" => Some(0.1),
+        "amperageLatest" => Some(Scale::Over(100.0)),
+        "GPS_coord" => Some(Scale::Over(1e7)),
+        "GPS_speed" => Some(Scale::Over(100.0)),
+        "GPS_ground_course" => Some(Scale::Over(10.0)),
         _ => None,
     }
 }
@@ -115,7 +122,11 @@ fn group_of(name: &str, rows: &Rows, defs: &[header::FieldDef], h: &Header, t0: 
             let values = (0..n)
                 .map(|i| {
                     let v = rows.values[i * rows.width + j] as f64;
-                    k.map_or(v, |k| v * k)
+                    match k {
+                        Some(Scale::Times(k)) => v * k,
+                        Some(Scale::Over(k)) => v / k,
+                        None => v,
+                    }
                 })
                 .collect();
             Channel {
