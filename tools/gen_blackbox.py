@@ -18,6 +18,13 @@ Known orangebox 0.5.0 behaviours, cross-checked by hand against the bytes (see t
   while splitting the file; such sessions are recorded with `error` and no frames.
 - The last frame of a session that ends without a log-end event is not yielded (orangebox looks at the
   byte after it); `ended_by` says whether the session's frames ended on a log-end event or an exception.
+
+Read in orangebox 0.5.0 and checked against the format documentation, without effect on these three
+logs (the comparison is exact) but not to be bent to: a TAG2_3S32 field of 4 bytes is not sign-extended;
+predictor 10 (GPS time from the last main frame) reads the main frame before last, at the GPS field's
+index; a TAG8_8SVB group that ends the field list is read one field short; after a damaged frame, P-frames
+go on being predicted from the history before the damage, and its time check can never fire. GPS and
+slow frames are only compared indirectly (orangebox merges them into the main rows).
 """
 
 import json

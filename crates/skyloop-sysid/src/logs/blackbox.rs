@@ -6,6 +6,14 @@
 //! Damage is never trusted: a frame that does not decode cleanly, is too long, is not followed by a
 //! frame marker or jumps in time is dropped and counted, and decoding resynchronises at the next frame
 //! marker; P-frames are only decoded from an intact history. The counts appear in [`Log::notes`].
+//!
+//! Firmware differences handled from the headers: Betaflight 3.x and INAV write `P interval` as
+//! `num/denom`, Betaflight 4.x as the denominator alone (with `P ratio`); motor[0] is predicted from
+//! `minthrottle` (predictor 4, 3.x, INAV) or from `motorOutput` (predictor 11, 4.x); battery voltage
+//! is in 0.01 V from Betaflight 4.0 and in INAV, 0.1 V in Betaflight 3.1 to 3.5, ADC counts before.
+//! EmuFlight writes Betaflight's layout. Event frames are understood for sync beep, in-flight
+//! adjustment, logging resume, disarm, flight mode and log end; any other event byte is treated as
+//! damage (resynchronised and counted), since its length is unknown.
 
 pub mod decode;
 pub mod encoding;

@@ -1,7 +1,18 @@
 //! PX4 ULog logs through the `px4-ulog` crate's streaming parser, decoding every numeric field to f64.
 //!
 //! A log cut off mid-record or with a corrupt record keeps its valid prefix and gets a note; a log
-//! whose header or definitions cannot be parsed is refused with the parser's reason.
+//! whose header or definitions cannot be parsed is refused with the parser's reason. The file's
+//! records are checked first ([`guard`]) so that px4-ulog, which slices payloads unchecked, never
+//! sees a record it would panic on.
+//!
+//! Time: a log's data span runs from its first to its last *live* data message. A message is live
+//! when its time stamp is non-zero and later than every earlier one of its topic instance (zeros are
+//! topics never published; repeats are stale snapshots written again). Messages stamped more than
+//! 1 s before the logger started (the file header's stamp) are snapshots from before logging began,
+//! and the span ends at the last live message of a topic with at least two live messages (a lone
+//! message's stamp cannot be checked). Times are seconds from the span's start; messages outside the
+//! span or not live are left out and counted in a note. Each topic keeps its own sample times, so its
+//! rate is its own.
 
 use std::collections::HashMap;
 use std::path::Path;

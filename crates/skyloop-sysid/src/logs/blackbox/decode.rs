@@ -326,7 +326,11 @@ pub fn decode(h: &Header, data: &[u8]) -> Decoded {
             continue;
         }
         let start = pos;
-        let mut c = Cursor::new(data, pos + 1);
+        // A trusted frame is at most MAX_FRAME_LEN bytes, so no read needs to look further: this
+        // bounds the work spent at each candidate marker while resynchronising through damage.
+        let window = data.len().min(start + MAX_FRAME_LEN + 1);
+        let cut_by_window = window < data.len();
+        let mut c = Cursor::new(&data[..window], pos + 1);
         let frame_defs: &[FieldDef] = match marker {
             b'I' => &defs.intra,
             b'P' => &defs.inter,
@@ -354,6 +358,7 @@ pub fn decode(h: &Header, data: &[u8]) -> Decoded {
         };
         let end = c.pos();
         let framed = match parsed {
+            Err(Bad::Truncated) if cut_by_window => false,
             Err(Bad::Truncated) => {
                 stats.end = End::Truncated;
                 break;
