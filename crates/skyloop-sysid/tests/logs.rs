@@ -147,7 +147,10 @@ fn truncated_and_corrupt_files() {
     // Cut inside the header: refused.
     let p = temp_with("head.ulg", &bytes[..40]);
     let e = Log::open(&p, &OpenOptions::default()).unwrap_err().to_string();
-    assert!(e.contains("head.ulg"), "{e}");
+    assert!(e.contains("head.ulg") && e.contains("before any data message"), "{e}");
+    let p = temp_with("short.ulg", b"ULog\x01\x12\x35garbage");
+    let e = Log::open(&p, &OpenOptions::default()).unwrap_err().to_string();
+    assert!(e.contains("short.ulg: not a readable ULog file: 14 bytes"), "{e}");
     // Garbage in the middle of the data: read or refused, never a panic.
     let mut bad = bytes.clone();
     for (i, b) in bad.iter_mut().enumerate().skip(bytes.len() / 2).take(5000) {

@@ -244,12 +244,19 @@ pub fn read_bytes(bytes: &[u8], source: &str) -> Result<Log> {
             )))
         }
     };
+    if bytes.len() < 16 {
+        return Err(SysidError::Log(format!(
+            "{source}: not a readable ULog file: {} bytes, fewer than its 16-byte file header",
+            bytes.len()
+        )));
+    }
     if builders.is_empty() {
-        if let Outcome::Malformed(why) = &completeness {
-            return Err(SysidError::Log(format!(
-                "{source}: not a readable ULog file: corrupt before any data ({why})"
-            )));
-        }
+        let why = match &completeness {
+            Outcome::Malformed(why) => format!("corrupt before any data ({why})"),
+            Outcome::Truncated => "it ends inside its definitions, before any data message".to_string(),
+            Outcome::Complete => "it holds no data messages".to_string(),
+        };
+        return Err(SysidError::Log(format!("{source}: not a readable ULog file: {why}")));
     }
     let header_us = header_timestamp_us(bytes);
     let span = data_span(&builders, header_us)
