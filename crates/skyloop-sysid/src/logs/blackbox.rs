@@ -12,7 +12,7 @@
 //! `minthrottle` (predictor 4, 3.x, INAV) or from `motorOutput` (predictor 11, 4.x); battery voltage
 //! is in 0.01 V from Betaflight 4.0 and in INAV, 0.1 V in Betaflight 3.1 to 3.5, ADC counts before.
 //! EmuFlight writes Betaflight's layout. Event frames are understood for sync beep, in-flight
-//! adjustment, logging resume, disarm, flight mode and log end; any other event byte is treated as
+//! adjustment, logging resume, disarm, flight mode, IMU failure and log end; any other event byte is treated as
 //! damage (resynchronised and counted), since its length is unknown.
 
 pub mod decode;
@@ -102,7 +102,7 @@ fn scale_of(name: &str, h: &Header) -> Option<Scale> {
         "accSmooth" => h.acc_1g.map(Scale::Over),
         "vbatLatest" | "vbat" => match h.firmware {
             Firmware::Betaflight(major, _) if major >= 4 => Some(Scale::Over(100.0)),
-            Firmware::Inav(_) => Some(Scale::Over(100.0)),
+            Firmware::Inav(_) | Firmware::EmuFlight(..) => Some(Scale::Over(100.0)),
             Firmware::Betaflight(3, minor) if minor >= 1 => Some(Scale::Over(10.0)),
             // Older firmware logs ADC counts: 3.3 V reference, 12 bits, vbatscale in 1/10 mV steps.
             _ => h.vbat_scale.map(|s| Scale::Times(3.3 * s / 4095.0 / 10.0)),

@@ -27,6 +27,7 @@ mod event {
     pub const LOGGING_RESUME: u8 = 14;
     pub const DISARM: u8 = 15;
     pub const FLIGHT_MODE: u8 = 30;
+    pub const IMU_FAILURE: u8 = 40;
     pub const LOG_END: u8 = 255;
 }
 
@@ -209,7 +210,7 @@ fn read_event(c: &mut Cursor<'_>) -> Result<Option<(i64, i64)>, EventEnd> {
     let kind = c.byte().map_err(|_| EventEnd::Bad(Bad::Truncated))?;
     let m = |e: Malformed| EventEnd::Bad(e.into());
     match kind {
-        event::SYNC_BEEP | event::DISARM => {
+        event::SYNC_BEEP | event::DISARM | event::IMU_FAILURE => {
             c.unsigned_vb().map_err(m)?;
         }
         event::FLIGHT_MODE => {

@@ -79,8 +79,10 @@ pub struct Header {
 /// Firmware family and version, from the `Firmware revision` (or `Firmware type`) header.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Firmware {
-    /// Betaflight (or EmuFlight, its fork with the same log layout) with major and minor version.
+    /// Betaflight with major and minor version.
     Betaflight(u32, u32),
+    /// EmuFlight (forked from Betaflight 4.0; Betaflight 4's log layout and units).
+    EmuFlight(u32, u32),
     /// INAV with its major version.
     Inav(u32),
     /// Cleanflight, Baseflight or an unrecognised revision string.
@@ -157,12 +159,12 @@ fn firmware_of(revision: &str, kind: &str) -> Firmware {
         let minor = it.next().and_then(|s| s.parse().ok()).unwrap_or(0);
         (major, minor)
     };
-    if let Some(r) = revision
-        .strip_prefix("Betaflight")
-        .or_else(|| revision.strip_prefix("EmuFlight"))
-    {
+    if let Some(r) = revision.strip_prefix("Betaflight") {
         let (a, b) = version(r);
         Firmware::Betaflight(a, b)
+    } else if let Some(r) = revision.strip_prefix("EmuFlight") {
+        let (a, b) = version(r);
+        Firmware::EmuFlight(a, b)
     } else if let Some(r) = revision.strip_prefix("INAV") {
         Firmware::Inav(version(r).0)
     } else if kind.eq_ignore_ascii_case("INAV") {
@@ -469,6 +471,28 @@ mod tests {
                 assert_eq!(h.skipped_after(last), n, "P interval {p}, I interval {i}, after {last}");
             }
         }
+    }
+
+    #[test]
+    fn firmware_families() {
+        assert_eq!(
+            firmware_of("Betaflight 4.2.0 (8f2d21460) STM32F745", "Cleanflight"),
+            Firmware::Betaflight(4, 2)
+        );
+        assert_eq!(
+            firmware_of("Betaflight 3.5.7 (1c1e4d2) OMNIBUSF4", "Cleanflight"),
+            Firmware::Betaflight(3, 5)
+        );
+        assert_eq!(
+            firmware_of("EmuFlight 0.3.1 (abc) HELIOSPRING", "Cleanflight"),
+            Firmware::EmuFlight(0, 3)
+        );
+        assert_eq!(
+            firmware_of("INAV 6.1.0 (e0c3fe2b) MATEKF405", "INAV"),
+            Firmware::Inav(6)
+        );
+        assert_eq!(firmware_of("", "INAV"), Firmware::Inav(0));
+        assert_eq!(firmware_of("c49bd40", "Cleanflight"), Firmware::Other);
     }
 
     #[test]
