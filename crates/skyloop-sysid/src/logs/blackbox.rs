@@ -257,13 +257,16 @@ pub fn read_bytes(bytes: &[u8], source: &str, session: Option<usize>) -> Result<
     if count == 0 {
         return Err(SysidError::Log(format!("{source}: no blackbox session found")));
     }
-    let mut best: Option<(usize, Log)> = None;
+    // (main frames, session number, log) of the longest session so far.
+    let mut best: Option<(usize, usize, Log)> = None;
     let mut bad = 0;
     let mut first_problem = None;
     for i in 1..=count {
         let (s, log) = summary(i, decode_session(bytes, i, source), source);
         match log {
-            Some(log) if best.as_ref().is_none_or(|(n, _)| s.main_frames > *n) => best = Some((s.main_frames, log)),
+            Some(log) if best.as_ref().is_none_or(|(n, _, _)| s.main_frames > *n) => {
+                best = Some((s.main_frames, i, log))
+            }
             Some(_) => {}
             None => {
                 bad += 1;
@@ -272,15 +275,8 @@ pub fn read_bytes(bytes: &[u8], source: &str, session: Option<usize>) -> Result<
         }
     }
     match best {
-        Some((_, mut log)) => {
+        Some((_, chosen, mut log)) => {
             if count > 1 {
-                let chosen = log
-                    .source
-                    .rsplit("session ")
-                    .next()
-                    .unwrap_or("")
-                    .trim_end_matches(')')
-                    .to_string();
                 log.notes.push(format!(
                     "file holds {count} sessions ({bad} not decodable); using session {chosen}, the longest (choose with --session)"
                 ));
