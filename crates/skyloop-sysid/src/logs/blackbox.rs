@@ -8,7 +8,7 @@
 //! marker; P-frames are only decoded from an intact history. The counts appear in [`Log::notes`].
 //!
 //! Firmware differences handled from the headers: Betaflight 3.x and INAV write `P interval` as
-//! `num/denom`, Betaflight 4.x as the denominator alone (with `P ratio`); motor[0] is predicted from
+//! `num/denom`, Betaflight 4.x as the denominator alone (with `P ratio`); `motor[0]` is predicted from
 //! `minthrottle` (predictor 4, 3.x, INAV) or from `motorOutput` (predictor 11, 4.x); battery voltage
 //! is in 0.01 V from Betaflight 4.0 and in INAV, 0.1 V in Betaflight 3.1 to 3.5, ADC counts before.
 //! EmuFlight writes Betaflight's layout. Event frames are understood for sync beep, in-flight

@@ -2,7 +2,7 @@
 //!
 //! A log cut off mid-record or with a corrupt record keeps its valid prefix and gets a note; a log
 //! whose header or definitions cannot be parsed is refused with the parser's reason. The file's
-//! records are checked first ([`guard`]) so that px4-ulog, which slices payloads unchecked, never
+//! records are checked first (module `guard`) so that px4-ulog, which slices payloads unchecked, never
 //! sees a record it would panic on.
 //!
 //! Time: a log's data span runs from its first to its last *live* data message. A message is live

@@ -1,6 +1,6 @@
 //! The field encodings of Betaflight's blackbox format: how one value (or a group of 3, 4 or up to 8
 //! values) is laid out in bytes. Every reader stops with [`Truncated`] at the end of the data instead
-//! of reading past it, and with [`Malformed`](Malformed) on byte patterns no encoder writes.
+//! of reading past it, and with [`Malformed`] on byte patterns no encoder writes.
 
 /// The data ended in the middle of a value.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
