@@ -283,3 +283,44 @@ fn damage_is_dropped_not_trusted() {
     }
     println!("{silent} of {cases} damaged copies changed values inside well-formed frames");
 }
+
+/// Hostile input cannot make the decoder hold more than a small multiple of the file's size: here
+/// 2-byte P-frames of 302 fields each (300 of them encoded as nothing) would decode to ~150 values per
+/// input byte; decoding stops at the budget (8 values per byte) and says so.
+#[test]
+fn decoded_values_are_bounded_by_the_input_size() {
+    let n = 300;
+    let mut b = Vec::new();
+    b.extend_from_slice(
+        b"H Product:Blackbox flight data recorder by Nicholas Sherlock\nH I interval:256\nH P interval:1\n",
+    );
+    let names: Vec<String> = (0..n).map(|i| format!("f{i}")).collect();
+    b.extend_from_slice(format!("H Field I name:loopIteration,time,{}\n", names.join(",")).as_bytes());
+    let list = |first: &str, rest: &str| format!("{first},{}", vec![rest; n].join(","));
+    b.extend_from_slice(format!("H Field I predictor:{}\n", list("0,0", "0")).as_bytes());
+    b.extend_from_slice(format!("H Field I encoding:{}\n", list("1,1", "9")).as_bytes());
+    b.extend_from_slice(format!("H Field P predictor:{}\n", list("6,1", "1")).as_bytes());
+    b.extend_from_slice(format!("H Field P encoding:{}\n", list("9,0", "9")).as_bytes());
+    let data_start = b.len();
+    b.extend_from_slice(&[b'I', 0, 1]);
+    for _ in 0..200_000 {
+        b.extend_from_slice(&[b'P', 2]); // time +1 µs
+    }
+    let raw = blackbox::decode_session(&b, 1, "hostile.bbl").unwrap();
+    let d = &raw.decoded;
+    assert_eq!(d.stats.end, End::Budget);
+    assert!(
+        d.main.values.len() <= 8 * (b.len() - data_start) + (n + 2),
+        "{}",
+        d.main.values.len()
+    );
+    assert!(d.main.len() > 1000);
+    let log = blackbox::read_bytes(&b, "hostile.bbl", None).unwrap();
+    assert!(
+        log.notes
+            .iter()
+            .any(|n| n.contains("more values than the file's size allows")),
+        "{:?}",
+        log.notes
+    );
+}
