@@ -38,9 +38,11 @@ fn every_sample_log_reads() {
         let log = open(name);
         let info = log.info();
         assert!(!info.is_empty(), "{name}");
-        // Durations from SOURCES.md: every sample holds more than 10 s of data; none a day.
+        // Every sample holds more than 5 s of data (sample_log_small.ulg the least: 7.4 s, from the
+        // first to the last live data message; the old 10 s bound held only because stale time
+        // stamps, a lone 'mission' message at 1194 s, stretched it); none a day.
         assert!(
-            log.duration_s() > 10.0 && log.duration_s() < 86400.0,
+            log.duration_s() > 5.0 && log.duration_s() < 86400.0,
             "{name}: {}",
             log.duration_s()
         );
@@ -99,6 +101,13 @@ fn betaflight_channels_and_sessions() {
     let (_, sum) = log.series("axisP[0]+axisI[0]+axisD[0]+axisF[0]").unwrap();
     let (_, p) = log.channel("axisP[0]").unwrap();
     assert_eq!(sum.len(), p.len());
+    // loopIteration counts loop iterations: 8 per frame at "P interval:8" (blackbox-log counted 1).
+    let (_, it) = log.channel("loopIteration").unwrap();
+    assert_eq!(&it[..3], &[0.0, 8.0, 16.0]);
+    // GPS frames: position in degrees, time predicted from the main frames' (from 0.000124 s on).
+    let (t, lat) = log.channel("GPS_coord[0]").unwrap();
+    assert_eq!((t.len(), lat[0]), (86, 50.397491));
+    assert!((t[0] - 0.000124).abs() < 1e-9, "{}", t[0]);
     let e = log.series("gyroADC[7]").unwrap_err().to_string();
     assert!(e.contains("gyroADC[7]") && e.contains("similar: gyroADC[0]"), "{e}");
 
@@ -138,7 +147,10 @@ fn truncated_and_corrupt_files() {
     // Cut inside the header: refused.
     let p = temp_with("head.ulg", &bytes[..40]);
     let e = Log::open(&p, &OpenOptions::default()).unwrap_err().to_string();
-    assert!(e.contains("head.ulg"), "{e}");
+    assert!(e.contains("head.ulg") && e.contains("before any data message"), "{e}");
+    let p = temp_with("short.ulg", b"ULog\x01\x12\x35garbage");
+    let e = Log::open(&p, &OpenOptions::default()).unwrap_err().to_string();
+    assert!(e.contains("short.ulg: not a readable ULog file: 14 bytes"), "{e}");
     // Garbage in the middle of the data: read or refused, never a panic.
     let mut bad = bytes.clone();
     for (i, b) in bad.iter_mut().enumerate().skip(bytes.len() / 2).take(5000) {

@@ -6,7 +6,8 @@
 //! - CSV: the header names (`time_s` or the first column is time);
 //! - ULog: `topic.field` (e.g. `vehicle_angular_velocity.xyz[0]`), and `topic[k].field` for
 //!   instance k > 0 of a multi-instance topic;
-//! - blackbox: Betaflight's field names (`gyroADC[0]` in deg/s, `setpoint[0]`, `axisP[0]`, ...).
+//! - blackbox: Betaflight's field names (`gyroADC[0]` in deg/s, `setpoint[0]`, `axisP[0]`,
+//!   `loopIteration` as the firmware's loop counter, ...); `time` is the group's time vector.
 //!
 //! A column spec may also be a sum or difference of channels, such as
 //! `axisP[0]+axisI[0]+axisD[0]+axisF[0]` (Betaflight's roll PID sum).
@@ -40,7 +41,8 @@ pub struct Group {
     pub name: String,
     /// When `Some(p)`, channels are addressed as `p.field`; when `None`, by bare field name.
     pub prefix: Option<String>,
-    /// Sample times, s, relative to the log's first sample.
+    /// Sample times, s, from the log's time origin: the first main frame (blackbox), the start of the
+    /// data span (ULog, see [`ulog`]); CSV times as in the file.
     pub time_s: Vec<f64>,
     /// The channels, each as long as `time_s`.
     pub channels: Vec<Channel>,
@@ -99,7 +101,7 @@ impl Log {
         let bytes = std::fs::read(path).map_err(|e| SysidError::Io(format!("cannot read {}: {e}", path.display())))?;
         let name = path.display().to_string();
         match detect(&bytes) {
-            LogFormat::Ulog => ulog::read_path(path),
+            LogFormat::Ulog => ulog::read_bytes(&bytes, &name),
             LogFormat::Blackbox => blackbox::read_bytes(&bytes, &name, opts.session),
             LogFormat::Csv => {
                 let text = std::str::from_utf8(&bytes).map_err(|_| {

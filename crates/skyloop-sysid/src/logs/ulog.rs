@@ -1,13 +1,27 @@
 //! PX4 ULog logs through the `px4-ulog` crate's streaming parser, decoding every numeric field to f64.
 //!
 //! A log cut off mid-record or with a corrupt record keeps its valid prefix and gets a note; a log
-//! whose header or definitions cannot be parsed is refused with the parser's reason.
+//! whose header or definitions cannot be parsed is refused with the parser's reason. The file's
+//! records are checked first (module `guard`) so that px4-ulog, which slices payloads unchecked, never
+//! sees a record it would panic on.
+//!
+//! Time: a log's data span runs from its first to its last *live* data message. A message is live
+//! when its time stamp is non-zero and later than every earlier one of its topic instance (zeros are
+//! topics never published; repeats are stale snapshots written again). Messages stamped more than
+//! 1 s before the logger started (the file header's stamp) are snapshots from before logging began,
+//! and the span ends at the last live message of a topic with at least two live messages (a lone
+//! message's stamp cannot be checked). Times are seconds from the span's start; messages outside the
+//! span or not live are left out and counted in a note. Each topic keeps its own sample times, so its
+//! rate is its own.
 
 use std::collections::HashMap;
 use std::path::Path;
 
+use px4_ulog::stream_parser::model::DropoutMessage;
 use px4_ulog::stream_parser::model::{DataMessage, FlattenedFieldType};
-use px4_ulog::stream_parser::{read_file_with_simple_callback, Message, SimpleCallbackResult};
+use px4_ulog::stream_parser::LogParser;
+
+mod guard;
 
 use super::{Channel, Group, Log, LogFormat};
 use crate::error::{Result, SysidError};
@@ -105,36 +119,120 @@ impl Builder {
     }
 }
 
+/// How long before the logger's start (the file header's time stamp) a message may be stamped and
+/// still count as data: a slow topic's last sample before logging began, µs.
+const PRE_START_US: u64 = 1_000_000;
+
+/// The file header's time stamp (the logger's start), µs; `None` when the file is too short.
+fn header_timestamp_us(bytes: &[u8]) -> Option<u64> {
+    let mut t = [0u8; 8];
+    t.copy_from_slice(bytes.get(8..16)?);
+    Some(u64::from_le_bytes(t))
+}
+
+/// Which messages of one topic instance (time stamps in file order) are live: non-zero and later than
+/// every earlier one. Zeros come from topics never published; repeats are stale snapshots that the
+/// logger wrote again without the topic being updated.
+fn live_mask(t: &[u64]) -> Vec<bool> {
+    let mut best = 0u64;
+    t.iter()
+        .map(|&x| {
+            let live = x > 0 && x > best;
+            best = best.max(x);
+            live
+        })
+        .collect()
+}
+
+/// The log's data span (first, last time stamp), µs: from the earliest live message not stamped more
+/// than [`PRE_START_US`] before the logger started, to the latest live message of a topic instance
+/// with at least two live messages (a lone message's stamp cannot be checked against anything).
+/// tools/gen_ulog.py computes the same from pyulog's reading.
+fn data_span(builders: &[Builder], header_us: Option<u64>) -> Option<(u64, u64)> {
+    let lives: Vec<Vec<u64>> = builders
+        .iter()
+        .map(|b| {
+            live_mask(&b.time_us)
+                .into_iter()
+                .zip(&b.time_us)
+                .filter(|(l, _)| *l)
+                .map(|(_, &t)| t)
+                .collect()
+        })
+        .collect();
+    let max_live = lives.iter().flatten().copied().max()?;
+    let cut = header_us
+        .filter(|&s| s > 0 && s <= max_live)
+        .map_or(0, |s| s.saturating_sub(PRE_START_US));
+    let start = lives.iter().flatten().copied().filter(|&t| t >= cut).min()?;
+    let end = lives
+        .iter()
+        .filter(|l| l.len() >= 2)
+        .filter_map(|l| l.iter().copied().max())
+        .max()
+        .unwrap_or(max_live);
+    (end >= start).then_some((start, end))
+}
+
 /// Reads a ULog file.
 pub fn read_path(path: &Path) -> Result<Log> {
     let source = path.display().to_string();
-    let path_str = path
-        .to_str()
-        .ok_or_else(|| SysidError::Io(format!("{source}: path is not UTF-8")))?;
+    let bytes = std::fs::read(path).map_err(|e| SysidError::Io(format!("cannot read {source}: {e}")))?;
+    read_bytes(&bytes, &source)
+}
+
+/// How far px4-ulog got through the file.
+enum Outcome {
+    Complete,
+    Truncated,
+    Malformed(String),
+}
+
+/// Reads a ULog file's bytes; `source` names it in messages.
+pub fn read_bytes(bytes: &[u8], source: &str) -> Result<Log> {
+    let source = source.to_string();
     let mut by_key: HashMap<(String, u8), usize> = HashMap::new();
     let mut by_msg_id: HashMap<u16, usize> = HashMap::new();
     let mut builders: Vec<Builder> = Vec::new();
     let mut short = 0usize;
     let mut dropouts_ms = 0u64;
+    let safe = guard::safe_ranges(bytes);
+    // The guard keeps px4-ulog away from every record it is known to panic on; catch_unwind stays as
+    // a last line of defence (its panic message would still reach stderr, hence the guard).
     let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        read_file_with_simple_callback(path_str, &mut |m: &Message| {
-            match m {
-                Message::Data(msg) => {
-                    let idx = *by_msg_id.entry(msg.msg_id).or_insert_with(|| {
-                        let key = (msg.flattened_format.message_name.clone(), msg.multi_id.value());
-                        *by_key.entry(key).or_insert_with(|| {
-                            builders.push(Builder::new(msg));
-                            builders.len() - 1
-                        })
-                    });
-                    if !builders[idx].push(msg) {
-                        short += 1;
-                    }
-                }
-                Message::DropoutMessage(d) => dropouts_ms += d.duration_ms as u64,
-                _ => {}
+        let mut on_data = |msg: &DataMessage| {
+            let idx = *by_msg_id.entry(msg.msg_id).or_insert_with(|| {
+                let key = (msg.flattened_format.message_name.clone(), msg.multi_id.value());
+                *by_key.entry(key).or_insert_with(|| {
+                    builders.push(Builder::new(msg));
+                    builders.len() - 1
+                })
+            });
+            if !builders[idx].push(msg) {
+                short += 1;
             }
-            SimpleCallbackResult::KeepReading
+        };
+        let mut on_dropout = |d: &DropoutMessage| dropouts_ms += u64::from(d.duration_ms);
+        let mut parser = LogParser::default();
+        parser.set_data_message_callback(&mut on_data);
+        parser.set_dropout_message_callback(&mut on_dropout);
+        for (i, &(a, b)) in safe.ranges.iter().enumerate() {
+            if i > 0 {
+                // An appended section starts a fresh record stream.
+                parser.clear_leftover();
+            }
+            if let Err(e) = parser.consume_bytes(&bytes[a..b]) {
+                return if parser.in_data() {
+                    Ok(Outcome::Malformed(e.to_string()))
+                } else {
+                    Err(e.to_string())
+                };
+            }
+        }
+        Ok(match &safe.cut {
+            Some((at, why)) => Outcome::Malformed(format!("at byte {at}: {why}")),
+            None if parser.has_leftover() => Outcome::Truncated,
+            None => Outcome::Complete,
         })
     }));
     let completeness = match run {
@@ -146,41 +244,65 @@ pub fn read_path(path: &Path) -> Result<Log> {
             )))
         }
     };
-    // Topics that were never published are logged with time stamp 0: leave them out of the time origin.
-    let t0 = builders
-        .iter()
-        .filter_map(|b| b.time_us.iter().filter(|&&t| t > 0).min())
-        .min()
-        .copied()
-        .unwrap_or(0);
+    if bytes.len() < 16 {
+        return Err(SysidError::Log(format!(
+            "{source}: not a readable ULog file: {} bytes, fewer than its 16-byte file header",
+            bytes.len()
+        )));
+    }
+    if builders.is_empty() {
+        let why = match &completeness {
+            Outcome::Malformed(why) => format!("corrupt before any data ({why})"),
+            Outcome::Truncated => "it ends inside its definitions, before any data message".to_string(),
+            Outcome::Complete => "it holds no data messages".to_string(),
+        };
+        return Err(SysidError::Log(format!("{source}: not a readable ULog file: {why}")));
+    }
+    let header_us = header_timestamp_us(bytes);
+    let span = data_span(&builders, header_us)
+        .ok_or_else(|| SysidError::Log(format!("{source}: no data message carries a time stamp (all are zero)")))?;
+    let (t0, t_end) = span;
     let mut notes = Vec::new();
     let mut groups = Vec::with_capacity(builders.len());
     let mut last_t = 0.0f64;
-    let mut multi_topics: HashMap<String, u8> = HashMap::new();
-    for b in &builders {
-        let e = multi_topics.entry(b.name.clone()).or_insert(0);
-        *e = (*e).max(b.multi);
-    }
+    let mut stale = 0usize;
+    let mut stale_topics: Vec<String> = Vec::new();
     for b in builders {
-        if b.time_us.is_empty() {
-            continue;
-        }
-        let time_s: Vec<f64> = b
-            .time_us
-            .iter()
-            .map(|&t| (t.saturating_sub(t0)) as f64 * 1e-6)
-            .collect();
-        last_t = last_t.max(time_s.iter().copied().fold(0.0, f64::max));
         let name = if b.multi == 0 {
             b.name.clone()
         } else {
             format!("{}[{}]", b.name, b.multi)
         };
+        let keep: Vec<bool> = live_mask(&b.time_us)
+            .into_iter()
+            .zip(&b.time_us)
+            .map(|(live, &t)| live && t >= t0 && t <= t_end)
+            .collect();
+        let kept = keep.iter().filter(|&&k| k).count();
+        stale += b.time_us.len() - kept;
+        if kept == 0 {
+            if !b.time_us.is_empty() {
+                stale_topics.push(name);
+            }
+            continue;
+        }
+        let pick = |v: &[f64]| -> Vec<f64> { v.iter().zip(&keep).filter(|(_, &k)| k).map(|(x, _)| *x).collect() };
+        let time_s: Vec<f64> = b
+            .time_us
+            .iter()
+            .zip(&keep)
+            .filter(|(_, &k)| k)
+            .map(|(&t, _)| (t - t0) as f64 * 1e-6)
+            .collect();
+        last_t = last_t.max(time_s.last().copied().unwrap_or(0.0));
         let channels = b
             .names
             .into_iter()
             .zip(b.cols)
-            .map(|(name, values)| Channel { name, values })
+            .map(|(name, values)| Channel {
+                name,
+                values: pick(&values),
+            })
             .collect();
         groups.push(Group {
             prefix: Some(name.clone()),
@@ -189,13 +311,21 @@ pub fn read_path(path: &Path) -> Result<Log> {
             channels,
         });
     }
+    if stale > 0 {
+        let mut note = format!(
+            "{stale} messages with stale time stamps (zero, repeating an earlier one, or outside the data span) were left out"
+        );
+        if !stale_topics.is_empty() {
+            stale_topics.truncate(12);
+            note.push_str(&format!("; topics with no other messages: {}", stale_topics.join(", ")));
+        }
+        notes.push(note);
+    }
     groups.sort_by(|a, b| a.name.cmp(&b.name));
     match completeness {
-        px4_ulog::full_parser::Completeness::Complete => {}
-        px4_ulog::full_parser::Completeness::Truncated => {
-            notes.push(format!("log truncated mid-record: data read up to {last_t:.3} s"))
-        }
-        px4_ulog::full_parser::Completeness::MalformedRecord(r) => notes.push(format!(
+        Outcome::Complete => {}
+        Outcome::Truncated => notes.push(format!("log truncated mid-record: data read up to {last_t:.3} s")),
+        Outcome::Malformed(r) => notes.push(format!(
             "corrupt record after {last_t:.3} s ({r}); data before it was kept"
         )),
     }
