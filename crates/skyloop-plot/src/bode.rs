@@ -51,6 +51,9 @@ impl Default for BodeOptions {
     }
 }
 
+/// The widest phase window (deg) chosen automatically.
+const MAX_PHASE_WINDOW: f64 = 720.0;
+
 /// Phase spans (deg) up to which the whole phase is shown anyway.
 const SHOW_ALL_PHASE_SPAN: f64 = 540.0;
 
@@ -93,6 +96,11 @@ pub fn phase_window(data: &[BodeData], opts: &BodeOptions) -> Option<(f64, f64, 
     // Keep −180° in view whenever the window comes near it: the margins are read there.
     if wlo > -180.0 && wlo < -90.0 {
         wlo = -180.0;
+    }
+    // Never more than two turns: below that the curve is cut at the axis edge (its frequency range
+    // is then where the gain has long fallen away, or the axis label says where it was kept).
+    if whi - wlo > MAX_PHASE_WINDOW {
+        wlo = whi - MAX_PHASE_WINDOW;
     }
     let pad = 0.08 * (whi - wlo).max(90.0);
     let wlo = ((wlo - pad) / 45.0).floor() * 45.0;
@@ -251,7 +259,9 @@ pub fn bode_mimo_figure(title: &str, systems: &[Vec<Vec<BodeData>>], names: &IoN
             }
             if j != 0 {
                 mag.y_label.clear();
-                phase.y_label.clear();
+                if phase.y_range.is_none() {
+                    phase.y_label.clear();
+                }
             } else {
                 mag.y_label = "mag. [dB]".into();
                 if phase.y_range.is_none() {

@@ -136,10 +136,10 @@ pub fn nichols_figure(title: &str, data: &[BodeData], m_circles_db: &[f64]) -> F
                 }
             }
             p.series.push(Series::line("", x, y).styled(SeriesStyle::Reference));
-            // The label at the top of a closed contour (above the critical point), or at −120°
+            // The label at the top of a closed contour (above the critical point), or at −100°
             // (+360°·k) on an open one, near the middle of the view.
             let centre = -180.0 + 360.0 * (((plo + phi) / 2.0 + 180.0) / 360.0).round();
-            let at = if m > 0.0 { centre } else { centre + 60.0 };
+            let at = if m > 0.0 { centre } else { centre + 80.0 };
             if let Some(g) = m_circle_gain_db(m, at, true) {
                 p.markers.push(Marker::Note {
                     x: at,

@@ -104,8 +104,21 @@ pub fn nyquist_figure(title: &str, data: &[NyquistData], radius: Option<f64>) ->
                 .colored(k),
         );
         // ω rises along the data for ω > 0, and along the reversed mirror for ω < 0 (from −∞ to 0).
+        // Arrows go where the curve is legible: not where it coils up near the origin (a delay
+        // spirals in there), so points within a tenth of the view of 0 are left out.
+        let near = 0.1 * (view.x1 - view.x0).max(view.y1 - view.y0);
         for branch in [&pos, &neg] {
-            let runs = clip_polyline(branch, &view);
+            let away: Vec<(f64, f64)> = branch
+                .iter()
+                .map(|&(x, y)| {
+                    if x.hypot(y) < near {
+                        (f64::NAN, f64::NAN)
+                    } else {
+                        (x, y)
+                    }
+                })
+                .collect();
+            let runs = clip_polyline(&away, &view);
             for ((x, y), (dx, dy)) in points_along(&runs, &ARROW_AT) {
                 p.markers.push(Marker::Arrow { x, y, dx, dy, color: k });
             }

@@ -86,7 +86,7 @@ fn boundary(p: &mut Panel, discrete: bool, (ylo, yhi): (f64, f64)) {
             .push(Series::line("", vec![0.0, 0.0], vec![-r, r]).styled(SeriesStyle::Reference));
         p.markers.push(Marker::Note {
             x: 0.0,
-            y: yhi - 0.04 * (yhi - ylo),
+            y: ylo + 0.02 * (yhi - ylo),
             label: "stable ← | → unstable".into(),
         });
     }

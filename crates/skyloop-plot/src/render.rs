@@ -229,9 +229,10 @@ fn equalize(x: &mut Axis, y: &mut Axis, w: f64, h: f64) {
 
 /// Ticks of one axis given the pixel length available.
 fn axis_ticks(a: &Axis, degrees: bool, pixels: f64, spacing: f64) -> Vec<Tick> {
-    let n = ((pixels / spacing).floor() as usize).clamp(2, 12);
+    let n = ((pixels / spacing).floor() as usize).clamp(2, 14);
     if a.log {
-        log_ticks(a.lo, a.hi, n)
+        // Decade labels are short ("10", "1k"): they can sit closer than linear ones.
+        log_ticks(a.lo, a.hi, ((pixels / (0.6 * spacing)).floor() as usize).clamp(2, 16))
     } else if degrees {
         degree_ticks(a.lo, a.hi, n)
     } else {
@@ -289,6 +290,8 @@ struct Laid {
     runs: Vec<Vec<Vec<(f64, f64)>>>,
     legend: Vec<LegendEntry>,
     legend_size: (i32, i32),
+    /// Pixels of point-like markers and notes (the legend must not hide them either).
+    marks: Vec<(f64, f64)>,
 }
 
 #[derive(Clone)]
@@ -434,8 +437,8 @@ fn lay_out(p: &Panel, colors_unused: &[usize], (w, h): (i32, i32), left: i32, bo
         x: xa,
         y: ya,
     };
-    let xticks = axis_ticks(&xa, p.x_degrees, pw as f64, 90.0);
-    let yticks = axis_ticks(&ya, p.y_degrees, ph as f64, 42.0);
+    let xticks = axis_ticks(&xa, p.x_degrees, pw as f64, 85.0);
+    let yticks = axis_ticks(&ya, p.y_degrees, ph as f64, 30.0);
     let tb = frame.tbox();
     let runs = p
         .series
@@ -466,6 +469,18 @@ fn lay_out(p: &Panel, colors_unused: &[usize], (w, h): (i32, i32), left: i32, bo
                 .collect()
         })
         .collect();
+    let marks = p
+        .markers
+        .iter()
+        .filter_map(|m| match m {
+            Marker::Point { x, y, .. } | Marker::Note { x, y, .. } | Marker::Arrow { x, y, .. }
+                if usable(*x, p.x_log) && usable(*y, p.y_log) =>
+            {
+                Some(frame.px(*x, *y))
+            }
+            _ => None,
+        })
+        .collect();
     Laid {
         frame,
         xticks,
@@ -473,6 +488,7 @@ fn lay_out(p: &Panel, colors_unused: &[usize], (w, h): (i32, i32), left: i32, bo
         runs,
         legend: Vec::new(),
         legend_size: (0, 0),
+        marks,
     }
 }
 
@@ -518,7 +534,9 @@ fn best_corner(l: &Laid, (w, h): (i32, i32)) -> ((i32, i32), usize) {
             (c.0 + w + 3) as f64,
             (c.1 + h + 3) as f64,
         );
-        let n = coverage(&l.runs, r);
+        // A marker or note counts as much as a stretch of curve: it carries a value.
+        let inside = |q: &&(f64, f64)| q.0 >= r.0 - 40.0 && q.0 <= r.2 + 10.0 && q.1 >= r.1 - 10.0 && q.1 <= r.3 + 10.0;
+        let n = coverage(&l.runs, r) + 50 * l.marks.iter().filter(inside).count();
         if n < best.1 {
             best = (c, n);
         }

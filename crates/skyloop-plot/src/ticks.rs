@@ -93,7 +93,7 @@ fn trim_exponent(s: &str) -> String {
     }
 }
 
-/// The largest "nice" step (1, 2, 2.5 or 5 × 10ᵏ) that puts at most `max_ticks` ticks in `[lo, hi]`.
+/// The smallest "nice" step (1, 2 or 5 × 10ᵏ) that puts at most `max_ticks` ticks in `[lo, hi]`.
 pub fn nice_step(lo: f64, hi: f64, max_ticks: usize) -> f64 {
     let span = (hi - lo).abs();
     if !(span.is_finite() && span > 0.0) {
@@ -101,7 +101,7 @@ pub fn nice_step(lo: f64, hi: f64, max_ticks: usize) -> f64 {
     }
     let raw = span / max_ticks.max(2) as f64;
     let p = 10f64.powf(raw.log10().floor());
-    for m in [1.0, 2.0, 2.5, 5.0, 10.0] {
+    for m in [1.0, 2.0, 5.0, 10.0] {
         if m * p >= raw {
             return m * p;
         }
@@ -134,11 +134,24 @@ pub fn degree_ticks(lo: f64, hi: f64, max_ticks: usize) -> Vec<Tick> {
     while step < raw {
         step *= 2.0;
     }
-    multiples(lo, hi, step)
+    multiples_with(lo, hi, step, format_degrees)
 }
 
 /// Every multiple of `step` in `[lo, hi]` (inclusive up to a part in 10⁹ of a step), labelled.
 fn multiples(lo: f64, hi: f64, step: f64) -> Vec<Tick> {
+    multiples_with(lo, hi, step, format_tick)
+}
+
+/// Degrees are written out in full ("-1440", not "-1.44k"): an angle is not a quantity with a prefix.
+fn format_degrees(v: f64, step: f64) -> String {
+    if v.abs() < 1e6 && (v / step).round() * step == v && step >= 1.0 {
+        format!("{}", v.round() as i64)
+    } else {
+        format_tick(v, step)
+    }
+}
+
+fn multiples_with(lo: f64, hi: f64, step: f64, fmt: fn(f64, f64) -> String) -> Vec<Tick> {
     let (lo, hi) = if lo <= hi { (lo, hi) } else { (hi, lo) };
     let eps = 1e-9 * step;
     let first = ((lo - eps) / step).ceil() as i64;
@@ -152,7 +165,7 @@ fn multiples(lo: f64, hi: f64, step: f64) -> Vec<Tick> {
             let v = i as f64 * step;
             Tick {
                 value: v,
-                label: Some(format_tick(v, step)),
+                label: Some(fmt(v, step)),
             }
         })
         .collect()
@@ -219,6 +232,7 @@ mod tests {
         assert_eq!(format_tick(0.3, 0.1), "0.3");
         assert_eq!(format_tick(1e-17, 0.5), "0");
         assert_eq!(format_tick(2.5, 2.5), "2.5");
+        assert_eq!(format_tick(0.25, 0.05), "0.25");
         assert_eq!(format_tick(1e18, 1e18), "1e18");
         assert_eq!(format_tick(100.0, 100.0), "100");
         assert!(!format_tick(123.0, 1.0).ends_with(".0"));
@@ -239,6 +253,8 @@ mod tests {
         let t = degree_ticks(-290.0, 10.0, 8);
         assert!(t.iter().any(|t| t.value == -180.0));
         assert!(t.iter().all(|t| (t.value / 45.0).fract() == 0.0));
+        let t = degree_ticks(-5760.0, 0.0, 5);
+        assert!(t.iter().any(|t| t.label.as_deref() == Some("-1440")), "{t:?}");
     }
 
     #[test]
