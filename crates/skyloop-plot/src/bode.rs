@@ -120,6 +120,8 @@ pub fn bode_figure(title: &str, data: &[BodeData], marks: &BodeMarks) -> Figure 
 /// palette colour `k` in both panels.
 pub fn bode_figure_with(title: &str, data: &[BodeData], marks: &BodeMarks, opts: &BodeOptions) -> Figure {
     let (mut mag, mut phase) = bode_panels(data, opts);
+    // The frequency axis is described once, under the phase (the panels share it).
+    mag.x_label.clear();
     if let Some(wc) = marks.crossover_hz {
         mag.markers.push(Marker::Vertical {
             x: wc,

@@ -21,7 +21,7 @@
   }
   function niceStep(lo, hi, n) {
     var raw = Math.abs(hi - lo) / Math.max(2, n), p = Math.pow(10, Math.floor(Math.log10(raw)));
-    var ms = [1, 2, 2.5, 5, 10];
+    var ms = [1, 2, 5, 10];
     for (var i = 0; i < ms.length; i++) if (ms[i] * p >= raw) return ms[i] * p;
     return 10 * p;
   }
@@ -138,10 +138,16 @@
       });
       ctx.setLineDash([4, 4]); ctx.strokeStyle = "#6e6e6e"; ctx.lineWidth = 1;
       ctx.font = "12px sans-serif"; ctx.fillStyle = "#333";
+      var rowsUsed = [];
       (p.markers || []).forEach(function (m) {
         if (m.kind === "vertical") {
           var u = sx(P, tr(m.x, p.xLog)); ctx.beginPath(); ctx.moveTo(u, f.t); ctx.lineTo(u, f.b); ctx.stroke();
-          ctx.textAlign = "left"; ctx.textBaseline = "top"; ctx.fillText(m.label, u + 4, f.t + 3);
+          // Labels of neighbouring lines go in separate rows instead of over each other.
+          var tw = ctx.measureText(m.label).width, right = u + 4 + tw <= f.r;
+          var a = right ? u + 4 : u - 4 - tw, b = a + tw, row = 0;
+          while ((rowsUsed[row] || []).some(function (s) { return !(b + 4 < s[0] || a > s[1] + 4); })) row++;
+          (rowsUsed[row] = rowsUsed[row] || []).push([a, b]);
+          ctx.textAlign = "left"; ctx.textBaseline = "top"; ctx.fillText(m.label, a, f.t + 3 + 15 * row);
         } else if (m.kind === "horizontal") {
           var w = sy(P, tr(m.y, p.yLog)); ctx.beginPath(); ctx.moveTo(f.l, w); ctx.lineTo(f.r, w); ctx.stroke();
           ctx.textAlign = "left"; ctx.textBaseline = "bottom"; ctx.fillText(m.label, f.l + 4, w - 2);

@@ -122,6 +122,13 @@ pub fn nichols_figure(title: &str, data: &[BodeData], m_circles_db: &[f64]) -> F
         if p.x_range.is_none() {
             p.x_range = Some((plo, phi));
         }
+        // Labels go by the critical point the first curve passes at its 0 dB crossing: that is the one
+        // the margins are read at.
+        let label_centre = data.first().and_then(|d| {
+            (1..d.mag_db.len().min(d.phase_deg.len()))
+                .find(|&i| (d.mag_db[i - 1] >= 0.0) != (d.mag_db[i] >= 0.0))
+                .map(|i| -180.0 + 360.0 * ((d.phase_deg[i] + 180.0) / 360.0).round())
+        });
         // Critical points every 360° in view; the contours circle each of them.
         let k0 = ((plo + 180.0) / 360.0).floor() as i64;
         let k1 = ((phi + 180.0) / 360.0).ceil() as i64;
@@ -138,7 +145,7 @@ pub fn nichols_figure(title: &str, data: &[BodeData], m_circles_db: &[f64]) -> F
             p.series.push(Series::line("", x, y).styled(SeriesStyle::Reference));
             // The label at the top of a closed contour (above the critical point), or at −100°
             // (+360°·k) on an open one, near the middle of the view.
-            let centre = -180.0 + 360.0 * (((plo + phi) / 2.0 + 180.0) / 360.0).round();
+            let centre = label_centre.unwrap_or(-180.0 + 360.0 * (((plo + phi) / 2.0 + 180.0) / 360.0).round());
             let at = if m > 0.0 { centre } else { centre + 80.0 };
             if let Some(g) = m_circle_gain_db(m, at, true) {
                 p.markers.push(Marker::Note {
