@@ -438,7 +438,7 @@ fn lay_out(p: &Panel, colors_unused: &[usize], (w, h): (i32, i32), left: i32, bo
         y: ya,
     };
     let xticks = axis_ticks(&xa, p.x_degrees, pw as f64, 85.0);
-    let yticks = axis_ticks(&ya, p.y_degrees, ph as f64, 30.0);
+    let yticks = axis_ticks(&ya, p.y_degrees, ph as f64, 26.0);
     let tb = frame.tbox();
     let runs = p
         .series
@@ -1117,6 +1117,59 @@ mod tests {
         assert_eq!(d.len(), 3);
         assert_eq!(d[0], vec![(0, 0), (8, 0)]);
         assert_eq!(d[1], vec![(13, 0), (21, 0)]);
+    }
+
+    fn panel_with(series: Vec<crate::figure::Series>) -> Panel {
+        Panel {
+            series,
+            x_range: Some((0.0, 1.0)),
+            y_range: Some((0.0, 1.0)),
+            ..Panel::default()
+        }
+    }
+
+    #[test]
+    fn the_legend_takes_the_empty_corner_or_none() {
+        use crate::figure::Series;
+        let x: Vec<f64> = (0..=100).map(|i| i as f64 / 100.0).collect();
+        // A curve in the lower left only: the upper-right corner is free.
+        let low = panel_with(vec![Series::line("a", vec![0.0, 0.3], vec![0.0, 0.3])]);
+        let l = lay_out(&low, &[0], (600, 400), 60, 50, 16);
+        let ((cx, cy), hidden) = best_corner(&l, (120, 40));
+        assert_eq!(hidden, 0);
+        assert!(cx > 300 && cy < 100, "{cx} {cy}");
+        // Lines along the top and the bottom: every corner would hide data.
+        let full = panel_with(vec![
+            Series::line("top", x.clone(), vec![0.97; x.len()]),
+            Series::line("bottom", x.clone(), vec![0.03; x.len()]),
+        ]);
+        let l = lay_out(&full, &[0, 1], (600, 400), 60, 50, 16);
+        assert!(best_corner(&l, (120, 40)).1 > 0);
+    }
+
+    #[test]
+    fn curves_leaving_the_view_are_cut_at_its_edge_in_pixels() {
+        use crate::figure::Series;
+        // From the centre to far right: the visible run ends exactly on the right edge.
+        let p = panel_with(vec![Series::line("", vec![0.5, 10.0], vec![0.5, 0.5])]);
+        let l = lay_out(&p, &[0], (600, 400), 60, 50, 16);
+        let run = &l.runs[0][0];
+        assert_eq!(run.len(), 2);
+        assert!((run[1].0 - l.frame.right as f64).abs() < 1e-9);
+        assert!((run[1].1 - run[0].1).abs() < 1e-9);
+    }
+
+    #[test]
+    fn same_label_same_colour_across_panels() {
+        use crate::figure::Series;
+        let a = panel_with(vec![
+            Series::line("K1", vec![0.0, 1.0], vec![0.0, 1.0]),
+            Series::line("K2", vec![0.0, 1.0], vec![1.0, 0.0]),
+        ]);
+        let b = panel_with(vec![Series::line("K2", vec![0.0, 1.0], vec![0.0, 1.0])]);
+        let c = resolve_colors(&Figure::new("", vec![a, b]));
+        assert_eq!(c[0], vec![0, 1]);
+        assert_eq!(c[1], vec![1]);
     }
 
     #[test]
