@@ -142,7 +142,16 @@ impl Axis {
 }
 
 /// The data range of a panel along one axis, padded; log axes snap outward to decades.
-pub(crate) fn axis_range(values: impl Iterator<Item = f64>, log: bool, fixed: Option<(f64, f64)>) -> (f64, f64) {
+///
+/// A log y axis gets a little room before snapping, so a value on a decade (a Hankel singular value
+/// of 10⁻⁶) is not drawn on the frame; a log x axis does not, so a frequency grid from 0.01 to 100 Hz
+/// fills the axis exactly.
+pub(crate) fn axis_range(
+    values: impl Iterator<Item = f64>,
+    log: bool,
+    fixed: Option<(f64, f64)>,
+    is_y: bool,
+) -> (f64, f64) {
     if let Some((a, b)) = fixed {
         if usable(a, log) && usable(b, log) && a != b {
             return (a.min(b), a.max(b));
@@ -157,7 +166,13 @@ pub(crate) fn axis_range(values: impl Iterator<Item = f64>, log: bool, fixed: Op
         return if log { (0.1, 10.0) } else { (-1.0, 1.0) };
     }
     if log {
-        let (a, b) = (lo.log10().floor(), hi.log10().ceil());
+        // A little room first, so a value on a decade is not drawn on the frame.
+        let pad = if is_y {
+            0.02 * (hi.log10() - lo.log10()).max(0.5)
+        } else {
+            0.0
+        };
+        let (a, b) = ((lo.log10() - pad).floor(), (hi.log10() + pad).ceil());
         let b = if b <= a { a + 1.0 } else { b };
         (10f64.powf(a), 10f64.powf(b))
     } else {
@@ -191,8 +206,8 @@ pub(crate) fn panel_axes(p: &Panel) -> (Axis, Axis) {
             Marker::Horizontal { y, .. } | Marker::Point { y, .. } => Some(*y),
             _ => None,
         }));
-    let (x0, x1) = axis_range(xs, p.x_log, p.x_range);
-    let (y0, y1) = axis_range(ys, p.y_log, p.y_range);
+    let (x0, x1) = axis_range(xs, p.x_log, p.x_range, false);
+    let (y0, y1) = axis_range(ys, p.y_log, p.y_range, true);
     (
         Axis {
             lo: x0,
@@ -228,11 +243,17 @@ fn equalize(x: &mut Axis, y: &mut Axis, w: f64, h: f64) {
 }
 
 /// Ticks of one axis given the pixel length available.
-fn axis_ticks(a: &Axis, degrees: bool, pixels: f64, spacing: f64) -> Vec<Tick> {
-    let n = ((pixels / spacing).floor() as usize).clamp(2, 14);
+fn axis_ticks(a: &Axis, degrees: bool, pixels: f64, spacing: f64, max: usize) -> Vec<Tick> {
+    let n = ((pixels / spacing).floor() as usize).clamp(2, max);
     if a.log {
         // Decade labels are short ("10", "1k"): they can sit closer than linear ones.
-        log_ticks(a.lo, a.hi, ((pixels / (0.6 * spacing)).floor() as usize).clamp(2, 16))
+        let mut t = log_ticks(a.lo, a.hi, ((pixels / (0.6 * spacing)).floor() as usize).clamp(2, 16));
+        // Minor lines (2…9 × 10ᵏ) only where a decade is wide enough for them not to be a smear.
+        let decades = (a.hi / a.lo).log10();
+        if pixels / decades.max(1e-9) < 45.0 {
+            t.retain(|t| t.label.is_some() || (t.value.log10().fract()).abs() < 1e-9);
+        }
+        t
     } else if degrees {
         degree_ticks(a.lo, a.hi, n)
     } else {
@@ -437,8 +458,9 @@ fn lay_out(p: &Panel, colors_unused: &[usize], (w, h): (i32, i32), left: i32, bo
         x: xa,
         y: ya,
     };
-    let xticks = axis_ticks(&xa, p.x_degrees, pw as f64, 85.0);
-    let yticks = axis_ticks(&ya, p.y_degrees, ph as f64, 26.0);
+    let xticks = axis_ticks(&xa, p.x_degrees, pw as f64, 85.0, 14);
+    // At most 8 labels up the side: a dB axis then reads in 10s or 20s, not 5s.
+    let yticks = axis_ticks(&ya, p.y_degrees, ph as f64, 26.0, 8);
     let tb = frame.tbox();
     let runs = p
         .series
