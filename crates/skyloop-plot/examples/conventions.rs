@@ -124,11 +124,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         re: f.iter().map(|fi| loop_tf(C::new(0.0, 2.0 * PI * fi)).re).collect(),
         im: f.iter().map(|fi| loop_tf(C::new(0.0, 2.0 * PI * fi)).im).collect(),
     };
-    let nyq = nyquist_figure("Nyquist of L", &[ny.clone()], Some(2.5));
+    let nyq = nyquist_figure("Nyquist of L", std::slice::from_ref(&ny), Some(2.5));
     nyq.save(&dir.join("nyquist.svg"))?;
     nyquist_figure("Nyquist of L (automatic view)", &[ny], None).save(&dir.join("nyquist_auto.svg"))?;
 
-    let nic = nichols_figure("Nichols chart of L", &[l.clone()], &DEFAULT_M_DB);
+    let nic = nichols_figure("Nichols chart of L", std::slice::from_ref(&l), &DEFAULT_M_DB);
     nic.save(&dir.join("nichols.svg"))?;
 
     // Singular values of the 2×2 plant (closed form for 2×2).
@@ -204,6 +204,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         &[info],
     );
     step.save(&dir.join("step.svg"))?;
+
+    // Curves through every corner: the legend has to go outside, on the right.
+    let tt: Vec<f64> = (0..=500).map(|i| i as f64 * 0.01).collect();
+    let crowded = skyloop_plot::traces::traces_figure(
+        "Three oscillations filling the axes",
+        &[skyloop_plot::traces::TracePanel {
+            y_label: "signal [V]".into(),
+            traces: (0..3)
+                .map(|k| Trace {
+                    label: format!("channel {} (noisy)", k + 1),
+                    t: tt.clone(),
+                    y: tt.iter().map(|t| (2.0 * PI * (1.0 + k as f64) * t).sin()).collect(),
+                })
+                .collect(),
+            references: vec![],
+        }],
+    );
+    crowded.save(&dir.join("legend_outside.svg"))?;
 
     report
         .section("Loop")

@@ -72,7 +72,7 @@ pub fn phase_window(data: &[BodeData], opts: &BodeOptions) -> Option<(f64, f64, 
     let (lo, hi) = all
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
-    if !(hi - lo > SHOW_ALL_PHASE_SPAN) {
+    if (hi - lo).is_nan() || hi - lo <= SHOW_ALL_PHASE_SPAN {
         return None;
     }
     let peak = data
@@ -133,6 +133,25 @@ pub fn bode_figure_with(title: &str, data: &[BodeData], marks: &BodeMarks, opts:
             y: 0.0,
             label: "0 dB".into(),
         });
+    }
+    // As MATLAB's `margin` draws them: the margins as solid segments from the curve to the critical
+    // level (0 dB, −180°), in the colour of the first system, whose margins they are.
+    if let Some((gm, f)) = marks.gain_margin.filter(|(g, f)| g.is_finite() && f.is_finite()) {
+        mag.series.push(Series::line("", vec![f, f], vec![-gm, 0.0]).colored(0));
+    }
+    if let Some((pm, f)) = marks.phase_margin.filter(|(p, f)| p.is_finite() && f.is_finite()) {
+        // The −180° nearest the curve there (the phase may sit a turn lower).
+        let at = data.first().and_then(|d| {
+            d.freq_hz
+                .iter()
+                .zip(&d.phase_deg)
+                .min_by(|a, b| (a.0 - f).abs().total_cmp(&(b.0 - f).abs()))
+                .map(|(_, p)| *p)
+        });
+        let base = at.map_or(-180.0, |p| -180.0 + 360.0 * ((p - pm + 180.0) / 360.0).round());
+        phase
+            .series
+            .push(Series::line("", vec![f, f], vec![base, base + pm]).colored(0));
     }
     if let Some((pm, f)) = marks.phase_margin {
         phase.markers.push(Marker::Vertical {
@@ -321,11 +340,11 @@ mod tests {
         let d = delayed();
         let full = d.phase_deg.iter().copied().fold(f64::INFINITY, f64::min);
         assert!(full < -2700.0);
-        let (lo, hi, floor) = phase_window(&[d.clone()], &BodeOptions::default()).expect("windowed");
+        let (lo, hi, floor) = phase_window(std::slice::from_ref(&d), &BodeOptions::default()).expect("windowed");
         assert_eq!(floor, -20.0);
         assert!(lo <= -180.0 && lo > -1000.0 && hi >= 0.0, "{lo} {hi}");
         assert_eq!(lo % 45.0, 0.0);
-        let fig = bode_figure("d", &[d.clone()], &BodeMarks::default());
+        let fig = bode_figure("d", std::slice::from_ref(&d), &BodeMarks::default());
         assert_eq!(fig.panels[1].y_range, Some((lo, hi)));
         assert!(fig.panels[1].y_label.contains("-20 dB"));
         let off = BodeOptions {

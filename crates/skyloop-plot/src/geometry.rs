@@ -161,7 +161,7 @@ pub fn points_along(runs: &[Vec<(f64, f64)>], fractions: &[f64]) -> Vec<((f64, f
         .iter()
         .flat_map(|r| r.windows(2).map(|w| seg_len(w[0], w[1])))
         .sum();
-    if !(total > 0.0) {
+    if total.is_nan() || total <= 0.0 {
         return Vec::new();
     }
     let mut out = Vec::new();

@@ -302,7 +302,7 @@ mod tests {
             poles: vec![c(-1.0, 2.0), c(-1.0, -2.0), c(-5.0, 0.0)],
             zeros: vec![c(3.0, 0.0)],
         };
-        let f = pzmap_figure("P", &[s.clone()], false);
+        let f = pzmap_figure("P", std::slice::from_ref(&s), false);
         let p = &f.panels[0];
         assert!(p
             .series

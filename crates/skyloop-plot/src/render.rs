@@ -1102,13 +1102,13 @@ fn draw_markers<DB: DrawingBackend>(
                 // Direction in pixels: a short step along (dx, dy) in axis coordinates.
                 let h = 1e-6 * ((f.x.hi - f.x.lo).abs() + (f.y.hi - f.y.lo).abs()).max(1e-300);
                 let norm = (dx * dx + dy * dy).sqrt();
-                if !(norm > 0.0) || p.x_log || p.y_log {
+                if norm.is_nan() || norm <= 0.0 || p.x_log || p.y_log {
                     continue;
                 }
                 let r = f.px(x + h * dx / norm, y + h * dy / norm);
                 let (ux, uy) = (r.0 - q.0, r.1 - q.1);
                 let n = (ux * ux + uy * uy).sqrt();
-                if !(n > 0.0) {
+                if n.is_nan() || n <= 0.0 {
                     continue;
                 }
                 let (ux, uy) = (ux / n, uy / n);

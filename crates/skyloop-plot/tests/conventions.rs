@@ -94,7 +94,7 @@ fn nyquist_nichols_pzmap_rlocus_step_and_mimo_render() {
     assert!(t.iter().any(|s| s == "−1") && t.iter().any(|s| s == "|L| = 1"));
 
     let d = bode_data("L", &f, &l);
-    let t = assert_clean_ticks(&nichols_figure("N", &[d.clone()], &DEFAULT_M_DB));
+    let t = assert_clean_ticks(&nichols_figure("N", std::slice::from_ref(&d), &DEFAULT_M_DB));
     assert!(t.iter().any(|s| s == "6 dB"), "{t:?}");
 
     let pz = PoleZeroData {
@@ -102,7 +102,7 @@ fn nyquist_nichols_pzmap_rlocus_step_and_mimo_render() {
         poles: vec![Complex64::new(-1.0, 3.0), Complex64::new(-1.0, -3.0)],
         zeros: vec![Complex64::new(2.0, 0.0)],
     };
-    let t = assert_clean_ticks(&pzmap_figure("P", &[pz.clone()], false));
+    let t = assert_clean_ticks(&pzmap_figure("P", std::slice::from_ref(&pz), false));
     assert!(t.iter().any(|s| s == "poles") && t.iter().any(|s| s == "zeros"));
     assert_clean_ticks(&pzmap_figure("P", &[pz], true));
 
