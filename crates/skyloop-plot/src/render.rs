@@ -459,8 +459,8 @@ fn lay_out(p: &Panel, colors_unused: &[usize], (w, h): (i32, i32), left: i32, bo
         y: ya,
     };
     let xticks = axis_ticks(&xa, p.x_degrees, pw as f64, 85.0, 14);
-    // At most 8 labels up the side: a dB axis then reads in 10s or 20s, not 5s.
-    let yticks = axis_ticks(&ya, p.y_degrees, ph as f64, 26.0, 8);
+    // At most 10 labels up the side: a tall dB axis then reads in 10s or 20s.
+    let yticks = axis_ticks(&ya, p.y_degrees, ph as f64, 26.0, 10);
     let tb = frame.tbox();
     let runs = p
         .series
