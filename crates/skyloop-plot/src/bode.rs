@@ -244,7 +244,7 @@ impl IoNames {
 /// pair of channel (i, j) is titled "from u_j to y_i".
 ///
 /// `systems[s][i][j]` is the response of system `s` from input `j` to output `i` (indexed
-/// [output][input]); the label of `systems[s][0][0]` names system `s` in the legend, and system `s`
+/// `[output][input]`); the label of `systems[s][0][0]` names system `s` in the legend, and system `s`
 /// has palette colour `s` in every panel. Systems with fewer channels leave those panels to the
 /// others.
 pub fn bode_mimo_figure(title: &str, systems: &[Vec<Vec<BodeData>>], names: &IoNames) -> Figure {

@@ -21,14 +21,14 @@ pub struct NyquistData {
 
 /// The view half-width used when none is given and the curve runs far out (a loop with integrators
 /// goes to infinity): what happens near −1 is what the plot is for.
-const AUTO_RADIUS: f64 = 4.0;
+pub const AUTO_RADIUS: f64 = 4.0;
 
 /// Where along the visible curve the direction arrows sit (fractions of its length).
 const ARROW_AT: [f64; 3] = [0.2, 0.5, 0.8];
 
 /// The square view `[-r, r]²` the figure shows for `radius`, or the data's extent (with the unit
 /// circle and −1) when it is small enough; `None` radius and a far-running curve give
-/// ±[`AUTO_RADIUS`].
+/// ±4 (the view that shows what happens near −1).
 pub fn nyquist_view(data: &[NyquistData], radius: Option<f64>) -> ViewBox {
     if let Some(r) = radius.filter(|r| r.is_finite() && *r > 0.0) {
         return ViewBox {
