@@ -98,8 +98,10 @@
     }
     function drawPanel(P) {
       var p = P.p, f = P.f, v = P.v;
-      var xt = p.xLog ? logTicks(v.x0, v.x1, Math.floor((f.r - f.l) / 90)) : linTicks(v.x0, v.x1, Math.floor((f.r - f.l) / 90), p.xDeg);
-      var yt = p.yLog ? logTicks(v.y0, v.y1, Math.floor((f.b - f.t) / 40)) : linTicks(v.y0, v.y1, Math.floor((f.b - f.t) / 40), p.yDeg);
+      // The same densities as the static rendering (src/render.rs: axis_ticks).
+      var nx = Math.max(2, Math.min(14, Math.floor((f.r - f.l) / 85))), ny = Math.max(2, Math.min(10, Math.floor((f.b - f.t) / 26)));
+      var xt = p.xLog ? logTicks(v.x0, v.x1, Math.max(2, Math.floor((f.r - f.l) / 51))) : linTicks(v.x0, v.x1, nx, p.xDeg);
+      var yt = p.yLog ? logTicks(v.y0, v.y1, Math.max(2, Math.floor((f.b - f.t) / 15.6))) : linTicks(v.y0, v.y1, ny, p.yDeg);
       ctx.lineWidth = 1;
       xt.forEach(function (t) { var u = Math.round(sx(P, t.v)) + 0.5; ctx.strokeStyle = t.l ? "#d7d7d7" : "#eee"; ctx.beginPath(); ctx.moveTo(u, f.t); ctx.lineTo(u, f.b); ctx.stroke(); });
       yt.forEach(function (t) { var w = Math.round(sy(P, t.v)) + 0.5; ctx.strokeStyle = t.l ? "#d7d7d7" : "#eee"; ctx.beginPath(); ctx.moveTo(f.l, w); ctx.lineTo(f.r, w); ctx.stroke(); });
