@@ -35,7 +35,9 @@
       while (step < raw) step *= 2;
     } else step = niceStep(lo, hi, n);
     var out = [], a = Math.ceil((lo - 1e-9 * step) / step), b = Math.floor((hi + 1e-9 * step) / step);
-    for (var i = a; i <= b && out.length < 200; i++) out.push({ v: i * step, l: fmt(i * step, step) });
+    // Degrees are written in full ("-1440"), as the static rendering does.
+    for (var i = a; i <= b && out.length < 200; i++)
+      out.push({ v: i * step, l: deg && step >= 15 ? String(Math.round(i * step)) : fmt(i * step, step) });
     return out;
   }
   function logTicks(lo, hi, n) { // lo, hi in log10 units
