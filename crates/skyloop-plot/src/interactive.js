@@ -73,6 +73,10 @@
     el.appendChild(tip);
     var ctx = cv.getContext("2d");
     var top0 = fig.title ? 30 : 6;
+    // Unlabelled curves (a phase under its magnitude, a mirror) are named after the labelled curve of
+    // the same colour, so hovering tells which system a point belongs to.
+    var byColor = {};
+    fig.panels.forEach(function (p) { p.series.forEach(function (s) { if (s.label && !byColor[s.color]) byColor[s.color] = s.label; }); });
     var panels = fig.panels.map(function (p, i) {
       var r = Math.floor(i / cols), c = i % cols;
       var box = { x: c * W / cols, y: top0 + r * PH, w: W / cols, h: PH };
@@ -244,7 +248,8 @@
       var p = h.P.p, s = best.S.s;
       var xv = s.x[best.i], yv = s.y[best.i];
       var sig = function (v) { return v === null ? "–" : Math.abs(v) >= 1e4 || (Math.abs(v) < 1e-3 && v !== 0) ? v.toExponential(3) : String(+v.toPrecision(4)); };
-      tip.textContent = (s.label ? s.label + ": " : "") + (p.xLabel || "x") + " = " + sig(xv) + ", " + (p.yLabel || "y") + " = " + sig(yv);
+      var name = s.label || byColor[s.color] || "";
+      tip.textContent = (name ? name + ": " : "") + (p.xLabel || "x") + " = " + sig(xv) + ", " + (p.yLabel || "y") + " = " + sig(yv);
       tip.style.display = "block";
       tip.style.left = (sx(h.P, best.S.tx[best.i]) / h.k + 12) + "px";
       tip.style.top = (sy(h.P, best.S.ty[best.i]) / h.k - 28) + "px";

@@ -592,12 +592,19 @@ fn draw_figure<DB: DrawingBackend>(fig: &Figure, root: &DrawingArea<DB, Shift>) 
     // (magnitude over phase) share their frequency axis pixel for pixel.
     let mut lefts = vec![0; n];
     let mut bottoms = vec![0; n];
+    let mut rights = vec![16; n];
     for (i, p) in fig.panels.iter().enumerate() {
         let first = lay_out(p, &colors[i], dims[i], 80, 60, 16);
         let (l, b) = margins(&body, p, &first.yticks);
         lefts[i] = l;
         bottoms[i] = b;
+        // The last x label is centred on the right edge: half of it must fit in the margin.
+        let last = first.xticks.iter().rev().find_map(|t| t.label.as_ref());
+        rights[i] = last.map_or(16, |s| (measure(&body, s, TICK_FONT).0 / 2 + 6).max(16));
     }
+    let col_min_right: Vec<i32> = (0..cols)
+        .map(|c| (0..n).filter(|i| i % cols == c).map(|i| rights[i]).max().unwrap_or(16))
+        .collect();
     let col_max = |v: &[i32], c: usize| (0..n).filter(|i| i % cols == c).map(|i| v[i]).max().unwrap_or(0);
     let col_left: Vec<i32> = (0..cols).map(|c| col_max(&lefts, c)).collect();
 
@@ -615,7 +622,14 @@ fn draw_figure<DB: DrawingBackend>(fig: &Figure, root: &DrawingArea<DB, Shift>) 
         if legends[i].is_empty() {
             continue;
         }
-        let l = lay_out(p, &colors[i], dims[i], col_left[i % cols], bottoms[i], 16);
+        let l = lay_out(
+            p,
+            &colors[i],
+            dims[i],
+            col_left[i % cols],
+            bottoms[i],
+            col_min_right[i % cols],
+        );
         let (_, hidden) = best_corner(&l, sizes[i]);
         let fits = sizes[i].0 < (l.frame.right - l.frame.left) / 2 && sizes[i].1 < (l.frame.bottom - l.frame.top) / 2;
         if hidden > 0 || !fits {
@@ -625,9 +639,9 @@ fn draw_figure<DB: DrawingBackend>(fig: &Figure, root: &DrawingArea<DB, Shift>) 
     let col_right: Vec<i32> = (0..cols)
         .map(|c| {
             if outside_col[c] {
-                (0..n).filter(|i| i % cols == c).map(|i| sizes[i].0).max().unwrap_or(0) + 22
+                ((0..n).filter(|i| i % cols == c).map(|i| sizes[i].0).max().unwrap_or(0) + 22).max(col_min_right[c])
             } else {
-                16
+                col_min_right[c]
             }
         })
         .collect();
