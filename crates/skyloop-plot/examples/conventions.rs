@@ -169,6 +169,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let pzf = pzmap_figure("Poles and zeros of P (rational part)", &[pz], false);
     pzf.save(&dir.join("pzmap.svg"))?;
+    // The same poles sampled at 1 kHz (z = e^(sT)): the boundary is the unit circle.
+    let ts = 1e-3;
+    let zd = PoleZeroData {
+        label: "P at 1 kHz".into(),
+        poles: [
+            C::new(0.0, 0.0),
+            C::new(-1.0 / 0.0256, 0.0),
+            C::new(-333.2, wd),
+            C::new(-333.2, -wd),
+        ]
+        .iter()
+        .map(|p| (p * ts).exp())
+        .collect(),
+        zeros: vec![C::new(42.0 * ts, 0.0).exp(), C::new(-42.0 * ts, 0.0).exp()],
+    };
+    pzmap_figure("Discrete poles and zeros", &[zd], true).save(&dir.join("pzmap_discrete.svg"))?;
 
     // Root locus of k/(s(s+2)(s+5)): roots of s³ + 7s² + 10s + k.
     let gains: Vec<f64> = (0..400).map(|i| 10f64.powf(-2.0 + 4.0 * i as f64 / 399.0)).collect();

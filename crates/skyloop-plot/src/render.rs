@@ -820,7 +820,7 @@ fn draw_panel<DB: DrawingBackend>(
         }
     }
 
-    draw_markers(p, &f, area)?;
+    draw_markers(p, &f, area, &l.runs)?;
 
     // Frame, ticks and their labels.
     area.draw(&Rectangle::new(
@@ -1017,6 +1017,7 @@ fn draw_markers<DB: DrawingBackend>(
     p: &Panel,
     f: &Frame,
     area: &DrawingArea<DB, Shift>,
+    runs: &[Vec<Vec<(f64, f64)>>],
 ) -> std::result::Result<(), String> {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     let grey = neutral();
@@ -1095,18 +1096,37 @@ fn draw_markers<DB: DrawingBackend>(
                     continue;
                 }
                 let q = ipt(q);
-                let (tw, _) = measure(area, label, NOTE_FONT);
-                let (x0, h) = if q.0 + 6 + tw <= f.right {
-                    (q.0 + 6, HPos::Left)
-                } else {
-                    (q.0 - 6, HPos::Right)
-                };
-                let (y0, v) = if q.1 - 24 > f.top {
-                    (q.1 - 6, VPos::Bottom)
-                } else {
-                    (q.1 + 6, VPos::Top)
-                };
-                note(area, label, (x0, y0), h, v)?;
+                let (tw, th) = measure(area, label, NOTE_FONT);
+                // Of the four places around the point, the one inside the frame that hides the
+                // least of the curves (a note must not cover the response it describes).
+                let mut best: Option<((i32, i32), HPos, VPos, usize)> = None;
+                for (dx, dy) in [(1, -1), (1, 1), (-1, -1), (-1, 1)] {
+                    let x0 = if dx > 0 { q.0 + 6 } else { q.0 - 6 - tw };
+                    let y0 = if dy < 0 { q.1 - 6 - th } else { q.1 + 6 };
+                    if x0 < f.left || x0 + tw > f.right || y0 < f.top || y0 + th > f.bottom {
+                        continue;
+                    }
+                    let hidden = coverage(
+                        runs,
+                        (
+                            (x0 - 2) as f64,
+                            (y0 - 1) as f64,
+                            (x0 + tw + 2) as f64,
+                            (y0 + th + 1) as f64,
+                        ),
+                    );
+                    if best.is_none_or(|b| hidden < b.3) {
+                        let h = if dx > 0 { HPos::Left } else { HPos::Right };
+                        let v = if dy < 0 { VPos::Bottom } else { VPos::Top };
+                        let anchor = (
+                            if dx > 0 { q.0 + 6 } else { q.0 - 6 },
+                            if dy < 0 { q.1 - 6 } else { q.1 + 6 },
+                        );
+                        best = Some((anchor, h, v, hidden));
+                    }
+                }
+                let (anchor, h, v) = best.map_or(((q.0 + 6, q.1 - 6), HPos::Left, VPos::Bottom), |b| (b.0, b.1, b.2));
+                note(area, label, anchor, h, v)?;
             }
             Marker::Arrow { x, y, dx, dy, color: c } if usable(*x, p.x_log) && usable(*y, p.y_log) => {
                 let q = f.px(*x, *y);

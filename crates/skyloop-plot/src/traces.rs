@@ -160,6 +160,19 @@ pub fn step_figure(title: &str, traces: &[Trace], infos: &[StepInfo]) -> Figure 
             .push(Series::line(tr.label.clone(), tr.t.clone(), tr.y.clone()).colored(k));
     }
     let fmt = |v: f64| crate::bode::sig3(v);
+    if !infos.is_empty() {
+        // Head room over the peak, so its note can sit above the curve instead of on it.
+        let (lo, hi) = traces
+            .iter()
+            .flat_map(|t| t.y.iter().copied())
+            .chain(infos.iter().map(|i| i.final_value))
+            .filter(|v| v.is_finite())
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+        if lo.is_finite() && hi > lo {
+            let span = hi - lo;
+            p.y_range = Some((lo - 0.05 * span, hi + 0.15 * span));
+        }
+    }
     for (k, (tr, info)) in traces.iter().zip(infos).enumerate() {
         let yf = info.final_value;
         let mut dots: (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
