@@ -40,7 +40,13 @@
       out.push({ v: i * step, l: deg && step >= 15 ? String(Math.round(i * step)) : fmt(i * step, step) });
     return out;
   }
-  function logTicks(lo, hi, n) { // lo, hi in log10 units
+  function fmtExp(v, step) { // dimensionless log axes: "1e-6", not "1µ"
+    var m = Math.abs(v);
+    if (v === 0 || (m >= 1e-3 && m < 1e4)) return fmt(v, step);
+    var e = Math.floor(Math.log10(m) + 1e-9);
+    return String(+(v / Math.pow(10, e)).toPrecision(3)) + "e" + e;
+  }
+  function logTicks(lo, hi, n, sci) { // lo, hi in log10 units
     var out = [], decades = hi - lo, every = Math.max(1, Math.ceil(decades / Math.max(1, n)));
     var few = decades <= 2 + 1e-9;
     if (decades > 40) return linTicks(lo, hi, n).map(function (t) { return { v: t.v, l: "1e" + t.l }; });
@@ -49,7 +55,7 @@
         var t = d + Math.log10(m);
         if (t < lo - 1e-9 || t > hi + 1e-9) continue;
         var lab = (m === 1 && ((d % every) + every) % every === 0) || (few && (m === 2 || m === 5));
-        out.push({ v: t, l: lab ? fmt(m * Math.pow(10, d), Math.pow(10, d)) : null });
+        out.push({ v: t, l: lab ? (sci ? fmtExp : fmt)(m * Math.pow(10, d), Math.pow(10, d)) : null });
       }
     }
     if (out.filter(function (t) { return t.l !== null; }).length < 2)
@@ -107,7 +113,7 @@
       // The same densities as the static rendering (src/render.rs: axis_ticks).
       var nx = Math.max(2, Math.min(14, Math.floor((f.r - f.l) / 85))), ny = Math.max(2, Math.min(10, Math.floor((f.b - f.t) / 26)));
       var xt = p.xLog ? logTicks(v.x0, v.x1, Math.max(2, Math.floor((f.r - f.l) / 51))) : linTicks(v.x0, v.x1, nx, p.xDeg);
-      var yt = p.yLog ? logTicks(v.y0, v.y1, Math.max(2, Math.floor((f.b - f.t) / 15.6))) : linTicks(v.y0, v.y1, ny, p.yDeg);
+      var yt = p.yLog ? logTicks(v.y0, v.y1, Math.max(2, Math.floor((f.b - f.t) / 15.6)), true) : linTicks(v.y0, v.y1, ny, p.yDeg);
       ctx.lineWidth = 1;
       xt.forEach(function (t) { var u = Math.round(sx(P, t.v)) + 0.5; ctx.strokeStyle = t.l ? "#d7d7d7" : "#eee"; ctx.beginPath(); ctx.moveTo(u, f.t); ctx.lineTo(u, f.b); ctx.stroke(); });
       yt.forEach(function (t) { var w = Math.round(sy(P, t.v)) + 0.5; ctx.strokeStyle = t.l ? "#d7d7d7" : "#eee"; ctx.beginPath(); ctx.moveTo(f.l, w); ctx.lineTo(f.r, w); ctx.stroke(); });

@@ -243,6 +243,8 @@ fn equalize(x: &mut Axis, y: &mut Axis, w: f64, h: f64) {
 }
 
 /// Ticks of one axis given the pixel length available.
+/// On a log y axis (dimensionless: singular values, μ) labels far from 1 are written with a power of
+/// ten; a log x axis is a frequency in Hz and keeps SI prefixes ("10k").
 fn axis_ticks(a: &Axis, degrees: bool, pixels: f64, spacing: f64, max: usize) -> Vec<Tick> {
     let n = ((pixels / spacing).floor() as usize).clamp(2, max);
     if a.log {
@@ -460,7 +462,15 @@ fn lay_out(p: &Panel, colors_unused: &[usize], (w, h): (i32, i32), left: i32, bo
     };
     let xticks = axis_ticks(&xa, p.x_degrees, pw as f64, 85.0, 14);
     // At most 10 labels up the side: a tall dB axis then reads in 10s or 20s.
-    let yticks = axis_ticks(&ya, p.y_degrees, ph as f64, 26.0, 10);
+    let mut yticks = axis_ticks(&ya, p.y_degrees, ph as f64, 26.0, 10);
+    if ya.log {
+        for t in &mut yticks {
+            if t.label.is_some() {
+                let decade = 10f64.powf(t.value.log10().floor());
+                t.label = Some(crate::ticks::format_tick_exp(t.value, decade));
+            }
+        }
+    }
     let tb = frame.tbox();
     let runs = p
         .series

@@ -74,6 +74,31 @@ pub fn format_tick(value: f64, step: f64) -> String {
     s
 }
 
+/// A tick value of a dimensionless log axis (Hankel singular values, μ): plain from 0.001 to 1000,
+/// else mantissa and power of ten ("1e-6", "2e5") — SI prefixes belong to quantities with units.
+pub fn format_tick_exp(value: f64, step: f64) -> String {
+    let mag = value.abs();
+    if value == 0.0 || !value.is_finite() || (1e-3..1e4).contains(&mag) {
+        return format_tick(value, step);
+    }
+    let e = (mag.log10() + 1e-9).floor() as i32;
+    let m = value / 10f64.powi(e);
+    let digits = ((mag.log10() - step.abs().max(f64::MIN_POSITIVE).log10())
+        .round()
+        .max(0.0) as usize)
+        .min(6);
+    let mut s = format!("{m:.digits$}");
+    if s.contains('.') {
+        while s.ends_with('0') {
+            s.pop();
+        }
+        if s.ends_with('.') {
+            s.pop();
+        }
+    }
+    format!("{s}e{e}")
+}
+
 /// "1.50e18" → "1.5e18".
 fn trim_exponent(s: &str) -> String {
     match s.split_once('e') {
@@ -234,6 +259,10 @@ mod tests {
         assert_eq!(format_tick(2.5, 2.5), "2.5");
         assert_eq!(format_tick(0.25, 0.05), "0.25");
         assert_eq!(format_tick(1e18, 1e18), "1e18");
+        assert_eq!(format_tick_exp(1e-6, 1e-6), "1e-6");
+        assert_eq!(format_tick_exp(2e5, 1e5), "2e5");
+        assert_eq!(format_tick_exp(0.01, 0.01), "0.01");
+        assert_eq!(format_tick_exp(1e10, 1e10), "1e10");
         assert_eq!(format_tick(100.0, 100.0), "100");
         assert!(!format_tick(123.0, 1.0).ends_with(".0"));
     }
