@@ -28,7 +28,8 @@
   function linTicks(lo, hi, n, deg) {
     var step;
     var raw = Math.abs(hi - lo) / Math.max(2, n);
-    if (deg && raw >= 15) {
+    if (deg && Math.abs(hi - lo) >= 60) {
+      raw = Math.max(raw, 15);
       var ds = [15, 30, 45, 90, 180, 360, 720];
       step = ds[ds.length - 1];
       for (var k = 0; k < ds.length; k++) if (ds[k] >= raw) { step = ds[k]; break; }

@@ -142,13 +142,13 @@ pub fn linear_ticks(lo: f64, hi: f64, max_ticks: usize) -> Vec<Tick> {
 
 /// Labelled ticks for an axis in degrees: multiples of 15°, 30°, 45°, 90°, 180°, 360°, ... (so a
 /// phase axis reads −180, −90, 0 and the critical −180° is always a grid line when in range); spans
-/// under 15° per tick fall back to nice decimal steps.
+/// under 60° fall back to nice decimal steps.
 pub fn degree_ticks(lo: f64, hi: f64, max_ticks: usize) -> Vec<Tick> {
     let span = (hi - lo).abs();
-    let raw = span / max_ticks.max(2) as f64;
-    if raw < 15.0 {
+    if span < 60.0 {
         return linear_ticks(lo, hi, max_ticks);
     }
+    let raw = (span / max_ticks.max(2) as f64).max(15.0);
     let mut step = 15.0;
     for s in [15.0, 30.0, 45.0, 90.0, 180.0, 360.0, 720.0] {
         step = s;
@@ -282,6 +282,8 @@ mod tests {
         let t = degree_ticks(-290.0, 10.0, 8);
         assert!(t.iter().any(|t| t.value == -180.0));
         assert!(t.iter().all(|t| (t.value / 45.0).fract() == 0.0));
+        let t = degree_ticks(-95.0, 5.0, 10);
+        assert!(t.iter().all(|t| (t.value / 15.0).fract() == 0.0), "{t:?}");
         let t = degree_ticks(-5760.0, 0.0, 5);
         assert!(t.iter().any(|t| t.label.as_deref() == Some("-1440")), "{t:?}");
     }
