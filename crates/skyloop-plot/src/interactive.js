@@ -256,7 +256,10 @@
       var xv = s.x[best.i], yv = s.y[best.i];
       var sig = function (v) { return v === null ? "–" : Math.abs(v) >= 1e4 || (Math.abs(v) < 1e-3 && v !== 0) ? v.toExponential(3) : String(+v.toPrecision(4)); };
       var name = s.label || byColor[s.color] || "";
-      tip.textContent = (name ? name + ": " : "") + (p.xLabel || "x") + " = " + sig(xv) + ", " + (p.yLabel || "y") + " = " + sig(yv);
+      // A panel whose x axis is described only under the panel below (Bode magnitude) borrows it.
+      var xName = p.xLabel;
+      if (!xName) panels.forEach(function (Q) { if (!xName && Q.col === h.P.col && Q.p.xLabel) xName = Q.p.xLabel; });
+      tip.textContent = (name ? name + ": " : "") + (xName || "x") + " = " + sig(xv) + ", " + (p.yLabel || "y") + " = " + sig(yv);
       tip.style.display = "block";
       tip.style.left = (sx(h.P, best.S.tx[best.i]) / h.k + 12) + "px";
       tip.style.top = (sy(h.P, best.S.ty[best.i]) / h.k - 28) + "px";
