@@ -229,6 +229,28 @@ impl Figure {
         }
     }
 
+    /// Renumbers the palette colours of every series, band and arrow that has one: colour `k` becomes
+    /// `map[k]` (indices beyond `map` stay). Builders colour system `k` of their input with `k`; this
+    /// keeps a system's colour the same across figures (e.g. the final controller always orange,
+    /// `map = [3]`), or gives a single curve a chosen colour.
+    pub fn remap_colors(mut self, map: &[usize]) -> Self {
+        let re = |c: usize| map.get(c).copied().unwrap_or(c);
+        for p in &mut self.panels {
+            for s in &mut p.series {
+                s.color = s.color.map(re);
+            }
+            for b in &mut p.bands {
+                b.color = re(b.color);
+            }
+            for m in &mut p.markers {
+                if let Marker::Arrow { color, .. } = m {
+                    *color = re(*color);
+                }
+            }
+        }
+        self
+    }
+
     /// Number of panel rows and columns of the grid.
     pub fn grid(&self) -> (usize, usize) {
         let cols = self.columns.max(1).min(self.panels.len().max(1));

@@ -152,6 +152,16 @@ fn nyquist_nichols_pzmap_rlocus_step_and_mimo_render() {
 }
 
 #[test]
+fn colours_can_be_renumbered_for_a_whole_figure() {
+    let (f, l) = delayed_loop();
+    let d = bode_data("K final", &f, &l);
+    let fig = bode_figure("L", &[d], &BodeMarks::default()).remap_colors(&[3]);
+    // Magnitude and phase of the one system both in palette colour 3.
+    assert_eq!(fig.panels[0].series[0].color, Some(3));
+    assert_eq!(fig.panels[1].series[0].color, Some(3));
+}
+
+#[test]
 fn interactive_report_is_self_contained() {
     let (f, l) = delayed_loop();
     let mut r = Report::new("R");
