@@ -135,8 +135,9 @@ pub fn nyquist_figure(title: &str, data: &[NyquistData], radius: Option<f64>) ->
         label: "−1".into(),
     });
     let mut f = Figure::new(title, vec![p]);
+    // Close to square once the tick labels are placed: the unit circle fills the view evenly.
     f.panel_height = 720;
-    f.width = 820;
+    f.width = 760;
     f
 }
 
