@@ -14,7 +14,31 @@ pub enum SeriesStyle {
     Points,
     /// Vertical stems from the bottom of the axis to each point (bar-like).
     Stems,
+    /// A cross (×) at each point: poles in a pole–zero map or root locus.
+    Crosses,
+    /// A hollow circle (○) at each point: zeros in a pole–zero map or root locus.
+    Circles,
+    /// A thin grey line for reference geometry (unit circle, M-circles, stability boundary); no
+    /// palette colour is used up.
+    Reference,
 }
+
+/// The colour-blind-safe palette of Okabe & Ito (2008), as RGB, in their published order with black
+/// moved last (black is the colour of frames and text, so it is the last resort for a curve).
+/// `Series::colored(i)` picks entry `i % 8`.
+pub const PALETTE: [(u8, u8, u8); 8] = [
+    (0, 114, 178),   // blue
+    (213, 94, 0),    // vermillion
+    (0, 158, 115),   // bluish green
+    (230, 159, 0),   // orange
+    (204, 121, 167), // reddish purple
+    (86, 180, 233),  // sky blue
+    (240, 228, 66),  // yellow
+    (0, 0, 0),       // black
+];
+
+/// Colour of reference geometry and marker lines (grey), as RGB.
+pub const NEUTRAL: (u8, u8, u8) = (110, 110, 110);
 
 /// One curve: x and y values of equal length and a legend label (empty: no legend entry).
 #[derive(Debug, Clone, PartialEq)]
@@ -27,7 +51,8 @@ pub struct Series {
     pub y: Vec<f64>,
     /// How to draw it.
     pub style: SeriesStyle,
-    /// Palette index; `None` picks the next colour.
+    /// Palette index into [`PALETTE`]; `None` picks one: series with the same label share a colour
+    /// across the panels of a figure, unlabelled ones take their index in the panel.
     pub color: Option<usize>,
 }
 
@@ -49,10 +74,21 @@ impl Series {
         self
     }
 
-    /// The same series with a fixed palette colour.
+    /// The same series with a fixed palette colour (index into [`PALETTE`], wrapping), so one system
+    /// keeps its colour in every panel (magnitude and phase, several channels).
     pub fn colored(mut self, index: usize) -> Self {
         self.color = Some(index);
         self
+    }
+
+    /// A dashed line: the convention for a reference, target or bound.
+    pub fn dashed(label: impl Into<String>, x: Vec<f64>, y: Vec<f64>) -> Self {
+        Series::line(label, x, y).styled(SeriesStyle::Dashed)
+    }
+
+    /// Markers at points, e.g. poles (`SeriesStyle::Crosses`) or zeros (`SeriesStyle::Circles`).
+    pub fn points(label: impl Into<String>, x: Vec<f64>, y: Vec<f64>, style: SeriesStyle) -> Self {
+        Series::line(label, x, y).styled(style)
     }
 }
 
@@ -97,6 +133,28 @@ pub enum Marker {
         /// Text drawn next to the point.
         label: String,
     },
+    /// An arrowhead at a point of a curve showing its direction of travel (Nyquist: increasing ω).
+    Arrow {
+        /// Position on the x axis.
+        x: f64,
+        /// Position on the y axis.
+        y: f64,
+        /// Direction of travel along x, in data units (only the direction matters).
+        dx: f64,
+        /// Direction of travel along y, in data units.
+        dy: f64,
+        /// Palette index of the curve it belongs to.
+        color: usize,
+    },
+    /// A text note at a data position (e.g. "overshoot 12.3 %" beside a peak).
+    Note {
+        /// Position on the x axis.
+        x: f64,
+        /// Position on the y axis.
+        y: f64,
+        /// The text.
+        label: String,
+    },
 }
 
 /// One set of axes.
@@ -122,6 +180,13 @@ pub struct Panel {
     pub y_range: Option<(f64, f64)>,
     /// Fixed x range; `None` fits the data.
     pub x_range: Option<(f64, f64)>,
+    /// One data unit spans as many pixels along x as along y (complex-plane plots: a circle is
+    /// round); the range of the longer side is widened to match.
+    pub equal_aspect: bool,
+    /// The x axis is in degrees: ticks at multiples of 15°, 45°, 90°, ... (Nichols).
+    pub x_degrees: bool,
+    /// The y axis is in degrees: ticks at multiples of 15°, 45°, 90°, ... (phase).
+    pub y_degrees: bool,
 }
 
 impl Panel {
@@ -147,6 +212,9 @@ pub struct Figure {
     pub width: u32,
     /// Height in pixels of each panel.
     pub panel_height: u32,
+    /// Number of panel columns: panels fill a grid row by row (MIMO Bode: one column per input);
+    /// 0 or 1 stacks them vertically.
+    pub columns: usize,
 }
 
 impl Figure {
@@ -157,7 +225,43 @@ impl Figure {
             panels,
             width: 960,
             panel_height: 360,
+            columns: 1,
         }
+    }
+
+    /// Renumbers the palette colours of every series, band and arrow that has one: colour `k` becomes
+    /// `map[k]` (indices beyond `map` stay). Builders colour system `k` of their input with `k`; this
+    /// keeps a system's colour the same across figures (e.g. the final controller always orange,
+    /// `map = [3]`), or gives a single curve a chosen colour.
+    pub fn remap_colors(mut self, map: &[usize]) -> Self {
+        let re = |c: usize| map.get(c).copied().unwrap_or(c);
+        for p in &mut self.panels {
+            for s in &mut p.series {
+                s.color = s.color.map(re);
+            }
+            for b in &mut p.bands {
+                b.color = re(b.color);
+            }
+            for m in &mut p.markers {
+                if let Marker::Arrow { color, .. } = m {
+                    *color = re(*color);
+                }
+            }
+        }
+        self
+    }
+
+    /// Number of panel rows and columns of the grid.
+    pub fn grid(&self) -> (usize, usize) {
+        let cols = self.columns.max(1).min(self.panels.len().max(1));
+        (self.panels.len().div_ceil(cols), cols)
+    }
+
+    /// Size of the rendered image in pixels (width, height).
+    pub fn size(&self) -> (u32, u32) {
+        let (rows, _) = self.grid();
+        let title = if self.title.is_empty() { 8 } else { 40 };
+        (self.width, self.panel_height * rows as u32 + title)
     }
 
     /// Rejects figures that cannot be drawn: no panels, series of unequal length, no finite data.

@@ -29,6 +29,7 @@ pub fn frf_figure(title: &str, est: &FrfEstimate, fits: &[BodeData]) -> Figure {
     let f = &est.freq_hz;
     let mut mag = Panel::frequency("magnitude [dB]");
     let mut phase = Panel::frequency("phase [deg]");
+    phase.y_degrees = true;
     if !est.mag_band_db.0.is_empty() {
         mag.bands.push(Band {
             label: "confidence".into(),

@@ -1,29 +1,30 @@
-//! Drawing a [`Figure`] with plotters onto an SVG or PNG backend.
+//! Drawing a [`Figure`] onto an SVG or PNG backend of plotters.
+//!
+//! The axes are laid out and drawn here rather than by plotters' mesh, so that tick labels follow
+//! [`crate::ticks`] (engineering notation, decades on log axes), the label area is as wide as the
+//! widest measured label (nothing clipped), curves are cut where they leave the view box
+//! ([`crate::geometry`]) instead of being clamped onto the frame, and legends go where they hide no
+//! data.
 
 use std::path::Path;
 
-use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use crate::error::{PlotError, Result};
-use crate::figure::{usable, Figure, Marker, Panel, SeriesStyle};
+use crate::figure::{usable, Figure, Marker, Panel, SeriesStyle, NEUTRAL, PALETTE};
+use crate::geometry::{clip_polygon, clip_polyline, ViewBox};
+use crate::ticks::{degree_ticks, linear_ticks, log_ticks, Tick};
 
-/// Line colours, chosen to stay distinguishable when printed in grey.
-const PALETTE: [RGBColor; 8] = [
-    RGBColor(31, 119, 180),
-    RGBColor(214, 39, 40),
-    RGBColor(44, 160, 44),
-    RGBColor(255, 127, 14),
-    RGBColor(148, 103, 189),
-    RGBColor(140, 86, 75),
-    RGBColor(227, 119, 194),
-    RGBColor(23, 190, 207),
-];
-
-/// Palette colour `i`, wrapping around.
+/// Palette colour `i` (wrapping).
 fn color(i: usize) -> RGBColor {
-    PALETTE[i % PALETTE.len()]
+    let (r, g, b) = PALETTE[i % PALETTE.len()];
+    RGBColor(r, g, b)
+}
+
+fn neutral() -> RGBColor {
+    RGBColor(NEUTRAL.0, NEUTRAL.1, NEUTRAL.2)
 }
 
 /// The embedded DejaVu Sans (Bitstream Vera licence, `fonts/DejaVu-LICENSE.txt`): text is drawn with
@@ -64,7 +65,7 @@ pub(crate) fn save(fig: &Figure, path: &Path) -> Result<()> {
         .extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase());
-    let size = (fig.width, fig.panel_height * fig.panels.len() as u32 + 40);
+    let size = fig.size();
     let draw_err = |e: String| PlotError::Draw {
         path: name.clone(),
         message: e,
@@ -86,7 +87,7 @@ pub(crate) fn save(fig: &Figure, path: &Path) -> Result<()> {
 
 /// Renders `fig` to an SVG string.
 pub(crate) fn svg_string(fig: &Figure) -> Result<String> {
-    let size = (fig.width, fig.panel_height * fig.panels.len() as u32 + 40);
+    let size = fig.size();
     let mut buf = String::new();
     {
         let root = SVGBackend::with_string(&mut buf, size).into_drawing_area();
@@ -102,21 +103,59 @@ pub(crate) fn svg_string(fig: &Figure) -> Result<String> {
     Ok(buf)
 }
 
-fn draw_figure<DB: DrawingBackend>(fig: &Figure, root: &DrawingArea<DB, Shift>) -> std::result::Result<(), String> {
-    register_font()?;
-    root.fill(&WHITE).map_err(|e| e.to_string())?;
-    let root = root.titled(&fig.title, ("sans-serif", 22)).map_err(|e| e.to_string())?;
-    let areas = root.split_evenly((fig.panels.len(), 1));
-    for (panel, area) in fig.panels.iter().zip(areas.iter()) {
-        draw_panel(panel, area)?;
+/// Font sizes, px.
+const TICK_FONT: f64 = 13.0;
+const DESC_FONT: f64 = 14.0;
+const TITLE_FONT: f64 = 15.0;
+const NOTE_FONT: f64 = 12.0;
+const LEGEND_FONT: f64 = 13.0;
+
+fn text_style(size: f64) -> TextStyle<'static> {
+    TextStyle::from(("sans-serif", size).into_font()).color(&BLACK)
+}
+
+/// Width and height of `s` in pixels as drawn on `area` (a rough estimate if the font fails).
+fn measure<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, s: &str, size: f64) -> (i32, i32) {
+    match area.estimate_text_size(s, &text_style(size)) {
+        Ok((w, h)) => (w as i32, h as i32),
+        Err(_) => ((0.6 * size * s.chars().count() as f64) as i32, size as i32),
     }
-    Ok(())
+}
+
+/// One axis: its range and scale, and the map from data to pixels.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Axis {
+    pub(crate) lo: f64,
+    pub(crate) hi: f64,
+    pub(crate) log: bool,
+}
+
+impl Axis {
+    /// The axis coordinate in which the map to pixels is linear (log10 on a log axis).
+    pub(crate) fn t(&self, v: f64) -> f64 {
+        if self.log {
+            v.log10()
+        } else {
+            v
+        }
+    }
 }
 
 /// The data range of a panel along one axis, padded; log axes snap outward to decades.
-fn axis_range(values: impl Iterator<Item = f64>, log: bool, fixed: Option<(f64, f64)>) -> (f64, f64) {
-    if let Some(r) = fixed {
-        return r;
+///
+/// A log y axis gets a little room before snapping, so a value on a decade (a Hankel singular value
+/// of 10⁻⁶) is not drawn on the frame; a log x axis does not, so a frequency grid from 0.01 to 100 Hz
+/// fills the axis exactly.
+pub(crate) fn axis_range(
+    values: impl Iterator<Item = f64>,
+    log: bool,
+    fixed: Option<(f64, f64)>,
+    is_y: bool,
+) -> (f64, f64) {
+    if let Some((a, b)) = fixed {
+        if usable(a, log) && usable(b, log) && a != b {
+            return (a.min(b), a.max(b));
+        }
     }
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for v in values.filter(|v| usable(*v, log)) {
@@ -127,7 +166,13 @@ fn axis_range(values: impl Iterator<Item = f64>, log: bool, fixed: Option<(f64, 
         return if log { (0.1, 10.0) } else { (-1.0, 1.0) };
     }
     if log {
-        let (a, b) = (lo.log10().floor(), hi.log10().ceil());
+        // A little room first, so a value on a decade is not drawn on the frame.
+        let pad = if is_y {
+            0.02 * (hi.log10() - lo.log10()).max(0.5)
+        } else {
+            0.0
+        };
+        let (a, b) = ((lo.log10() - pad).floor(), (hi.log10() + pad).ceil());
         let b = if b <= a { a + 1.0 } else { b };
         (10f64.powf(a), 10f64.powf(b))
     } else {
@@ -141,184 +186,1068 @@ fn axis_range(values: impl Iterator<Item = f64>, log: bool, fixed: Option<(f64, 
     }
 }
 
-fn draw_panel<DB: DrawingBackend>(p: &Panel, area: &DrawingArea<DB, Shift>) -> std::result::Result<(), String> {
+/// The x and y axes a panel is drawn in (before equal-aspect widening).
+pub(crate) fn panel_axes(p: &Panel) -> (Axis, Axis) {
     let xs = p
         .series
         .iter()
         .flat_map(|s| s.x.iter().copied())
-        .chain(p.bands.iter().flat_map(|b| b.x.clone()));
+        .chain(p.bands.iter().flat_map(|b| b.x.iter().copied()))
+        .chain(p.markers.iter().filter_map(|m| match m {
+            Marker::Point { x, .. } => Some(*x),
+            _ => None,
+        }));
     let ys = p
         .series
         .iter()
         .flat_map(|s| s.y.iter().copied())
-        .chain(
-            p.bands
-                .iter()
-                .flat_map(|b| b.lower.iter().chain(&b.upper).copied().collect::<Vec<_>>()),
-        )
+        .chain(p.bands.iter().flat_map(|b| b.lower.iter().chain(&b.upper).copied()))
         .chain(p.markers.iter().filter_map(|m| match m {
             Marker::Horizontal { y, .. } | Marker::Point { y, .. } => Some(*y),
-            Marker::Vertical { .. } => None,
+            _ => None,
         }));
-    let (x0, x1) = axis_range(xs, p.x_log, p.x_range);
-    let (y0, y1) = axis_range(ys, p.y_log, p.y_range);
-    match (p.x_log, p.y_log) {
-        (false, false) => draw_in(p, area, x0..x1, y0..y1),
-        (true, false) => draw_in(p, area, (x0..x1).log_scale(), y0..y1),
-        (false, true) => draw_in(p, area, x0..x1, (y0..y1).log_scale()),
-        (true, true) => draw_in(p, area, (x0..x1).log_scale(), (y0..y1).log_scale()),
+    let (x0, x1) = axis_range(xs, p.x_log, p.x_range, false);
+    let (y0, y1) = axis_range(ys, p.y_log, p.y_range, true);
+    (
+        Axis {
+            lo: x0,
+            hi: x1,
+            log: p.x_log,
+        },
+        Axis {
+            lo: y0,
+            hi: y1,
+            log: p.y_log,
+        },
+    )
+}
+
+/// Widens one range so a data unit spans as many pixels in x as in y (linear axes only).
+fn equalize(x: &mut Axis, y: &mut Axis, w: f64, h: f64) {
+    if x.log || y.log || w <= 0.0 || h <= 0.0 {
+        return;
+    }
+    let ux = (x.hi - x.lo) / w;
+    let uy = (y.hi - y.lo) / h;
+    if ux > uy {
+        let c = 0.5 * (y.lo + y.hi);
+        let half = 0.5 * ux * h;
+        y.lo = c - half;
+        y.hi = c + half;
+    } else {
+        let c = 0.5 * (x.lo + x.hi);
+        let half = 0.5 * uy * w;
+        x.lo = c - half;
+        x.hi = c + half;
     }
 }
 
-fn draw_in<DB, X, Y>(p: &Panel, area: &DrawingArea<DB, Shift>, xr: X, yr: Y) -> std::result::Result<(), String>
-where
-    DB: DrawingBackend,
-    X: AsRangedCoord<Value = f64>,
-    Y: AsRangedCoord<Value = f64>,
-    X::CoordDescType: ValueFormatter<f64>,
-    Y::CoordDescType: ValueFormatter<f64>,
-{
-    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
-    let mut chart = ChartBuilder::on(area)
-        .caption(&p.title, ("sans-serif", 16))
-        .margin(8)
-        .margin_right(28)
-        .x_label_area_size(36)
-        .y_label_area_size(64)
-        .build_cartesian_2d(xr, yr)
-        .map_err(e)?;
-    chart
-        .configure_mesh()
-        .x_desc(p.x_label.as_str())
-        .y_desc(p.y_label.as_str())
-        .light_line_style(RGBColor(235, 235, 235))
-        .draw()
-        .map_err(e)?;
-    let (xlo, xhi) = {
-        let r = chart.x_range();
-        (r.start, r.end)
-    };
-    let (ylo, yhi) = {
-        let r = chart.y_range();
-        (r.start, r.end)
-    };
-    let clip_y = |y: f64| y.clamp(ylo, yhi);
-    let mut any_legend = false;
+/// Ticks of one axis given the pixel length available.
+/// On a log y axis (dimensionless: singular values, μ) labels far from 1 are written with a power of
+/// ten; a log x axis is a frequency in Hz and keeps SI prefixes ("10k").
+fn axis_ticks(a: &Axis, degrees: bool, pixels: f64, spacing: f64, max: usize) -> Vec<Tick> {
+    let n = ((pixels / spacing).floor() as usize).clamp(2, max);
+    if a.log {
+        // Decade labels are short ("10", "1k"): they can sit closer than linear ones.
+        let mut t = log_ticks(a.lo, a.hi, ((pixels / (0.6 * spacing)).floor() as usize).clamp(2, 16));
+        // Minor lines (2…9 × 10ᵏ) only where a decade is wide enough for them not to be a smear.
+        let decades = (a.hi / a.lo).log10();
+        if pixels / decades.max(1e-9) < 45.0 {
+            t.retain(|t| t.label.is_some() || (t.value.log10().fract()).abs() < 1e-9);
+        }
+        t
+    } else if degrees {
+        degree_ticks(a.lo, a.hi, n)
+    } else {
+        linear_ticks(a.lo, a.hi, n)
+    }
+}
 
+/// Where a panel's plot area sits inside its drawing area, px (area-relative).
+#[derive(Debug, Clone, Copy)]
+struct Frame {
+    left: i32,
+    top: i32,
+    right: i32,
+    bottom: i32,
+    x: Axis,
+    y: Axis,
+}
+
+impl Frame {
+    /// Pixel position of a point given in axis coordinates (`Axis::t`).
+    fn px_t(&self, tx: f64, ty: f64) -> (f64, f64) {
+        let (a, b) = (self.x.t(self.x.lo), self.x.t(self.x.hi));
+        let (c, d) = (self.y.t(self.y.lo), self.y.t(self.y.hi));
+        let u = self.left as f64 + (tx - a) / (b - a) * (self.right - self.left) as f64;
+        let v = self.bottom as f64 - (ty - c) / (d - c) * (self.bottom - self.top) as f64;
+        (u, v)
+    }
+
+    /// Pixel position of a data point.
+    fn px(&self, x: f64, y: f64) -> (f64, f64) {
+        self.px_t(self.x.t(x), self.y.t(y))
+    }
+
+    /// The view box in axis coordinates.
+    fn tbox(&self) -> ViewBox {
+        ViewBox {
+            x0: self.x.t(self.x.lo),
+            x1: self.x.t(self.x.hi),
+            y0: self.y.t(self.y.lo),
+            y1: self.y.t(self.y.hi),
+        }
+    }
+
+    fn inside_px(&self, p: (f64, f64)) -> bool {
+        p.0 >= self.left as f64 && p.0 <= self.right as f64 && p.1 >= self.top as f64 && p.1 <= self.bottom as f64
+    }
+}
+
+/// A panel after layout: its frame, ticks, and its curves already clipped and in pixels.
+struct Laid {
+    frame: Frame,
+    xticks: Vec<Tick>,
+    yticks: Vec<Tick>,
+    /// Visible runs of each series, px.
+    runs: Vec<Vec<Vec<(f64, f64)>>>,
+    legend: Vec<LegendEntry>,
+    legend_size: (i32, i32),
+    /// Pixels of point-like markers and notes (the legend must not hide them either).
+    marks: Vec<(f64, f64)>,
+}
+
+#[derive(Clone)]
+enum LegendKind {
+    Line { dashed: bool },
+    Band,
+    Mark(SeriesStyle),
+}
+
+#[derive(Clone)]
+struct LegendEntry {
+    label: String,
+    color: RGBColor,
+    kind: LegendKind,
+}
+
+/// Colours of every series of the figure (palette indices; `usize::MAX` for reference grey): a fixed
+/// colour wins; otherwise series sharing a label share a colour across panels.
+pub(crate) fn resolve_colors(fig: &Figure) -> Vec<Vec<usize>> {
+    let mut by_label: Vec<(String, usize)> = Vec::new();
+    let mut next = 0usize;
+    fig.panels
+        .iter()
+        .map(|p| {
+            p.series
+                .iter()
+                .enumerate()
+                .map(|(k, s)| {
+                    if s.style == SeriesStyle::Reference {
+                        return usize::MAX;
+                    }
+                    if let Some(c) = s.color {
+                        return c;
+                    }
+                    if s.label.is_empty() {
+                        return k;
+                    }
+                    if let Some((_, c)) = by_label.iter().find(|(l, _)| *l == s.label) {
+                        return *c;
+                    }
+                    let c = next;
+                    next += 1;
+                    by_label.push((s.label.clone(), c));
+                    c
+                })
+                .collect()
+        })
+        .collect()
+}
+
+fn rgb(c: usize) -> RGBColor {
+    if c == usize::MAX {
+        neutral()
+    } else {
+        color(c)
+    }
+}
+
+fn legend_entries(p: &Panel, colors: &[usize]) -> Vec<LegendEntry> {
+    let mut out = Vec::new();
+    for b in &p.bands {
+        if !b.label.is_empty() {
+            out.push(LegendEntry {
+                label: b.label.clone(),
+                color: color(b.color),
+                kind: LegendKind::Band,
+            });
+        }
+    }
+    for (s, c) in p.series.iter().zip(colors) {
+        if s.label.is_empty() || out.iter().any(|e: &LegendEntry| e.label == s.label) {
+            continue;
+        }
+        let kind = match s.style {
+            SeriesStyle::Line => LegendKind::Line { dashed: false },
+            SeriesStyle::Dashed | SeriesStyle::Reference => LegendKind::Line { dashed: true },
+            other => LegendKind::Mark(other),
+        };
+        out.push(LegendEntry {
+            label: s.label.clone(),
+            color: rgb(*c),
+            kind,
+        });
+    }
+    out
+}
+
+const LEGEND_ROW: i32 = 19;
+const LEGEND_SWATCH: i32 = 26;
+
+fn legend_size<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, entries: &[LegendEntry]) -> (i32, i32) {
+    if entries.is_empty() {
+        return (0, 0);
+    }
+    let w = entries
+        .iter()
+        .map(|e| measure(area, &e.label, LEGEND_FONT).0)
+        .max()
+        .unwrap_or(0);
+    (w + LEGEND_SWATCH + 18, entries.len() as i32 * LEGEND_ROW + 8)
+}
+
+/// Left and bottom space a panel needs for its tick labels and axis descriptions, px.
+fn margins<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, yticks: &[Tick]) -> (i32, i32) {
+    let widest = yticks
+        .iter()
+        .filter_map(|t| t.label.as_ref())
+        .map(|l| measure(area, l, TICK_FONT).0)
+        .max()
+        .unwrap_or(0);
+    let desc = if p.y_label.is_empty() {
+        0
+    } else {
+        measure(area, &p.y_label, DESC_FONT).1 + 8
+    };
+    let left = 8 + desc + widest + 8;
+    let bottom = 6 + TICK_FONT as i32 + 6 + if p.x_label.is_empty() { 0 } else { DESC_FONT as i32 + 8 } + 4;
+    (left, bottom)
+}
+
+fn top_margin(p: &Panel) -> i32 {
+    if p.title.is_empty() {
+        12
+    } else {
+        TITLE_FONT as i32 + 14
+    }
+}
+
+/// Lays out a panel given the margins; widens for equal aspect and clips the curves.
+fn lay_out(p: &Panel, colors_unused: &[usize], (w, h): (i32, i32), left: i32, bottom: i32, right: i32) -> Laid {
+    let _ = colors_unused;
+    let (mut xa, mut ya) = panel_axes(p);
+    let top = top_margin(p);
+    let (pw, ph) = ((w - left - right).max(20), (h - top - bottom).max(20));
+    if p.equal_aspect {
+        equalize(&mut xa, &mut ya, pw as f64, ph as f64);
+    }
+    let frame = Frame {
+        left,
+        top,
+        right: left + pw,
+        bottom: top + ph,
+        x: xa,
+        y: ya,
+    };
+    let xticks = axis_ticks(&xa, p.x_degrees, pw as f64, 85.0, 14);
+    // At most 10 labels up the side: a tall dB axis then reads in 10s or 20s.
+    let mut yticks = axis_ticks(&ya, p.y_degrees, ph as f64, 26.0, 10);
+    if ya.log {
+        for t in &mut yticks {
+            if t.label.is_some() {
+                let decade = 10f64.powf(t.value.log10().floor());
+                t.label = Some(crate::ticks::format_tick_exp(t.value, decade));
+            }
+        }
+    }
+    let tb = frame.tbox();
+    let runs = p
+        .series
+        .iter()
+        .map(|s| {
+            let pts: Vec<(f64, f64)> =
+                s.x.iter()
+                    .zip(&s.y)
+                    .map(|(x, y)| {
+                        if usable(*x, p.x_log) && usable(*y, p.y_log) {
+                            (xa.t(*x), ya.t(*y))
+                        } else {
+                            (f64::NAN, f64::NAN)
+                        }
+                    })
+                    .collect();
+            let runs = match s.style {
+                SeriesStyle::Line | SeriesStyle::Dashed | SeriesStyle::Reference => clip_polyline(&pts, &tb),
+                // Markers are kept or dropped whole, never moved onto the frame.
+                _ => pts
+                    .iter()
+                    .filter(|q| q.0.is_finite() && tb.contains(q.0, q.1))
+                    .map(|q| vec![*q])
+                    .collect(),
+            };
+            runs.into_iter()
+                .map(|r| r.into_iter().map(|(tx, ty)| frame.px_t(tx, ty)).collect())
+                .collect()
+        })
+        .collect();
+    let marks = p
+        .markers
+        .iter()
+        .filter_map(|m| match m {
+            Marker::Point { x, y, .. } | Marker::Note { x, y, .. } | Marker::Arrow { x, y, .. }
+                if usable(*x, p.x_log) && usable(*y, p.y_log) =>
+            {
+                Some(frame.px(*x, *y))
+            }
+            _ => None,
+        })
+        .collect();
+    Laid {
+        frame,
+        xticks,
+        yticks,
+        runs,
+        legend: Vec::new(),
+        legend_size: (0, 0),
+        marks,
+    }
+}
+
+/// How many drawn pixels of the curves fall inside a rectangle (lines sampled every 3 px).
+fn coverage(runs: &[Vec<Vec<(f64, f64)>>], r: (f64, f64, f64, f64)) -> usize {
+    let inside = |p: (f64, f64)| p.0 >= r.0 && p.0 <= r.2 && p.1 >= r.1 && p.1 <= r.3;
+    let mut n = 0;
+    for series in runs {
+        for run in series {
+            if run.len() == 1 {
+                n += usize::from(inside(run[0]));
+            }
+            for w in run.windows(2) {
+                let (a, b) = (w[0], w[1]);
+                let len = ((b.0 - a.0).powi(2) + (b.1 - a.1).powi(2)).sqrt();
+                let k = (len / 3.0).ceil().max(1.0) as usize;
+                for i in 0..=k {
+                    let t = i as f64 / k as f64;
+                    n += usize::from(inside((a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1))));
+                }
+            }
+        }
+    }
+    n
+}
+
+/// The inside corner where a legend of size `(w, h)` covers the fewest curve pixels, with that count.
+fn best_corner(l: &Laid, (w, h): (i32, i32)) -> ((i32, i32), usize) {
+    let f = &l.frame;
+    let pad = 8;
+    let corners = [
+        (f.right - pad - w, f.top + pad),
+        (f.left + pad, f.top + pad),
+        (f.right - pad - w, f.bottom - pad - h),
+        (f.left + pad, f.bottom - pad - h),
+    ];
+    let mut best = (corners[0], usize::MAX);
+    for c in corners {
+        // A margin of a few pixels around the box: a curve grazing the border is hidden too.
+        let r = (
+            (c.0 - 3) as f64,
+            (c.1 - 3) as f64,
+            (c.0 + w + 3) as f64,
+            (c.1 + h + 3) as f64,
+        );
+        // A marker or note counts as much as a stretch of curve: it carries a value.
+        let inside = |q: &&(f64, f64)| q.0 >= r.0 - 40.0 && q.0 <= r.2 + 10.0 && q.1 >= r.1 - 10.0 && q.1 <= r.3 + 10.0;
+        let n = coverage(&l.runs, r) + 50 * l.marks.iter().filter(inside).count();
+        if n < best.1 {
+            best = (c, n);
+        }
+    }
+    best
+}
+
+fn draw_figure<DB: DrawingBackend>(fig: &Figure, root: &DrawingArea<DB, Shift>) -> std::result::Result<(), String> {
+    register_font()?;
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    root.fill(&WHITE).map_err(e)?;
+    let body = if fig.title.is_empty() {
+        root.margin(8, 0, 0, 0)
+    } else {
+        root.titled(&fig.title, ("sans-serif", 20)).map_err(e)?
+    };
+    let (rows, cols) = fig.grid();
+    let areas = body.split_evenly((rows, cols));
+    let colors = resolve_colors(fig);
+    let n = fig.panels.len();
+    let dims: Vec<(i32, i32)> = areas
+        .iter()
+        .take(n)
+        .map(|a| {
+            let (w, h) = a.dim_in_pixel();
+            (w as i32, h as i32)
+        })
+        .collect();
+
+    // Pass 1: margins from the measured tick labels, aligned down each column so stacked panels
+    // (magnitude over phase) share their frequency axis pixel for pixel.
+    let mut lefts = vec![0; n];
+    let mut bottoms = vec![0; n];
+    let mut rights = vec![16; n];
+    for (i, p) in fig.panels.iter().enumerate() {
+        let first = lay_out(p, &colors[i], dims[i], 80, 60, 16);
+        let (l, b) = margins(&body, p, &first.yticks);
+        lefts[i] = l;
+        bottoms[i] = b;
+        // The last x label is centred on the right edge: half of it must fit in the margin.
+        let last = first.xticks.iter().rev().find_map(|t| t.label.as_ref());
+        rights[i] = last.map_or(16, |s| (measure(&body, s, TICK_FONT).0 / 2 + 6).max(16));
+    }
+    let col_min_right: Vec<i32> = (0..cols)
+        .map(|c| (0..n).filter(|i| i % cols == c).map(|i| rights[i]).max().unwrap_or(16))
+        .collect();
+    let col_max = |v: &[i32], c: usize| (0..n).filter(|i| i % cols == c).map(|i| v[i]).max().unwrap_or(0);
+    let col_left: Vec<i32> = (0..cols).map(|c| col_max(&lefts, c)).collect();
+
+    // Pass 2: legends inside, in the emptiest corner, unless every corner hides data; then the whole
+    // column reserves room on the right and its legends go outside.
+    let legends: Vec<Vec<LegendEntry>> = fig
+        .panels
+        .iter()
+        .zip(&colors)
+        .map(|(p, c)| legend_entries(p, c))
+        .collect();
+    let sizes: Vec<(i32, i32)> = legends.iter().map(|l| legend_size(&body, l)).collect();
+    let mut outside_col = vec![false; cols];
+    for (i, p) in fig.panels.iter().enumerate() {
+        if legends[i].is_empty() {
+            continue;
+        }
+        let l = lay_out(
+            p,
+            &colors[i],
+            dims[i],
+            col_left[i % cols],
+            bottoms[i],
+            col_min_right[i % cols],
+        );
+        let (_, hidden) = best_corner(&l, sizes[i]);
+        let fits = sizes[i].0 < (l.frame.right - l.frame.left) / 2 && sizes[i].1 < (l.frame.bottom - l.frame.top) / 2;
+        if hidden > 0 || !fits {
+            outside_col[i % cols] = true;
+        }
+    }
+    let col_right: Vec<i32> = (0..cols)
+        .map(|c| {
+            if outside_col[c] {
+                ((0..n).filter(|i| i % cols == c).map(|i| sizes[i].0).max().unwrap_or(0) + 22).max(col_min_right[c])
+            } else {
+                col_min_right[c]
+            }
+        })
+        .collect();
+
+    for (i, (p, area)) in fig.panels.iter().zip(areas.iter()).enumerate() {
+        let c = i % cols;
+        let mut l = lay_out(p, &colors[i], dims[i], col_left[c], bottoms[i], col_right[c]);
+        l.legend = legends[i].clone();
+        l.legend_size = sizes[i];
+        draw_panel(p, &colors[i], &l, area, outside_col[c])?;
+    }
+    Ok(())
+}
+
+/// Splits a pixel polyline into dashes of `on` px separated by `off` px, continuing across vertices.
+fn dashes(run: &[(f64, f64)], on: f64, off: f64) -> Vec<Vec<(i32, i32)>> {
+    let mut out: Vec<Vec<(i32, i32)>> = Vec::new();
+    let mut cur: Vec<(i32, i32)> = Vec::new();
+    let mut drawing = true;
+    let mut left = on;
+    let ip = |p: (f64, f64)| (p.0.round() as i32, p.1.round() as i32);
+    if let Some(&p0) = run.first() {
+        cur.push(ip(p0));
+    }
+    for w in run.windows(2) {
+        let (mut a, b) = (w[0], w[1]);
+        let mut len = ((b.0 - a.0).powi(2) + (b.1 - a.1).powi(2)).sqrt();
+        while len > 0.0 {
+            let step = left.min(len);
+            let t = step / len;
+            let q = (a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1));
+            if drawing {
+                cur.push(ip(q));
+            }
+            left -= step;
+            len -= step;
+            a = q;
+            if left <= 1e-9 {
+                if drawing {
+                    if cur.len() > 1 {
+                        out.push(std::mem::take(&mut cur));
+                    }
+                    cur.clear();
+                } else {
+                    cur = vec![ip(a)];
+                }
+                drawing = !drawing;
+                left = if drawing { on } else { off };
+            }
+        }
+    }
+    if drawing && cur.len() > 1 {
+        out.push(cur);
+    }
+    out
+}
+
+fn ipt(p: (f64, f64)) -> (i32, i32) {
+    (p.0.round() as i32, p.1.round() as i32)
+}
+
+fn draw_panel<DB: DrawingBackend>(
+    p: &Panel,
+    colors: &[usize],
+    l: &Laid,
+    area: &DrawingArea<DB, Shift>,
+    legend_outside: bool,
+) -> std::result::Result<(), String> {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    let f = l.frame;
+    let (w, _) = area.dim_in_pixel();
+
+    // Grid: minor lines fainter than labelled ones.
+    for t in &l.xticks {
+        let (u, _) = f.px(t.value, if f.y.log { f.y.lo } else { 0.0 });
+        let u = u.round() as i32;
+        if u < f.left || u > f.right {
+            continue;
+        }
+        let c = if t.label.is_some() {
+            RGBColor(215, 215, 215)
+        } else {
+            RGBColor(238, 238, 238)
+        };
+        area.draw(&PathElement::new(vec![(u, f.top), (u, f.bottom)], c.stroke_width(1)))
+            .map_err(e)?;
+    }
+    for t in &l.yticks {
+        let (_, v) = f.px(if f.x.log { f.x.lo } else { 0.0 }, t.value);
+        let v = v.round() as i32;
+        if v < f.top || v > f.bottom {
+            continue;
+        }
+        let c = if t.label.is_some() {
+            RGBColor(215, 215, 215)
+        } else {
+            RGBColor(238, 238, 238)
+        };
+        area.draw(&PathElement::new(vec![(f.left, v), (f.right, v)], c.stroke_width(1)))
+            .map_err(e)?;
+    }
+
+    // Bands, clipped as polygons.
+    let tb = f.tbox();
     for b in &p.bands {
         let mut poly: Vec<(f64, f64)> = Vec::with_capacity(2 * b.x.len());
         for i in 0..b.x.len() {
             if usable(b.x[i], p.x_log) && usable(b.upper[i], p.y_log) {
-                poly.push((b.x[i], clip_y(b.upper[i])));
+                poly.push((f.x.t(b.x[i]), f.y.t(b.upper[i])));
             }
         }
         for i in (0..b.x.len()).rev() {
             if usable(b.x[i], p.x_log) && usable(b.lower[i], p.y_log) {
-                poly.push((b.x[i], clip_y(b.lower[i])));
+                poly.push((f.x.t(b.x[i]), f.y.t(b.lower[i])));
             }
         }
-        let fill = color(b.color).mix(0.2);
-        let ann = chart
-            .draw_series(std::iter::once(Polygon::new(poly, fill.filled())))
-            .map_err(e)?;
-        if !b.label.is_empty() {
-            any_legend = true;
-            ann.label(b.label.as_str())
-                .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 16, y + 5)], fill.filled()));
+        let poly: Vec<(i32, i32)> = clip_polygon(&poly, &tb)
+            .into_iter()
+            .map(|(x, y)| ipt(f.px_t(x, y)))
+            .collect();
+        if poly.len() >= 3 {
+            area.draw(&Polygon::new(poly, color(b.color).mix(0.2).filled()))
+                .map_err(e)?;
         }
     }
 
-    for (k, s) in p.series.iter().enumerate() {
-        let c = color(s.color.unwrap_or(k));
-        // Points that cannot be placed split the line rather than being joined across the gap.
-        let mut segments: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
-        for (x, y) in s.x.iter().zip(&s.y) {
-            if usable(*x, p.x_log) && usable(*y, p.y_log) {
-                if let Some(last) = segments.last_mut() {
-                    last.push((*x, *y));
-                }
-            } else if segments.last().is_some_and(|l| !l.is_empty()) {
-                segments.push(Vec::new());
-            }
-        }
+    // Curves: reference geometry first, so data is drawn over it.
+    let mut order: Vec<usize> = (0..p.series.len()).collect();
+    order.sort_by_key(|&k| p.series[k].style != SeriesStyle::Reference);
+    for k in order {
+        let s = &p.series[k];
+        let c = rgb(colors[k]);
         let style = ShapeStyle::from(&c).stroke_width(2);
-        let mut first = true;
-        for seg in segments.iter().filter(|seg| !seg.is_empty()) {
-            let ann = match s.style {
-                SeriesStyle::Line => chart
-                    .draw_series(LineSeries::new(seg.iter().copied(), style))
-                    .map_err(e)?,
-                SeriesStyle::Dashed => chart
-                    .draw_series(DashedLineSeries::new(seg.iter().copied(), 8, 5, style))
-                    .map_err(e)?,
-                SeriesStyle::Points => chart
-                    .draw_series(seg.iter().map(|&(x, y)| Circle::new((x, y), 3, c.filled())))
-                    .map_err(e)?,
-                SeriesStyle::Stems => chart
-                    .draw_series(
-                        seg.iter()
-                            .map(|&(x, y)| PathElement::new(vec![(x, ylo), (x, y)], style)),
-                    )
-                    .map_err(e)?,
-            };
-            if first && !s.label.is_empty() {
-                any_legend = true;
-                ann.label(s.label.as_str())
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], c.stroke_width(2)));
+        for run in &l.runs[k] {
+            match s.style {
+                SeriesStyle::Line => {
+                    area.draw(&PathElement::new(
+                        run.iter().copied().map(ipt).collect::<Vec<_>>(),
+                        style,
+                    ))
+                    .map_err(e)?;
+                }
+                SeriesStyle::Dashed => {
+                    for d in dashes(run, 9.0, 5.0) {
+                        area.draw(&PathElement::new(d, style)).map_err(e)?;
+                    }
+                }
+                SeriesStyle::Reference => {
+                    for d in dashes(run, 5.0, 4.0) {
+                        area.draw(&PathElement::new(d, neutral().stroke_width(1))).map_err(e)?;
+                    }
+                }
+                SeriesStyle::Points => {
+                    for q in run {
+                        area.draw(&Circle::new(ipt(*q), 3, c.filled())).map_err(e)?;
+                    }
+                }
+                SeriesStyle::Stems => {
+                    for q in run {
+                        let (u, v) = ipt(*q);
+                        area.draw(&PathElement::new(vec![(u, f.bottom), (u, v)], style))
+                            .map_err(e)?;
+                    }
+                }
+                SeriesStyle::Crosses => {
+                    for q in run {
+                        draw_cross(area, ipt(*q), 5, c)?;
+                    }
+                }
+                SeriesStyle::Circles => {
+                    for q in run {
+                        area.draw(&Circle::new(ipt(*q), 5, c.stroke_width(2))).map_err(e)?;
+                    }
+                }
             }
-            first = false;
         }
     }
 
-    let grey = RGBColor(90, 90, 90);
+    draw_markers(p, &f, area, &l.runs)?;
+
+    // Frame, ticks and their labels.
+    area.draw(&Rectangle::new(
+        [(f.left, f.top), (f.right, f.bottom)],
+        BLACK.stroke_width(1),
+    ))
+    .map_err(e)?;
+    let tick_style = text_style(TICK_FONT);
+    for t in &l.xticks {
+        let (u, _) = f.px(t.value, if f.y.log { f.y.lo } else { 0.0 });
+        let u = u.round() as i32;
+        if u < f.left - 1 || u > f.right + 1 {
+            continue;
+        }
+        if let Some(lab) = &t.label {
+            area.draw(&PathElement::new(
+                vec![(u, f.bottom), (u, f.bottom - 5)],
+                BLACK.stroke_width(1),
+            ))
+            .map_err(e)?;
+            area.draw(&Text::new(
+                lab.clone(),
+                (u, f.bottom + 5),
+                tick_style.pos(Pos::new(HPos::Center, VPos::Top)),
+            ))
+            .map_err(e)?;
+        }
+    }
+    for t in &l.yticks {
+        let (_, v) = f.px(if f.x.log { f.x.lo } else { 0.0 }, t.value);
+        let v = v.round() as i32;
+        if v < f.top - 1 || v > f.bottom + 1 {
+            continue;
+        }
+        if let Some(lab) = &t.label {
+            area.draw(&PathElement::new(
+                vec![(f.left, v), (f.left + 5, v)],
+                BLACK.stroke_width(1),
+            ))
+            .map_err(e)?;
+            area.draw(&Text::new(
+                lab.clone(),
+                (f.left - 6, v),
+                tick_style.pos(Pos::new(HPos::Right, VPos::Center)),
+            ))
+            .map_err(e)?;
+        }
+    }
+    if !p.x_label.is_empty() {
+        area.draw(&Text::new(
+            p.x_label.clone(),
+            ((f.left + f.right) / 2, f.bottom + 8 + TICK_FONT as i32 + 6),
+            text_style(DESC_FONT).pos(Pos::new(HPos::Center, VPos::Top)),
+        ))
+        .map_err(e)?;
+    }
+    if !p.y_label.is_empty() {
+        area.draw(&Text::new(
+            p.y_label.clone(),
+            (6, (f.top + f.bottom) / 2),
+            text_style(DESC_FONT)
+                .transform(FontTransform::Rotate270)
+                .pos(Pos::new(HPos::Center, VPos::Top)),
+        ))
+        .map_err(e)?;
+    }
+    if !p.title.is_empty() {
+        area.draw(&Text::new(
+            p.title.clone(),
+            ((f.left + f.right) / 2, 4),
+            text_style(TITLE_FONT).pos(Pos::new(HPos::Center, VPos::Top)),
+        ))
+        .map_err(e)?;
+    }
+
+    if !l.legend.is_empty() {
+        let (lw, lh) = l.legend_size;
+        let origin = if legend_outside {
+            ((f.right + 12).min(w as i32 - lw - 2), f.top)
+        } else {
+            best_corner(l, l.legend_size).0
+        };
+        draw_legend(area, &l.legend, origin, (lw, lh))?;
+    }
+    Ok(())
+}
+
+fn draw_cross<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    (u, v): (i32, i32),
+    r: i32,
+    c: RGBColor,
+) -> std::result::Result<(), String> {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    let s = c.stroke_width(2);
+    area.draw(&PathElement::new(vec![(u - r, v - r), (u + r, v + r)], s))
+        .map_err(e)?;
+    area.draw(&PathElement::new(vec![(u - r, v + r), (u + r, v - r)], s))
+        .map_err(e)?;
+    Ok(())
+}
+
+fn draw_legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    entries: &[LegendEntry],
+    (x, y): (i32, i32),
+    (w, h): (i32, i32),
+) -> std::result::Result<(), String> {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    area.draw(&Rectangle::new([(x, y), (x + w, y + h)], WHITE.mix(0.9).filled()))
+        .map_err(e)?;
+    area.draw(&Rectangle::new(
+        [(x, y), (x + w, y + h)],
+        RGBColor(160, 160, 160).stroke_width(1),
+    ))
+    .map_err(e)?;
+    for (i, en) in entries.iter().enumerate() {
+        let cy = y + 4 + LEGEND_ROW * i as i32 + LEGEND_ROW / 2;
+        let (x0, x1) = (x + 6, x + 6 + LEGEND_SWATCH - 4);
+        match &en.kind {
+            LegendKind::Line { dashed: false } => {
+                area.draw(&PathElement::new(vec![(x0, cy), (x1, cy)], en.color.stroke_width(2)))
+                    .map_err(e)?;
+            }
+            LegendKind::Line { dashed: true } => {
+                for d in dashes(&[(x0 as f64, cy as f64), (x1 as f64, cy as f64)], 7.0, 4.0) {
+                    area.draw(&PathElement::new(d, en.color.stroke_width(2))).map_err(e)?;
+                }
+            }
+            LegendKind::Band => {
+                area.draw(&Rectangle::new(
+                    [(x0, cy - 5), (x1, cy + 5)],
+                    en.color.mix(0.3).filled(),
+                ))
+                .map_err(e)?;
+            }
+            LegendKind::Mark(style) => {
+                let m = ((x0 + x1) / 2, cy);
+                match style {
+                    SeriesStyle::Crosses => draw_cross(area, m, 5, en.color)?,
+                    SeriesStyle::Circles => area.draw(&Circle::new(m, 5, en.color.stroke_width(2))).map_err(e)?,
+                    _ => area.draw(&Circle::new(m, 3, en.color.filled())).map_err(e)?,
+                }
+            }
+        }
+        area.draw(&Text::new(
+            en.label.clone(),
+            (x + 6 + LEGEND_SWATCH + 2, cy),
+            text_style(LEGEND_FONT).pos(Pos::new(HPos::Left, VPos::Center)),
+        ))
+        .map_err(e)?;
+    }
+    Ok(())
+}
+
+/// Text with a white backdrop so it stays legible over grid lines and curves.
+fn note<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    s: &str,
+    (x, y): (i32, i32),
+    h: HPos,
+    v: VPos,
+) -> std::result::Result<(), String> {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    if s.is_empty() {
+        return Ok(());
+    }
+    let (tw, th) = measure(area, s, NOTE_FONT);
+    let x0 = match h {
+        HPos::Left => x,
+        HPos::Center => x - tw / 2,
+        HPos::Right => x - tw,
+    };
+    let y0 = match v {
+        VPos::Top => y,
+        VPos::Center => y - th / 2,
+        VPos::Bottom => y - th,
+    };
+    area.draw(&Rectangle::new(
+        [(x0 - 2, y0 - 1), (x0 + tw + 2, y0 + th + 1)],
+        WHITE.mix(0.85).filled(),
+    ))
+    .map_err(e)?;
+    area.draw(&Text::new(
+        s.to_string(),
+        (x, y),
+        text_style(NOTE_FONT).color(&RGBColor(40, 40, 40)).pos(Pos::new(h, v)),
+    ))
+    .map_err(e)?;
+    Ok(())
+}
+
+fn draw_markers<DB: DrawingBackend>(
+    p: &Panel,
+    f: &Frame,
+    area: &DrawingArea<DB, Shift>,
+    runs: &[Vec<Vec<(f64, f64)>>],
+) -> std::result::Result<(), String> {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    let grey = neutral();
+    // Labels of vertical markers are stacked in rows so neighbours do not overwrite each other.
+    let mut rows: Vec<Vec<(i32, i32)>> = Vec::new();
     for m in &p.markers {
         match m {
             Marker::Vertical { x, label } if usable(*x, p.x_log) => {
-                chart
-                    .draw_series(DashedLineSeries::new(
-                        vec![(*x, ylo), (*x, yhi)],
-                        4,
-                        4,
-                        grey.stroke_width(1),
-                    ))
-                    .map_err(e)?;
-                chart
-                    .draw_series(std::iter::once(Text::new(label.clone(), (*x, yhi), ("sans-serif", 12))))
-                    .map_err(e)?;
+                let (u, _) = f.px(*x, if f.y.log { f.y.lo } else { 0.0 });
+                if !f.inside_px((u, f.top as f64)) {
+                    continue;
+                }
+                let u = u.round() as i32;
+                for d in dashes(&[(u as f64, f.top as f64), (u as f64, f.bottom as f64)], 4.0, 4.0) {
+                    area.draw(&PathElement::new(d, grey.stroke_width(1))).map_err(e)?;
+                }
+                if label.is_empty() {
+                    continue;
+                }
+                let (tw, th) = measure(area, label, NOTE_FONT);
+                // Right of the line, unless that would run past the frame.
+                let right_side = u + 4 + tw <= f.right;
+                let (x0, hpos) = if right_side {
+                    (u + 4, HPos::Left)
+                } else {
+                    (u - 4, HPos::Right)
+                };
+                let span = if right_side { (x0, x0 + tw) } else { (x0 - tw, x0) };
+                let row = (0..)
+                    .find(|r| {
+                        rows.get(*r).is_none_or(|used: &Vec<(i32, i32)>| {
+                            used.iter().all(|s| span.1 + 4 < s.0 || span.0 > s.1 + 4)
+                        })
+                    })
+                    .unwrap_or(0);
+                if rows.len() <= row {
+                    rows.resize(row + 1, Vec::new());
+                }
+                rows[row].push(span);
+                note(area, label, (x0, f.top + 3 + row as i32 * (th + 3)), hpos, VPos::Top)?;
             }
             Marker::Horizontal { y, label } if usable(*y, p.y_log) => {
-                chart
-                    .draw_series(DashedLineSeries::new(
-                        vec![(xlo, *y), (xhi, *y)],
-                        4,
-                        4,
-                        grey.stroke_width(1),
-                    ))
-                    .map_err(e)?;
-                chart
-                    .draw_series(std::iter::once(Text::new(label.clone(), (xlo, *y), ("sans-serif", 12))))
-                    .map_err(e)?;
+                let (_, v) = f.px(if f.x.log { f.x.lo } else { 0.0 }, *y);
+                if !f.inside_px((f.left as f64, v)) {
+                    continue;
+                }
+                let v = v.round() as i32;
+                for d in dashes(&[(f.left as f64, v as f64), (f.right as f64, v as f64)], 4.0, 4.0) {
+                    area.draw(&PathElement::new(d, grey.stroke_width(1))).map_err(e)?;
+                }
+                note(area, label, (f.left + 4, v - 2), HPos::Left, VPos::Bottom)?;
             }
             Marker::Point { x, y, label } if usable(*x, p.x_log) && usable(*y, p.y_log) => {
-                chart
-                    .draw_series(std::iter::once(Cross::new((*x, *y), 6, RED.stroke_width(2))))
-                    .map_err(e)?;
-                chart
-                    .draw_series(std::iter::once(Text::new(label.clone(), (*x, *y), ("sans-serif", 12))))
-                    .map_err(e)?;
+                let q = f.px(*x, *y);
+                if !f.inside_px(q) {
+                    continue;
+                }
+                let q = ipt(q);
+                // The critical point in red as MATLAB draws it: a plus sign.
+                let red = RGBColor(200, 0, 0);
+                area.draw(&PathElement::new(
+                    vec![(q.0 - 7, q.1), (q.0 + 7, q.1)],
+                    red.stroke_width(2),
+                ))
+                .map_err(e)?;
+                area.draw(&PathElement::new(
+                    vec![(q.0, q.1 - 7), (q.0, q.1 + 7)],
+                    red.stroke_width(2),
+                ))
+                .map_err(e)?;
+                note(area, label, (q.0 - 6, q.1 - 6), HPos::Right, VPos::Bottom)?;
+            }
+            Marker::Note { x, y, label } if usable(*x, p.x_log) && usable(*y, p.y_log) => {
+                let q = f.px(*x, *y);
+                if !f.inside_px(q) {
+                    continue;
+                }
+                let q = ipt(q);
+                let (tw, th) = measure(area, label, NOTE_FONT);
+                // Of the four places around the point, the one inside the frame that hides the
+                // least of the curves (a note must not cover the response it describes).
+                let mut best: Option<((i32, i32), HPos, VPos, usize)> = None;
+                for (dx, dy) in [(1, -1), (1, 1), (-1, -1), (-1, 1)] {
+                    let x0 = if dx > 0 { q.0 + 6 } else { q.0 - 6 - tw };
+                    let y0 = if dy < 0 { q.1 - 6 - th } else { q.1 + 6 };
+                    if x0 < f.left || x0 + tw > f.right || y0 < f.top || y0 + th > f.bottom {
+                        continue;
+                    }
+                    let hidden = coverage(
+                        runs,
+                        (
+                            (x0 - 2) as f64,
+                            (y0 - 1) as f64,
+                            (x0 + tw + 2) as f64,
+                            (y0 + th + 1) as f64,
+                        ),
+                    );
+                    if best.is_none_or(|b| hidden < b.3) {
+                        let h = if dx > 0 { HPos::Left } else { HPos::Right };
+                        let v = if dy < 0 { VPos::Bottom } else { VPos::Top };
+                        let anchor = (
+                            if dx > 0 { q.0 + 6 } else { q.0 - 6 },
+                            if dy < 0 { q.1 - 6 } else { q.1 + 6 },
+                        );
+                        best = Some((anchor, h, v, hidden));
+                    }
+                }
+                let (anchor, h, v) = best.map_or(((q.0 + 6, q.1 - 6), HPos::Left, VPos::Bottom), |b| (b.0, b.1, b.2));
+                note(area, label, anchor, h, v)?;
+            }
+            Marker::Arrow { x, y, dx, dy, color: c } if usable(*x, p.x_log) && usable(*y, p.y_log) => {
+                let q = f.px(*x, *y);
+                if !f.inside_px(q) {
+                    continue;
+                }
+                // Direction in pixels: a short step along (dx, dy) in axis coordinates.
+                let h = 1e-6 * ((f.x.hi - f.x.lo).abs() + (f.y.hi - f.y.lo).abs()).max(1e-300);
+                let norm = (dx * dx + dy * dy).sqrt();
+                if norm.is_nan() || norm <= 0.0 || p.x_log || p.y_log {
+                    continue;
+                }
+                let r = f.px(x + h * dx / norm, y + h * dy / norm);
+                let (ux, uy) = (r.0 - q.0, r.1 - q.1);
+                let n = (ux * ux + uy * uy).sqrt();
+                if n.is_nan() || n <= 0.0 {
+                    continue;
+                }
+                let (ux, uy) = (ux / n, uy / n);
+                let (len, half) = (13.0, 5.5);
+                let tip = (q.0 + 0.5 * len * ux, q.1 + 0.5 * len * uy);
+                let base = (q.0 - 0.5 * len * ux, q.1 - 0.5 * len * uy);
+                let tri = vec![
+                    ipt(tip),
+                    ipt((base.0 - half * uy, base.1 + half * ux)),
+                    ipt((base.0 + half * uy, base.1 - half * ux)),
+                ];
+                area.draw(&Polygon::new(tri, rgb(*c).filled())).map_err(e)?;
             }
             _ => {}
         }
     }
-
-    if any_legend {
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(160, 160, 160))
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(e)?;
-    }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dashes_alternate_along_the_path() {
+        let d = dashes(&[(0.0, 0.0), (30.0, 0.0)], 8.0, 5.0);
+        // 0–8, 13–21, 26–30.
+        assert_eq!(d.len(), 3);
+        assert_eq!(d[0], vec![(0, 0), (8, 0)]);
+        assert_eq!(d[1], vec![(13, 0), (21, 0)]);
+    }
+
+    fn panel_with(series: Vec<crate::figure::Series>) -> Panel {
+        Panel {
+            series,
+            x_range: Some((0.0, 1.0)),
+            y_range: Some((0.0, 1.0)),
+            ..Panel::default()
+        }
+    }
+
+    #[test]
+    fn the_legend_takes_the_empty_corner_or_none() {
+        use crate::figure::Series;
+        let x: Vec<f64> = (0..=100).map(|i| i as f64 / 100.0).collect();
+        // A curve in the lower left only: the upper-right corner is free.
+        let low = panel_with(vec![Series::line("a", vec![0.0, 0.3], vec![0.0, 0.3])]);
+        let l = lay_out(&low, &[0], (600, 400), 60, 50, 16);
+        let ((cx, cy), hidden) = best_corner(&l, (120, 40));
+        assert_eq!(hidden, 0);
+        assert!(cx > 300 && cy < 100, "{cx} {cy}");
+        // Lines along the top and the bottom: every corner would hide data.
+        let full = panel_with(vec![
+            Series::line("top", x.clone(), vec![0.97; x.len()]),
+            Series::line("bottom", x.clone(), vec![0.03; x.len()]),
+        ]);
+        let l = lay_out(&full, &[0, 1], (600, 400), 60, 50, 16);
+        assert!(best_corner(&l, (120, 40)).1 > 0);
+    }
+
+    #[test]
+    fn curves_leaving_the_view_are_cut_at_its_edge_in_pixels() {
+        use crate::figure::Series;
+        // From the centre to far right: the visible run ends exactly on the right edge.
+        let p = panel_with(vec![Series::line("", vec![0.5, 10.0], vec![0.5, 0.5])]);
+        let l = lay_out(&p, &[0], (600, 400), 60, 50, 16);
+        let run = &l.runs[0][0];
+        assert_eq!(run.len(), 2);
+        assert!((run[1].0 - l.frame.right as f64).abs() < 1e-9);
+        assert!((run[1].1 - run[0].1).abs() < 1e-9);
+    }
+
+    #[test]
+    fn same_label_same_colour_across_panels() {
+        use crate::figure::Series;
+        let a = panel_with(vec![
+            Series::line("K1", vec![0.0, 1.0], vec![0.0, 1.0]),
+            Series::line("K2", vec![0.0, 1.0], vec![1.0, 0.0]),
+        ]);
+        let b = panel_with(vec![Series::line("K2", vec![0.0, 1.0], vec![0.0, 1.0])]);
+        let c = resolve_colors(&Figure::new("", vec![a, b]));
+        assert_eq!(c[0], vec![0, 1]);
+        assert_eq!(c[1], vec![1]);
+    }
+
+    #[test]
+    fn equal_aspect_widens_the_short_side() {
+        let mut x = Axis {
+            lo: -1.0,
+            hi: 1.0,
+            log: false,
+        };
+        let mut y = x;
+        equalize(&mut x, &mut y, 400.0, 200.0);
+        assert_eq!((x.lo, x.hi), (-2.0, 2.0));
+        assert_eq!((y.lo, y.hi), (-1.0, 1.0));
+    }
 }

@@ -35,6 +35,14 @@ pub enum Block {
         /// Text under the plot.
         caption: String,
     },
+    /// A figure inlined as SVG and, below it, as an interactive canvas (zoom, pan, hover values)
+    /// drawn by an inline script from the figure's data as JSON; no network is needed.
+    Interactive {
+        /// The plot.
+        figure: Box<Figure>,
+        /// Text under the plot.
+        caption: String,
+    },
 }
 
 /// A titled section of a report.
@@ -84,6 +92,7 @@ impl Report {
             STYLE,
             esc(&self.title)
         );
+        let mut interactive = 0usize;
         for s in &self.sections {
             let _ = writeln!(h, "<h2>{}</h2>", esc(&s.heading));
             for b in &s.blocks {
@@ -116,6 +125,17 @@ impl Report {
                         let svg = figure.to_svg_string()?;
                         let _ = writeln!(h, "<figure>{svg}<figcaption>{}</figcaption></figure>", esc(caption));
                     }
+                    Block::Interactive { figure, caption } => {
+                        let svg = figure.to_svg_string()?;
+                        let json = figure.to_json()?;
+                        interactive += 1;
+                        let id = format!("skl-fig-{interactive}");
+                        let _ = writeln!(
+                            h,
+                            "<figure>{svg}<details open><summary>interactive: wheel zooms (shift: x only, alt: y only), drag pans, double-click resets, hover shows values</summary><div class=\"skl-int\" data-src=\"{id}\"></div></details><script type=\"application/json\" id=\"{id}\">{json}</script><figcaption>{}</figcaption></figure>",
+                            esc(caption)
+                        );
+                    }
                     Block::Svg { svg, caption } => {
                         // An XML prolog is not allowed inside HTML.
                         let body = svg.find("<svg").map_or(svg.as_str(), |i| &svg[i..]);
@@ -126,6 +146,10 @@ impl Report {
                     }
                 }
             }
+        }
+        if interactive > 0 {
+            // One copy of the script, after the data it reads.
+            let _ = writeln!(h, "<script>{}</script>", crate::interactive::INTERACTIVE_JS);
         }
         h.push_str("</body></html>\n");
         Ok(h)
@@ -162,6 +186,16 @@ impl Section {
         self.blocks.push(Block::Table {
             header: header.iter().map(|h| h.to_string()).collect(),
             rows,
+        });
+        self
+    }
+
+    /// Appends a figure shown both as a static SVG and as an interactive canvas (zoom, pan, hover
+    /// values; inline script and data, no network), with a caption.
+    pub fn interactive_figure(&mut self, figure: Figure, caption: impl Into<String>) -> &mut Self {
+        self.blocks.push(Block::Interactive {
+            figure: Box::new(figure),
+            caption: caption.into(),
         });
         self
     }

@@ -174,7 +174,7 @@ fn nyquist_step_sigma_hsv_mu_frf_render() {
         phase_band_deg: (vec![], vec![]),
         coherence: vec![0.9; l.freq_hz.len()],
     };
-    plot_frf(&p, "FRF", &est, &[l.clone()]).expect("frf");
+    plot_frf(&p, "FRF", &est, std::slice::from_ref(&l)).expect("frf");
     let s = svg_text(&p);
     assert!(s.contains("coherence") && s.contains("measured"));
 }
@@ -182,7 +182,7 @@ fn nyquist_step_sigma_hsv_mu_frf_render() {
 #[test]
 fn bad_input_is_refused() {
     let l = lag();
-    match plot_bode(&out("bode.jpg"), "x", &[l.clone()], &BodeMarks::default()) {
+    match plot_bode(&out("bode.jpg"), "x", std::slice::from_ref(&l), &BodeMarks::default()) {
         Err(PlotError::Format(_)) => {}
         other => panic!("expected a format error, got {other:?}"),
     }
