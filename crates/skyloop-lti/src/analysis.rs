@@ -6,6 +6,18 @@ use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
 
 /// Poles: eigenvalues of A (rad/s in continuous time, z-plane points in discrete time).
+///
+/// # Errors
+/// Eigenvalues that do not converge.
+///
+/// # Examples
+/// ```
+/// let g = skyloop_lti::expr::parse_model("(s+2)/((s+1)*(s+3))")?;
+/// let mut p: Vec<f64> = skyloop_lti::analysis::poles(&g)?.iter().map(|z| z.re).collect();
+/// p.sort_by(f64::total_cmp);
+/// assert!((p[0] + 3.0).abs() < 1e-12 && (p[1] + 1.0).abs() < 1e-12);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn poles(sys: &StateSpace) -> Result<Vec<c64>> {
     if sys.nx() == 0 {
         return Ok(Vec::new());
@@ -41,6 +53,18 @@ pub fn dcgain(sys: &StateSpace) -> Result<Mat<f64>> {
 ///
 /// Uses faer's QZ on the reduced pencil; models with more than 150 states are refused because
 /// faer's QZ can be very slow there.
+///
+/// # Errors
+/// A model with more than 150 states, or a pencil whose QZ does not converge.
+///
+/// # Examples
+/// ```
+/// let g = skyloop_lti::expr::parse_model("(s+2)/((s+1)*(s+3))")?;
+/// let z = skyloop_lti::analysis::zeros(&g)?;
+/// assert_eq!(z.len(), 1);
+/// assert!((z[0].re + 2.0).abs() < 1e-10);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn zeros(sys: &StateSpace) -> Result<Vec<c64>> {
     if sys.nx() > 150 {
         return Err(LtiError::Unsupported(format!(

@@ -71,6 +71,20 @@ fn whole_samples(t_s: f64, dt: f64) -> Option<usize> {
 }
 
 /// Discretizes a continuous model with sample time `dt` seconds.
+///
+/// # Errors
+/// A discrete model, a non-positive `dt`, or a method that does not apply (matched on a MIMO model).
+///
+/// # Examples
+/// ```
+/// use skyloop_lti::discretize::{c2d, Method};
+/// // Zero-order hold of 1/(s+1) at 0.1 s: x⁺ = e^{−0.1}·x + (1 − e^{−0.1})·u.
+/// let g = skyloop_lti::expr::parse_model("1/(s+1)")?;
+/// let d = c2d(&g, 0.1, Method::Zoh)?;
+/// assert!((d.a[(0, 0)] - (-0.1f64).exp()).abs() < 1e-12);
+/// assert_eq!(d.dt, 0.1);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn c2d(sys: &StateSpace, dt: f64, method: Method) -> Result<StateSpace> {
     if !sys.is_continuous() {
         return Err(LtiError::InvalidArgument("c2d needs a continuous-time model".into()));

@@ -124,6 +124,19 @@ pub fn parse(text: &str) -> Result<Expr> {
 }
 
 /// Parses a numeric expression (no parameters) into a state-space model with its exact delay.
+///
+/// # Errors
+/// A parse error with its column, an improper expression, or a parameter name where a number is needed.
+///
+/// # Examples
+/// ```
+/// let g = skyloop_lti::expr::parse_model("exp(-0.1*s)/(0.5*s+1)")?;
+/// assert_eq!(g.nx(), 1);
+/// assert_eq!(g.input_delay, vec![0.1]);
+/// let e = skyloop_lti::expr::parse_model("1/(s+").expect_err("unfinished");
+/// assert!(e.to_string().contains("column"));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn parse_model(text: &str) -> Result<StateSpace> {
     let e = parse(text)?;
     let params = e.params();

@@ -510,6 +510,17 @@ fn hessenberg_reduce(a: &mut Mat<f64>, b: &mut Mat<f64>, c: &mut Mat<f64>) {
 /// Frequency response G(jω) at `w_rad_s` (rad/s), exact with delays; discrete models at z = e^{jω·dt}.
 ///
 /// Returns one ny × nu complex matrix per frequency. Errors when a frequency hits a pole.
+///
+/// # Errors
+/// A frequency at a pole, or a non-finite frequency.
+///
+/// # Examples
+/// ```
+/// let g = skyloop_lti::expr::parse_model("1/(s+1)")?;
+/// let r = skyloop_lti::freqresp::freqresp(&g, &[1.0])?;
+/// assert!((r[0][(0, 0)] - skyloop_lti::c64::new(0.5, -0.5)).norm() < 1e-12);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn freqresp(sys: &StateSpace, w_rad_s: &[f64]) -> Result<Vec<Mat<c64>>> {
     FreqEvaluator::new(sys)?.freqresp(w_rad_s)
 }

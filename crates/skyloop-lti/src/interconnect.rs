@@ -53,6 +53,17 @@ pub fn append(g1: &StateSpace, g2: &StateSpace) -> Result<StateSpace> {
 /// `g2 · g1`: the outputs of `g1` drive the inputs of `g2` (MATLAB `series(g1, g2)`).
 ///
 /// Delays on the connecting signals must be equal (then they move to the inputs of `g1`).
+///
+/// # Errors
+/// Dimensions that do not match, different sample times, or unequal delays on the connecting signals.
+///
+/// # Examples
+/// ```
+/// use skyloop_lti::{expr::parse_model, interconnect::series};
+/// let g = series(&parse_model("1/(s+1)")?, &parse_model("2")?)?;
+/// assert!((skyloop_lti::analysis::dcgain(&g)?[(0, 0)] - 2.0).abs() < 1e-12);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn series(g1: &StateSpace, g2: &StateSpace) -> Result<StateSpace> {
     let dt = same_dt(g1, g2)?;
     if g1.ny() != g2.nu() {
@@ -154,6 +165,18 @@ fn zeros_like_delays(g: &StateSpace, what: &str) -> Result<()> {
 }
 
 /// Closed loop `y = g1·(u + sign·g2·y)`; `sign = -1.0` is negative feedback (MATLAB `feedback`).
+///
+/// # Errors
+/// Dimensions that do not match, an algebraic loop (I − sign·D₁D₂ singular), or delays inside the loop.
+///
+/// # Examples
+/// ```
+/// use skyloop_lti::{expr::parse_model, interconnect::feedback};
+/// // 1/s closed by unity negative feedback is 1/(s+1).
+/// let t = feedback(&parse_model("1/s")?, &parse_model("1")?, -1.0)?;
+/// assert!((skyloop_lti::analysis::poles(&t)?[0].re + 1.0).abs() < 1e-12);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn feedback(g1: &StateSpace, g2: &StateSpace, sign: f64) -> Result<StateSpace> {
     let dt = same_dt(g1, g2)?;
     if sign != 1.0 && sign != -1.0 {

@@ -349,6 +349,22 @@ fn unit_gain_band(g: &Grid) -> Option<(usize, usize)> {
 }
 
 /// Every gain margin and phase margin of the SISO loop `l` (MATLAB `allmargin`), exact with delays.
+///
+/// # Errors
+/// A MIMO or non-finite loop, or a loop whose response cannot be evaluated on the search band.
+///
+/// # Examples
+/// ```
+/// use skyloop_lti::expr::parse_model;
+/// // L = 1/(s(s+1)(s+2)): the phase crosses −180° at √2 rad/s where |L| = 1/6, so GM = 20·log10(6) dB.
+/// let l = parse_model("1/(s*(s+1)*(s+2))")?;
+/// let m = skyloop_lti::margins::allmargin(&l)?;
+/// assert_eq!(m.gain_margins.len(), 1);
+/// assert!((m.gain_margins[0].gm_db - 20.0 * 6f64.log10()).abs() < 1e-6);
+/// assert!((m.gain_margins[0].w_rad_s - 2f64.sqrt()).abs() < 1e-6);
+/// assert!(m.stable);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn allmargin(l: &StateSpace) -> Result<AllMargins> {
     Ok(allmargin_counted(l)?.0)
 }
@@ -435,6 +451,18 @@ fn allmargin_counted(l: &StateSpace) -> Result<(AllMargins, usize)> {
 }
 
 /// The gain and phase margins of smallest magnitude (MATLAB `margin` semantics: min |GM in dB|, min |PM|).
+///
+/// # Errors
+/// As [`allmargin`].
+///
+/// # Examples
+/// ```
+/// let l = skyloop_lti::expr::parse_model("1/(s*(s+1)*(s+2))")?;
+/// let m = skyloop_lti::margins::margin(&l)?;
+/// assert!((m.gm_db - 15.563).abs() < 1e-3);
+/// assert!(m.pm_deg > 50.0 && m.pm_deg < 54.0);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn margin(l: &StateSpace) -> Result<Margins> {
     let all = allmargin(l)?;
     Ok(margin_from(&all))
@@ -467,6 +495,18 @@ pub fn delay_margin(l: &StateSpace) -> Result<f64> {
 }
 
 /// Symmetric disk margin of the SISO loop `l` (skew σ = 0), exact with delays.
+///
+/// # Errors
+/// As [`allmargin`].
+///
+/// # Examples
+/// ```
+/// // L = 2/(s+1): S − 1/2 = (s−1)/(2(s+3)) peaks at 1/2 (ω → ∞), so α = 2 (MATLAB diskmargin).
+/// let l = skyloop_lti::expr::parse_model("2/(s+1)")?;
+/// let d = skyloop_lti::margins::diskmargin(&l)?;
+/// assert!((d.alpha - 2.0).abs() < 1e-6);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn diskmargin(l: &StateSpace) -> Result<DiskMargin> {
     let mut lp = Loop::new(l)?;
     if !nyquist_stable(l)? {

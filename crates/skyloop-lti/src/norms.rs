@@ -25,6 +25,19 @@ const REL_TOL: f64 = 1e-10;
 /// H∞ norm of `sys` and the frequency (rad/s) where the peak gain is reached, to relative 1e-8
 /// (1e-10 nominal). Infinite (with NaN frequency) when the model is unstable or has poles on the
 /// stability boundary; use [`linf_norm`] for the peak gain of an unstable model.
+///
+/// # Errors
+/// A model that cannot be balanced or whose Hamiltonian eigenvalues do not converge.
+///
+/// # Examples
+/// ```
+/// // A lightly damped pole pair, ζ = 0.1: peak 1/(2ζ√(1−ζ²)) at ω = √(1−2ζ²).
+/// let g = skyloop_lti::expr::parse_model("1/(s^2+0.2*s+1)")?;
+/// let (peak, w) = skyloop_lti::norms::hinf_norm(&g)?;
+/// assert!((peak - 1.0 / (0.2 * 0.99f64.sqrt())).abs() < 1e-8 * peak);
+/// assert!((w - 0.98f64.sqrt()).abs() < 1e-6);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn hinf_norm(sys: &StateSpace) -> Result<(f64, f64)> {
     sys.validate()?;
     let poles = pole_summary(sys)?;
@@ -409,6 +422,17 @@ mod tests {
 /// H2 norm of `sys`: √trace(C·P·Cᵀ) with A·P + P·Aᵀ + B·Bᵀ = 0 (continuous; +∞ when D ≠ 0), or
 /// √trace(C·P·Cᵀ + D·Dᵀ) with A·P·Aᵀ − P + B·Bᵀ = 0 (discrete). +∞ for unstable models or poles
 /// on the stability boundary (as python-control's `norm(sys, 2)`). Delays do not change it.
+///
+/// # Errors
+/// A Lyapunov equation that cannot be solved.
+///
+/// # Examples
+/// ```
+/// // ‖1/(s+1)‖₂² = ∫ e^{−2t} dt = 1/2.
+/// let g = skyloop_lti::expr::parse_model("1/(s+1)")?;
+/// assert!((skyloop_lti::norms::h2_norm(&g)? - 0.5f64.sqrt()).abs() < 1e-12);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn h2_norm(sys: &StateSpace) -> Result<f64> {
     sys.validate()?;
     let poles = pole_summary(sys)?;

@@ -213,6 +213,18 @@ impl Discrete {
 }
 
 /// Unit step on each input in turn, zero initial state; `t_s` uniform from 0 (auto when None).
+///
+/// # Errors
+/// A time grid that is not uniform from 0, or a model that cannot be discretized on it.
+///
+/// # Examples
+/// ```
+/// let g = skyloop_lti::expr::parse_model("1/(s+1)")?;
+/// let t: Vec<f64> = (0..=500).map(|k| k as f64 * 0.01).collect();
+/// let r = skyloop_lti::timeresp::step(&g, Some(&t))?;
+/// assert!((r.y[0][0][500] - (1.0 - (-5.0f64).exp())).abs() < 1e-9);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn step(sys: &StateSpace, t_s: Option<&[f64]>) -> Result<TimeResponse> {
     let t = match t_s {
         Some(t) => t.to_vec(),

@@ -64,6 +64,22 @@ pub struct HinfSolution {
 }
 
 /// H∞ synthesis with default options (γ range (0, ∞), relative tolerance 1e-4).
+///
+/// # Errors
+/// Too few inputs or outputs for `nmeas`/`ncon`, D₁₂ or D₂₁ without full rank, an unstabilizable or undetectable plant, or no γ in range with a verified controller.
+///
+/// # Examples
+/// ```
+/// use skyloop_lti::expr::parse_model;
+/// use skyloop_robust::{hinfsyn::hinfsyn, mixsyn::augw};
+/// let g = parse_model("10/(s+1)")?;
+/// let p = augw(&g, Some(&parse_model("(0.5*s+2)/(s+0.02)")?), Some(&parse_model("0.1")?), None)?;
+/// let sol = hinfsyn(&p, 1, 1)?;
+/// let cl = skyloop_lti::interconnect::lft_lower(&p, &sol.controller)?;
+/// let (norm, _) = skyloop_lti::norms::hinf_norm(&cl)?;
+/// assert!(norm <= sol.gamma * (1.0 + 1e-6));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn hinfsyn(p: &StateSpace, nmeas: usize, ncon: usize) -> Result<HinfSolution> {
     hinfsyn_with(p, nmeas, ncon, &HinfOptions::default())
 }

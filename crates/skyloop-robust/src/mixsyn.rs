@@ -114,6 +114,24 @@ pub fn augw(
 }
 
 /// Mixed-sensitivity H∞ design: K minimizing ‖[W1·S; W2·K·S; W3·T]‖∞, for u = K·(r − y).
+///
+/// # Errors
+/// Weights of the wrong size, or the H∞ synthesis of the augmented plant failing (see `hinfsyn`).
+///
+/// # Examples
+/// ```
+/// use skyloop_lti::expr::parse_model;
+/// use skyloop_robust::{hinfsyn::HinfOptions, mixsyn::mixsyn};
+/// // S-weight with integral action and a bounded control effort on a first-order plant.
+/// let g = parse_model("10/(s+1)")?;
+/// let ws = parse_model("(0.5*s+2)/(s+0.02)")?;
+/// let wks = parse_model("0.1")?;
+/// let sol = mixsyn(&g, Some(&ws), Some(&wks), None, &HinfOptions::default())?;
+/// assert!(sol.gamma.is_finite() && sol.gamma > 0.0);
+/// // The verified closed loop meets the γ it reports.
+/// assert!(sol.closed_loop_norm <= sol.gamma * (1.0 + 1e-6));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn mixsyn(
     g: &StateSpace,
     w1: Option<&StateSpace>,

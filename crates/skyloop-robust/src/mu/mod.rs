@@ -68,6 +68,20 @@ pub struct MuBounds {
 }
 
 /// μ bounds of M for the structure with default options.
+///
+/// # Errors
+/// A matrix that does not fit the structure, or non-finite entries.
+///
+/// # Examples
+/// ```
+/// use skyloop_lti::{c64, Mat};
+/// use skyloop_robust::{mu::mu, uncertainty::BlockStructure};
+/// // Two scalar blocks on a diagonal matrix: μ is the largest diagonal modulus.
+/// let m = Mat::from_fn(2, 2, |i, j| if i == j { c64::new([2.0, 0.5][i], 0.0) } else { c64::new(0.0, 0.0) });
+/// let b = mu(m.as_ref(), &BlockStructure::parse("c1x1,c1x1")?)?;
+/// assert!((b.upper - 2.0).abs() < 1e-6 && (b.lower - 2.0).abs() < 1e-6);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn mu(m: MatRef<c64>, s: &BlockStructure) -> Result<MuBounds> {
     mu_with(m, s, &MuOptions::default(), None)
 }
