@@ -501,10 +501,12 @@ pub fn delay_margin(l: &StateSpace) -> Result<f64> {
 ///
 /// # Examples
 /// ```
-/// // L = 2/(s+1): S − 1/2 = (s−1)/(2(s+3)) peaks at 1/2 (ω → ∞), so α = 2 (MATLAB diskmargin).
-/// let l = skyloop_lti::expr::parse_model("2/(s+1)")?;
+/// // L = 2/s: |S − 1/2| = |(s − 2)/(2(s + 2))| = 1/2 at every ω, so α = 2 (MATLAB diskmargin),
+/// // and the disk holds every gain from 0 to ∞.
+/// let l = skyloop_lti::expr::parse_model("2/s")?;
 /// let d = skyloop_lti::margins::diskmargin(&l)?;
-/// assert!((d.alpha - 2.0).abs() < 1e-6);
+/// assert!((d.alpha - 2.0).abs() < 1e-9);
+/// assert_eq!(d.gain_db, [f64::NEG_INFINITY, f64::INFINITY]);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn diskmargin(l: &StateSpace) -> Result<DiskMargin> {

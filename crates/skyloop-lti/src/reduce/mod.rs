@@ -81,7 +81,7 @@ pub fn balreal(sys: &StateSpace) -> Result<(StateSpace, Vec<f64>)> {
 /// use skyloop_lti::reduce::{balred, Method};
 /// // Two well-separated modes: truncating the fast one leaves the DC gain within the bound 2·σ₂.
 /// let g = skyloop_lti::expr::parse_model("10/((s+1)*(s+100))")?;
-/// let r = balred(&g, 1, Method::Truncate)?;
+/// let r = balred(&g, 1, Method::Balanced)?;
 /// assert_eq!(r.sys.nx(), 1);
 /// let dc = |s: &skyloop_lti::StateSpace| skyloop_lti::analysis::dcgain(s).map(|m| m[(0, 0)]);
 /// assert!((dc(&r.sys)? - dc(&g)?).abs() <= r.error_bound + 1e-12);
