@@ -8,9 +8,9 @@ use faer::{c64, Mat};
 /// with extra input and output delays (seconds); `dt > 0` means discrete time in `z`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TransferFunction {
-    /// Numerators, indexed [output][input].
+    /// Numerators, indexed \[output\]\[input\].
     pub num: Vec<Vec<Poly>>,
-    /// Denominators, indexed [output][input].
+    /// Denominators, indexed \[output\]\[input\].
     pub den: Vec<Vec<Poly>>,
     /// Sample period in seconds; 0 for continuous time.
     pub dt: f64,
@@ -18,7 +18,7 @@ pub struct TransferFunction {
     pub input_delay: Vec<f64>,
     /// Delay on each output in seconds.
     pub output_delay: Vec<f64>,
-    /// Delay of each entry in seconds, indexed [output][input].
+    /// Delay of each entry in seconds, indexed \[output\]\[input\].
     pub io_delay: Vec<Vec<f64>>,
 }
 
@@ -28,7 +28,7 @@ impl TransferFunction {
         TransferFunction::new(vec![vec![num]], vec![vec![den]], dt)
     }
 
-    /// A delay-free MIMO transfer function from [output][input] numerators and denominators.
+    /// A delay-free MIMO transfer function from \[output\]\[input\] numerators and denominators.
     pub fn new(num: Vec<Vec<Poly>>, den: Vec<Vec<Poly>>, dt: f64) -> Result<Self> {
         let ny = num.len();
         let nu = num.first().map_or(0, |r| r.len());

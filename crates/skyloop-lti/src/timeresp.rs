@@ -15,7 +15,7 @@ use skyloop_linalg::expm::expm;
 pub struct TimeResponse {
     /// Sample times in seconds, uniform, starting at 0.
     pub t_s: Vec<f64>,
-    /// Output values indexed [output][input][sample].
+    /// Output values indexed \[output\]\[input\]\[sample\].
     pub y: Vec<Vec<Vec<f64>>>,
 }
 
@@ -24,7 +24,7 @@ pub struct TimeResponse {
 pub struct SimResponse {
     /// Sample times in seconds.
     pub t_s: Vec<f64>,
-    /// Outputs indexed [sample][output].
+    /// Outputs indexed \[sample\]\[output\].
     pub y: Vec<Vec<f64>>,
 }
 
@@ -244,7 +244,7 @@ pub fn step(sys: &StateSpace, t_s: Option<&[f64]>) -> Result<TimeResponse> {
 }
 
 /// Impulse response on each input in turn. Continuous time: `C e^{A(t−τ)} B` after the delay τ (the
-/// Dirac part of D is left out, as python-control does); discrete time: the unit pulse u[0] = 1.
+/// Dirac part of D is left out, as python-control does); discrete time: the unit pulse u\[0\] = 1.
 #[allow(clippy::needless_range_loop)]
 pub fn impulse(sys: &StateSpace, t_s: Option<&[f64]>) -> Result<TimeResponse> {
     let t = match t_s {

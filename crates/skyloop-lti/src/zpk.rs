@@ -8,7 +8,7 @@ use crate::ss::StateSpace;
 use crate::tf::TransferFunction;
 use faer::c64;
 
-/// `G[i][j](s) = k[i][j] · Π(s − z) / Π(s − p)`, indexed [output][input]; complex roots come in
+/// `G[i][j](s) = k[i][j] · Π(s − z) / Π(s − p)`, indexed \[output\]\[input\]; complex roots come in
 /// conjugate pairs. Delays in seconds as in [`StateSpace`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct Zpk {

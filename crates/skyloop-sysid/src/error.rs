@@ -18,7 +18,7 @@ pub enum SysidError {
         name: String,
         /// The file (or log session) searched.
         source_name: String,
-        /// Suggestions such as ", similar: gyroADC[0], gyroADC[1]" (may be empty).
+        /// Suggestions such as ", similar: gyroADC\[0\], gyroADC\[1\]" (may be empty).
         hint: String,
     },
     /// Too little data for the requested estimate.

@@ -1,4 +1,4 @@
-//! Swept sines: linear and exponential (Novak et al. 2010, the bicopter paper's ref. [13]) chirps with a
+//! Swept sines: linear and exponential (Novak et al. 2010, the bicopter paper's ref. \[13\]) chirps with a
 //! linear amplitude envelope and raised-cosine fade-in/out.
 
 use std::f64::consts::PI;

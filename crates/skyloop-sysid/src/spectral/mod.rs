@@ -342,7 +342,7 @@ pub(crate) fn limits(o: &Options, lowest: f64, dt: f64) -> Result<(f64, f64)> {
 /// frequency range outside [0, Nyquist].
 ///
 /// # Examples
-/// A first-order lag y[k] = 0.9·y[k−1] + 0.1·u[k−1] (unit DC gain) driven by white noise:
+/// A first-order lag y\[k\] = 0.9·y[k−1] + 0.1·u[k−1] (unit DC gain) driven by white noise:
 /// ```
 /// use skyloop_sysid::spectral::{estimate, IoData, Method, Options};
 ///
