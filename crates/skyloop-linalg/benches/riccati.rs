@@ -1,5 +1,6 @@
 //! Riccati and Schur timings. The CARE/DARE problems are the 50-state fixtures also timed with scipy
 //! by `bench/compare_riccati.py`.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 #![allow(missing_docs)] // criterion's macros generate undocumented public functions
 
 use criterion::{criterion_group, criterion_main, Criterion};

@@ -1,6 +1,7 @@
 //! Best-of timings of the benchmark problems, printed as JSON for `bench/compare_riccati.py`
 //! (the same statistic the script uses for scipy/SLICOT; robust on a busy machine).
 //! Run: `cargo run --release -p skyloop-linalg --example time_riccati [repeats]`.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use faer::Mat;
 use serde_json::Value;

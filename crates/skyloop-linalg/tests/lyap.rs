@@ -1,5 +1,6 @@
 //! Sylvester and Lyapunov solvers against scipy and SLICOT SB03OD references
 //! (fixtures from tools/gen_lyap.py), with residual checks on every solve.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use faer::{Mat, MatRef};
 use serde_json::Value;

@@ -1,6 +1,7 @@
 //! CARE/DARE against scipy and SLICOT (python-control + slycot) fixtures from `tools/gen_riccati.py`,
 //! the CAREX benchmark collection (table written to `tests/fixtures/riccati/carex_table.md` when
 //! `SKYLOOP_WRITE_TABLES=1`), and error cases.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use faer::{Mat, MatRef};
 use serde_json::Value;

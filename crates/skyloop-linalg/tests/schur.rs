@@ -1,5 +1,6 @@
 //! Real Schur decomposition, reordering and balancing against numpy/scipy fixtures
 //! (`tools/gen_schur.py` → `tests/fixtures/schur/cases.json`).
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use faer::{c64, Mat, MatRef};
 use serde_json::Value;

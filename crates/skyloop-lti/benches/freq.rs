@@ -1,6 +1,7 @@
 //! Frequency-analysis benchmarks (issue 2 targets; bench/compare.py prints the ratios against
 //! python-control + slycot): frequency response of a 20-state 2×2 model at 10,000 frequencies,
 //! H∞ norm of a 40-state 3×3 model (and its Hamiltonian eigenvalue solve), margins of the bicopter loop.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 #![allow(missing_docs)] // criterion_group! generates an undocumented function
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};

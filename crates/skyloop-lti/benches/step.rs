@@ -1,4 +1,5 @@
 //! Step response of the 20-state SISO system of bench/step20.json (written by bench/compare_step.py).
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 #![allow(missing_docs)] // criterion_group! generates an undocumented function
 
 use criterion::{criterion_group, criterion_main, Criterion};

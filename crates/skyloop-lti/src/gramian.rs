@@ -80,11 +80,7 @@ mod tests {
         // A with a complex pair (discrete: scaled inside the unit circle).
         let f = if dt > 0.0 { 0.3 } else { 1.0 };
         StateSpace::from_rows(
-            &[
-                vec![-1.0 * f, 2.0 * f, 0.0],
-                vec![-3.0 * f, -1.0 * f, 1.0 * f],
-                vec![0.0, 0.0, -0.5 * f],
-            ],
+            &[vec![-f, 2.0 * f, 0.0], vec![-3.0 * f, -f, f], vec![0.0, 0.0, -0.5 * f]],
             &[vec![1.0, 0.0], vec![0.5, 1.0], vec![0.0, 2.0]],
             &[vec![1.0, -1.0, 0.5]],
             &[vec![0.0, 0.0]],

@@ -1,6 +1,7 @@
 //! Expressions of high order become accurate models: the realization built from the expression tree
 //! is checked against the expression evaluated factor by factor at s = jω (`Expr::eval`, independent
 //! of any realization), and poles against the factors' known roots.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use skyloop_lti::analysis::poles;
 use skyloop_lti::expr::{parse, parse_model};

@@ -1,5 +1,6 @@
 //! Frequency response and margins against python-control + slycot fixtures (tools/gen_freq.py)
 //! and the bicopter paper's printed margins (seeds/000, section IV).
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use serde_json::Value;
 use skyloop_lti::freqresp::freqresp;

@@ -1,5 +1,6 @@
 //! Property tests of the inputs: random and mutated expressions and LTI JSON never panic (Ok, or
 //! Err with a message), and random factored models realize to the expression's own values.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use proptest::prelude::*;
 use skyloop_lti::c64;

@@ -1,6 +1,7 @@
 //! Model reduction and minimal realization against SLICOT (AB09AD/AB09MD/AB09ND, TB01PD through
 //! slycot and python-control; fixtures from tools/gen_reduce.py), with the error bound checked on a
 //! dense frequency grid.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use faer::{c64, Mat};
 use serde_json::Value;

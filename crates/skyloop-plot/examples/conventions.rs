@@ -6,6 +6,7 @@
 //!
 //! `cargo run -p skyloop-plot --example conventions -- /tmp/plots` (default directory: the system
 //! temporary directory).
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use std::f64::consts::PI;
 use std::path::PathBuf;

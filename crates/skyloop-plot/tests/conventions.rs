@@ -1,5 +1,6 @@
 //! The new builders render, their SVG carries the values and labels an engineer reads, and no
 //! tick label is written with float noise or a trailing ".0".
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use num_complex::Complex64;
 use skyloop_plot::bode::{bode_figure, bode_mimo_figure, BodeData, BodeMarks, IoNames};

@@ -1,4 +1,5 @@
 //! Every plot kind renders to SVG and PNG with its data in it, and bad input is refused.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use std::path::PathBuf;
 

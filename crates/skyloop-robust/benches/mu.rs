@@ -1,4 +1,5 @@
 //! μ bounds of a 20×20 frequency response with 6 blocks at 200 frequencies (target < 200 ms).
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 #![allow(missing_docs)] // criterion_group! generates an undocumented function
 
 use criterion::{criterion_group, criterion_main, Criterion};

@@ -1,6 +1,7 @@
 //! DK-iteration timing on the distillation column of Skogestad & Postlethwaite §8.12.4 (the plant of
 //! examples/musyn-distillation.toml): one iteration (H∞ K-step + μ analysis on 51 frequencies) and
 //! two (adds the D-fit and a K-step on the 22-state scaled plant).
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 #![allow(missing_docs)] // criterion_group! generates an undocumented function
 
 use criterion::{criterion_group, criterion_main, Criterion};

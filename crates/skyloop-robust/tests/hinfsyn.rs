@@ -1,4 +1,5 @@
 //! hinfsyn against SLICOT sb10ad (python-control) on random generalized plants, plus ill-posed inputs.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use serde_json::Value;
 use skyloop_lti::json::LtiJson;

@@ -1,5 +1,6 @@
 //! mixsyn/augw: the returned controller meets its own γ on each weighted channel, checked independently
 //! by rebuilding S = (1 + G·K)⁻¹ and K·S from the plant and the controller.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use skyloop_lti::expr::parse_model;
 use skyloop_lti::interconnect::{feedback, series};

@@ -1,4 +1,5 @@
 //! μ bounds against the reference values of tools/gen_mu.py and against closed forms.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use faer::{c64, Mat, MatRef};
 use skyloop_robust::mu::{mu, mu_frequency, robust_performance, robust_stability, MuOptions};

@@ -1,4 +1,5 @@
 //! Mixed-μ (real scalar blocks) upper bound by D–G scalings against closed forms and an exact 1-D search.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use faer::linalg::solvers::Solve;
 use faer::Side;

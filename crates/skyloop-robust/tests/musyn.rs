@@ -1,5 +1,6 @@
 //! DK-iteration on the distillation column of Skogestad & Postlethwaite, *Multivariable Feedback
 //! Control* (2nd ed.), §8.12.4, with the numbers of the book's companion MATLAB file Sec8_124.m.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use faer::{c64, Mat};
 use skyloop_lti::StateSpace;

@@ -1,4 +1,5 @@
 //! ncfsyn against a two-CARE scipy reference (tools/gen_hinf.py) and its own verified γ.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use serde_json::Value;
 use skyloop_lti::json::LtiJson;

@@ -1,5 +1,6 @@
 //! Speed targets of issue 5: SPAFDR of 10 minutes of 1 kHz data under 100 ms; reading a 4 MB ULog
 //! under 50 ms.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 #![allow(missing_docs)]
 
 use std::hint::black_box;

@@ -1,5 +1,6 @@
 //! skyloop's blackbox decoder against orangebox 0.5.0 (tests/fixtures/blackbox/orangebox.json, made by
 //! tools/gen_blackbox.py): the same frames, field for field, as integers; and no panic on damaged input.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use std::path::{Path, PathBuf};
 

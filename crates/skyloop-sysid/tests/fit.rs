@@ -1,6 +1,7 @@
 //! Parametric fits: exact data of the bicopter's eq. (8) (fixture from tools/gen_sysid.py), and the
 //! paper's two identification experiments simulated here: the servo in open loop (eq. (6)) and the
 //! roll-rate plant in closed loop with a PID and a chirp injected at the controller output (eq. (8)).
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 mod common;
 

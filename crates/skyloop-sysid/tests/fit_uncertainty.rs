@@ -1,5 +1,6 @@
 //! Standard errors of a parametric fit against the spread of the estimates over independent noise
 //! realizations of the same experiment (Monte Carlo): reported ±σ must match the observed scatter.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 mod common;
 

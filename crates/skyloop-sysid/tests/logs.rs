@@ -1,5 +1,6 @@
 //! Every sample flight log is read or refused with a clear message; channels have sane content;
 //! truncated, corrupt and foreign files give errors (or notes) instead of panics.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use std::path::{Path, PathBuf};
 

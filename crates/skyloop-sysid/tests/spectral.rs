@@ -1,5 +1,6 @@
 //! Spectral estimators against scipy/numpy fixtures (tools/gen_sysid.py) and against known systems,
 //! open and closed loop.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use num_complex::Complex64 as C64;
 use rand::SeedableRng;

@@ -1,5 +1,6 @@
 //! The ULog reader's time origin, duration and per-topic sample counts against pyulog 1.3.0
 //! (tests/fixtures/ulog/pyulog.json, made by tools/gen_ulog.py with the same data-span rule).
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use std::path::Path;
 

@@ -1,4 +1,5 @@
 //! Shared by the CLI test files: running the built `skyloop` binary.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 use std::process::Command;
 

@@ -19,6 +19,9 @@ use crate::error::RobustError;
 use crate::uncertainty::blocks::{BlockKind, BlockStructure};
 use faer::{c64, Mat, MatRef};
 
+/// The (b, w) vector pair a power-iteration start is made of.
+type StartVectors = (Vec<c64>, Vec<c64>);
+
 /// A lower bound with the perturbation that proves it.
 #[derive(Debug, Clone)]
 pub struct LowerBound {
@@ -366,7 +369,7 @@ pub fn lower_bound_vectors(
     s: &BlockStructure,
     starts: &[(Vec<c64>, Vec<c64>)],
     iters: usize,
-) -> Result<(LowerBound, (Vec<c64>, Vec<c64>))> {
+) -> Result<(LowerBound, StartVectors)> {
     s.check_matrix(m.nrows(), m.ncols())?;
     let mut best = LowerBound {
         value: 0.0,

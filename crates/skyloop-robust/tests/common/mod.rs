@@ -1,4 +1,5 @@
 //! Test-only helpers shared by the μ tests.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 #![allow(dead_code)]
 
 use faer::{c64, Mat};

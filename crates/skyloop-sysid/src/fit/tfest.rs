@@ -174,7 +174,7 @@ pub fn fit_tf(frf: &Frf, nzeros: usize, npoles: usize, delay: DelaySpec, o: &Fit
             for i in 0..=steps {
                 let td = max_td * i as f64 / steps as f64;
                 if let Ok((th, c)) = start_for(td) {
-                    if c.is_finite() && best.as_ref().map_or(true, |b| c < b.2) {
+                    if c.is_finite() && best.as_ref().is_none_or(|b| c < b.2) {
                         best = Some((th, td, c));
                     }
                 }

@@ -76,7 +76,7 @@ pub fn prbs(spec: &PrbsSpec, rate_hz: f64) -> Result<Signal> {
     let mut values = Vec::with_capacity(total);
     for _ in 0..spec.periods {
         for &b in &seq {
-            values.extend(std::iter::repeat(b * spec.amplitude).take(spec.samples_per_bit));
+            values.extend(std::iter::repeat_n(b * spec.amplitude, spec.samples_per_bit));
         }
     }
     Ok(Signal { rate_hz, values })

@@ -1,4 +1,5 @@
 //! Test-only helpers: a sampled-data simulation of a continuous plant with an exact input delay.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 #![allow(dead_code)]
 
 use skyloop_lti::expr::parse_model;
@@ -59,7 +60,7 @@ impl Plant {
             c: (0..n).map(|j| ss.c[(0, j)]).collect(),
             d: ss.d[(0, 0)],
             x: vec![0.0; n],
-            delay_line: std::iter::repeat(0.0).take(steps).collect(),
+            delay_line: std::iter::repeat_n(0.0, steps).collect(),
             h,
         }
     }
