@@ -1,5 +1,6 @@
 //! Dense numerics on faer: balancing, real Schur form and reordering, Sylvester, Lyapunov
-//! (also in Cholesky-factor form), CARE and DARE, matrix exponential, bounded Levenberg–Marquardt.
+//! (also in Cholesky-factor form), CARE and DARE, matrix exponential, bounded Levenberg–Marquardt,
+//! the top eigenpairs of small Hermitian matrices, and scalar root finding and maximization.
 //!
 //! Ported from the published algorithms (LAPACK dgebal/dlahqr/dtrexc/dlaexc/dlasy2/dtrsyl,
 //! Hammarling, Laub's ordered-Schur Riccati method); no Fortran.
@@ -11,9 +12,11 @@ pub use faer::{c64, Mat, MatRef};
 pub mod balance;
 mod dense;
 pub mod expm;
+pub mod hermitian;
 pub mod lm;
 pub mod logm;
 pub mod lyapunov;
 pub mod riccati;
+pub mod scalar_search;
 pub mod schur;
 pub mod sylvester;

@@ -1,7 +1,7 @@
 //! Conversions between state-space and transfer-function models.
 
-use crate::analysis::{poles, zeros};
 use crate::error::{LtiError, Result};
+use crate::poles_zeros::{poles, zeros};
 use crate::poly::Poly;
 use crate::ss::StateSpace;
 use crate::tf::TransferFunction;

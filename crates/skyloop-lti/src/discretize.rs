@@ -4,8 +4,8 @@
 //! matrices compare one to one; delays become whole sample delays, and for zoh a fractional input
 //! delay is exact through one extra state per delayed input (Franklin–Powell, modified z-transform).
 
-use crate::analysis::{dcgain, poles, zeros};
 use crate::error::{LtiError, Result};
+use crate::poles_zeros::{dcgain, poles, zeros};
 use crate::ss::StateSpace;
 use crate::zpk::{zpk_sections_ss, Zpk};
 use faer::linalg::solvers::Solve;

@@ -61,7 +61,7 @@ pub fn append(g1: &StateSpace, g2: &StateSpace) -> Result<StateSpace> {
 /// ```
 /// use skyloop_lti::{expr::parse_model, interconnect::series};
 /// let g = series(&parse_model("1/(s+1)")?, &parse_model("2")?)?;
-/// assert!((skyloop_lti::analysis::dcgain(&g)?[(0, 0)] - 2.0).abs() < 1e-12);
+/// assert!((skyloop_lti::poles_zeros::dcgain(&g)?[(0, 0)] - 2.0).abs() < 1e-12);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn series(g1: &StateSpace, g2: &StateSpace) -> Result<StateSpace> {
@@ -174,7 +174,7 @@ fn zeros_like_delays(g: &StateSpace, what: &str) -> Result<()> {
 /// use skyloop_lti::{expr::parse_model, interconnect::feedback};
 /// // 1/s closed by unity negative feedback is 1/(s+1).
 /// let t = feedback(&parse_model("1/s")?, &parse_model("1")?, -1.0)?;
-/// assert!((skyloop_lti::analysis::poles(&t)?[0].re + 1.0).abs() < 1e-12);
+/// assert!((skyloop_lti::poles_zeros::poles(&t)?[0].re + 1.0).abs() < 1e-12);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn feedback(g1: &StateSpace, g2: &StateSpace, sign: f64) -> Result<StateSpace> {

@@ -20,9 +20,9 @@
 
 use crate::error::{LtiError, Result};
 use crate::freqresp::{dynamics_range, pole_summary, FreqEvaluator, Workspace};
-use crate::roots::{brent_root, golden_max};
 use crate::ss::StateSpace;
 use faer::c64;
+use skyloop_linalg::scalar_search::{brent_root, golden_max};
 use std::collections::BinaryHeap;
 use std::f64::consts::PI;
 

@@ -224,7 +224,12 @@ fn linf_scaled(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
     // Climb the best initial peak locally: when it is the global one, the first Hamiltonian
     // eigenvalue solve already certifies the bound.
     if w_peak.is_finite() && w_peak > 0.0 {
-        let (x, fx) = crate::roots::brent_max(|w| sigma_max(&ev, w).unwrap_or(0.0), 0.7 * w_peak, 1.4 * w_peak, 1e-9);
+        let (x, fx) = skyloop_linalg::scalar_search::brent_max(
+            |w| sigma_max(&ev, w).unwrap_or(0.0),
+            0.7 * w_peak,
+            1.4 * w_peak,
+            1e-9,
+        );
         if fx > gamma {
             gamma = fx;
             w_peak = x;
@@ -248,7 +253,8 @@ fn linf_scaled(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
                 w_peak = mid;
             }
             if s > level {
-                let (x, fx) = crate::roots::brent_max(|w| sigma_max(&ev, w).unwrap_or(0.0), p[0], p[1], 1e-9);
+                let (x, fx) =
+                    skyloop_linalg::scalar_search::brent_max(|w| sigma_max(&ev, w).unwrap_or(0.0), p[0], p[1], 1e-9);
                 if fx > gamma {
                     gamma = fx;
                     w_peak = x;
@@ -265,7 +271,7 @@ fn linf_scaled(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
     // Polish the peak locally (the bound is already within 2·REL_TOL).
     if w_peak.is_finite() && w_peak > 0.0 {
         let (a, b) = (w_peak * (1.0 - 1e-3), w_peak * (1.0 + 1e-3));
-        let (x, fx) = crate::roots::brent_max(|w| sigma_max(&ev, w).unwrap_or(0.0), a, b, 1e-12);
+        let (x, fx) = skyloop_linalg::scalar_search::brent_max(|w| sigma_max(&ev, w).unwrap_or(0.0), a, b, 1e-12);
         if fx > gamma {
             gamma = fx;
             w_peak = x;

@@ -107,8 +107,8 @@ pub fn to_sos(d: &StateSpace) -> Result<Sos> {
             "second-order sections of a model with delays: absorb the delays into the states first".into(),
         ));
     }
-    let poles = crate::analysis::poles(d)?;
-    let zeros = crate::analysis::zeros(d)?;
+    let poles = crate::poles_zeros::poles(d)?;
+    let zeros = crate::poles_zeros::zeros(d)?;
     if zeros.len() > poles.len() {
         return Err(LtiError::InvalidArgument("more zeros than poles".into()));
     }

@@ -4,9 +4,9 @@
 //! (`c2d` zoh, fractional input delays included); delays then are whole-sample shifts, so a step
 //! response is exact at every grid point, delays included.
 
-use crate::analysis::poles;
 use crate::discretize::{c2d, Method};
 use crate::error::{LtiError, Result};
+use crate::poles_zeros::poles;
 use crate::ss::StateSpace;
 use skyloop_linalg::expm::expm;
 

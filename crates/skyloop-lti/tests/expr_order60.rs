@@ -3,11 +3,11 @@
 //! of any realization), and poles against the factors' known roots.
 #![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
-use skyloop_lti::analysis::poles;
 use skyloop_lti::expr::{parse, parse_model};
 use skyloop_lti::freqresp::evalfr;
 use skyloop_lti::margins::allmargin;
 use skyloop_lti::norms::hinf_norm;
+use skyloop_lti::poles_zeros::poles;
 use skyloop_lti::{c64, StateSpace};
 use std::collections::HashMap;
 

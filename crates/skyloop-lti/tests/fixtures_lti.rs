@@ -3,10 +3,10 @@
 
 use faer::{c64, Mat};
 use serde_json::Value;
-use skyloop_lti::analysis::{poles, zeros};
 use skyloop_lti::convert::ss_to_tf;
 use skyloop_lti::discretize::{c2d, matched_zpk, Method};
 use skyloop_lti::pade::pade;
+use skyloop_lti::poles_zeros::{poles, zeros};
 use skyloop_lti::poly::Poly;
 use skyloop_lti::timeresp::step;
 use skyloop_lti::StateSpace;

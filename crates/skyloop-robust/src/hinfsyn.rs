@@ -18,7 +18,7 @@
 
 use crate::error::Result;
 use crate::error::RobustError;
-use crate::linutil::{
+use crate::matrix_ops::{
     balance_states, hcat, inv, max_real_eig, sigma_max, spectral_radius, sym_min_eig, uncontrollable_unstable_mode,
     vcat,
 };

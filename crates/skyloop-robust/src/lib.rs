@@ -1,7 +1,7 @@
 //! skyloop-robust.
 pub mod error;
 pub mod hinfsyn;
-mod linutil;
+mod matrix_ops;
 pub mod mixsyn;
 pub mod mu;
 pub mod musyn;

@@ -13,7 +13,7 @@
 
 use crate::error::Result;
 use crate::error::RobustError;
-use crate::linutil::{balance_states, inv, max_real_eig, spectral_radius, uncontrollable_unstable_mode};
+use crate::matrix_ops::{balance_states, inv, max_real_eig, spectral_radius, uncontrollable_unstable_mode};
 use faer::linalg::solvers::Solve;
 use skyloop_linalg::riccati::care;
 use skyloop_lti::interconnect::{lft_lower, series};

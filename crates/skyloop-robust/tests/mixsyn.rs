@@ -31,7 +31,7 @@ fn mixsyn_controller_meets_gamma_on_s_and_ks() {
     let l = series(k, &g).expect("L = G·K");
     let one = StateSpace::gain(Mat::identity(1, 1), 0.0).expect("unit gain");
     let s = feedback(&one, &l, -1.0).expect("S");
-    let poles = skyloop_lti::analysis::poles(&s).expect("poles");
+    let poles = skyloop_lti::poles_zeros::poles(&s).expect("poles");
     assert!(poles.iter().all(|p| p.re < 0.0), "closed loop unstable: {poles:?}");
     let w1s = series(&s, &w1).expect("W1·S");
     let ks = series(&s, k).expect("K·S");

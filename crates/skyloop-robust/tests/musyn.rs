@@ -78,7 +78,7 @@ fn grid() -> Vec<f64> {
 
 fn closed_loop_stable(p: &StateSpace, k: &StateSpace) -> bool {
     let cl = skyloop_lti::interconnect::lft_lower(p, k).expect("lft");
-    skyloop_lti::analysis::poles(&cl)
+    skyloop_lti::poles_zeros::poles(&cl)
         .expect("poles")
         .iter()
         .all(|z| z.re < 0.0)

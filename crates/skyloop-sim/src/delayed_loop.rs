@@ -72,7 +72,7 @@ pub fn closed_loop_step(l: &StateSpace, t_s: &[f64]) -> Result<Vec<f64>> {
     let d = if core.d.nrows() == 1 { core.d[(0, 0)] } else { 0.0 };
     // Inner step: a hundredth of the fastest time constant and of the delay, and a whole fraction of
     // h; the hold of the error signal then costs O(δ) ≈ 1e-4 relative.
-    let w_max = skyloop_lti::analysis::poles(&core)
+    let w_max = skyloop_lti::poles_zeros::poles(&core)
         .map_err(|e| SimError::Param(e.to_string()))?
         .iter()
         .map(|p| p.norm())

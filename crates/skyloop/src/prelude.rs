@@ -12,11 +12,11 @@ pub use skyloop_lti::interconnect::{feedback, lft_lower, lft_upper, parallel, se
 pub use skyloop_lti::{c64, LtiError, Mat, StateSpace};
 
 // Classical analysis: frequency response, margins, norms, poles, time responses.
-pub use skyloop_lti::analysis::{dcgain, poles, zeros};
 pub use skyloop_lti::discretize::{c2d, d2c, Method as C2dMethod};
 pub use skyloop_lti::freqresp::{bode, evalfr, freqresp, logspace};
 pub use skyloop_lti::margins::{allmargin, delay_margin, diskmargin, margin, AllMargins, DiskMargin, Margins};
 pub use skyloop_lti::norms::{h2_norm, hinf_norm};
+pub use skyloop_lti::poles_zeros::{dcgain, poles, zeros};
 pub use skyloop_lti::reduce::{balred, hsvd, Method as ReduceMethod};
 pub use skyloop_lti::timeresp::{impulse, lsim, step};
 

@@ -14,6 +14,6 @@ pub struct Args {
 /// Computes and prints the poles.
 pub fn run(a: Args) -> skyloop::Result<()> {
     let sys = skyloop::model::load_model(&a.model)?;
-    let p = skyloop::lti::analysis::poles(&sys)?;
+    let p = skyloop::lti::poles_zeros::poles(&sys)?;
     super::roots_out::print_roots("poles", &p, sys.dt, a.json)
 }

@@ -14,6 +14,6 @@ pub struct Args {
 /// Computes and prints the transmission zeros.
 pub fn run(a: Args) -> skyloop::Result<()> {
     let sys = skyloop::model::load_model(&a.model)?;
-    let z = skyloop::lti::analysis::zeros(&sys)?;
+    let z = skyloop::lti::poles_zeros::zeros(&sys)?;
     super::roots_out::print_roots("zeros", &z, sys.dt, a.json)
 }

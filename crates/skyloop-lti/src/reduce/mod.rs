@@ -83,7 +83,7 @@ pub fn balreal(sys: &StateSpace) -> Result<(StateSpace, Vec<f64>)> {
 /// let g = skyloop_lti::expr::parse_model("10/((s+1)*(s+100))")?;
 /// let r = balred(&g, 1, Method::Balanced)?;
 /// assert_eq!(r.sys.nx(), 1);
-/// let dc = |s: &skyloop_lti::StateSpace| skyloop_lti::analysis::dcgain(s).map(|m| m[(0, 0)]);
+/// let dc = |s: &skyloop_lti::StateSpace| skyloop_lti::poles_zeros::dcgain(s).map(|m| m[(0, 0)]);
 /// assert!((dc(&r.sys)? - dc(&g)?).abs() <= r.error_bound + 1e-12);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```

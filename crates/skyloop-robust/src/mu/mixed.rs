@@ -14,13 +14,13 @@
 //! with a dense eigen-decomposition; only a bound that passes is returned.
 
 use super::bfgs::{bfgs_update, descent, identity, scale};
-use super::hermitian::{top_eigen, Workspace};
 use super::upper::DScales;
 use crate::error::Result;
 use crate::error::RobustError;
 use crate::uncertainty::blocks::{BlockKind, BlockStructure};
 use faer::linalg::solvers::DenseSolveCore;
 use faer::{c64, Mat, MatRef, Side};
+use skyloop_linalg::hermitian::{top_eigen, Workspace};
 
 /// A certified mixed-μ upper bound with the scalings that prove it.
 #[derive(Debug, Clone)]

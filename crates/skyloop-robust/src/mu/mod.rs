@@ -3,7 +3,6 @@
 //! blocks the upper bound is the certified D–G (mixed-μ) bound of [`mixed`].
 
 mod bfgs;
-mod hermitian;
 pub mod lower;
 pub mod mixed;
 pub mod sweep;

@@ -12,12 +12,12 @@
 //! D–G scalings started from this optimum (`mixed::mixed_upper_bound`).
 
 use super::bfgs::{bfgs_update, descent, identity, scale};
-use super::hermitian::{top_eigen, Workspace};
 use crate::error::Result;
 use crate::error::RobustError;
 use crate::uncertainty::blocks::{BlockKind, BlockStructure};
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat, MatRef, Side};
+use skyloop_linalg::hermitian::{top_eigen, Workspace};
 
 /// D-scales for one block structure: D_L acts on M's rows, D_R on M's columns.
 #[derive(Debug, Clone, PartialEq)]

@@ -215,8 +215,8 @@ struct Analysis {
 
 fn analyse(p: &StateSpace, k: &StateSpace, lay: &Layout, w: &[f64], o: &MuOptions) -> Result<Analysis> {
     let cl = skyloop_lti::interconnect::lft_lower(p, k)?;
-    let cl = crate::linutil::balance_states(&cl)?;
-    let growth = crate::linutil::max_real_eig(cl.a.as_ref())?;
+    let cl = crate::matrix_ops::balance_states(&cl)?;
+    let growth = crate::matrix_ops::max_real_eig(cl.a.as_ref())?;
     if growth >= 0.0 {
         return Err(RobustError::Numerical(format!(
             "the controller does not stabilize the plant (closed-loop pole with real part {growth:.3e})"
@@ -293,8 +293,8 @@ fn maybe_reduce(p: &StateSpace, k: StateSpace, order: Option<usize>) -> StateSpa
     };
     let stable = skyloop_lti::interconnect::lft_lower(p, &r.sys)
         .map_err(RobustError::from)
-        .and_then(|cl| crate::linutil::balance_states(&cl))
-        .and_then(|cl| crate::linutil::max_real_eig(cl.a.as_ref()))
+        .and_then(|cl| crate::matrix_ops::balance_states(&cl))
+        .and_then(|cl| crate::matrix_ops::max_real_eig(cl.a.as_ref()))
         .is_ok_and(|g| g < 0.0);
     if stable {
         r.sys

@@ -182,8 +182,8 @@ mod tests {
             let want = 10.0 * (1.0 + x * x).sqrt() / (100.0 + x * x).sqrt();
             assert!((g.norm() / want - 1.0).abs() < 1e-3, "|d| {} vs {want}", g.norm());
         }
-        let poles = skyloop_lti::analysis::poles(&d).expect("poles");
-        let zeros = skyloop_lti::analysis::poles(&di).expect("zeros");
+        let poles = skyloop_lti::poles_zeros::poles(&d).expect("poles");
+        let zeros = skyloop_lti::poles_zeros::poles(&di).expect("zeros");
         assert!(poles.iter().chain(&zeros).all(|p| p.re < 0.0));
     }
 

@@ -337,10 +337,10 @@ mod tests {
     use crate::mu::{mu_system, robust_stability, MuOptions};
     use crate::uncertainty::sample::sample_delta;
     use rand::SeedableRng;
-    use skyloop_lti::analysis::poles;
     use skyloop_lti::freqresp::evalfr;
     use skyloop_lti::interconnect::lft_upper;
     use skyloop_lti::norms::hinf_norm;
+    use skyloop_lti::poles_zeros::poles;
 
     fn sigma_max(m: &Mat<c64>) -> f64 {
         m.singular_values().expect("svd")[0]

@@ -4,11 +4,11 @@
 //! controller follows another over a band.
 
 use serde::Serialize;
+use skyloop_linalg::scalar_search::golden_max;
 use skyloop_lti::error::Result;
 use skyloop_lti::freqresp::{dynamics_range, logspace, FreqEvaluator, Workspace};
 use skyloop_lti::interconnect::{feedback, series};
 use skyloop_lti::margins::{allmargin, diskmargin, margin_from};
-use skyloop_lti::roots::golden_max;
 use skyloop_lti::{c64, LtiError, Mat, StateSpace};
 use std::f64::consts::PI;
 
@@ -68,7 +68,7 @@ pub fn closed_loop_stable(p: &StateSpace, c: &StateSpace) -> Result<bool> {
     let l = series(c, p)?;
     let one = StateSpace::gain(Mat::identity(l.ny(), l.ny()), l.dt)?;
     let cl = feedback(&l, &one, -1.0)?;
-    Ok(skyloop_lti::analysis::poles(&cl)?.iter().all(|p| p.re < 0.0))
+    Ok(skyloop_lti::poles_zeros::poles(&cl)?.iter().all(|p| p.re < 0.0))
 }
 
 /// SISO frequency responses evaluated one point at a time.
@@ -271,7 +271,7 @@ pub fn crossover_limits(p: &StateSpace, crossover_hz: f64) -> Result<CrossoverLi
     let mut free = p.clone();
     free.input_delay.iter_mut().for_each(|t| *t = 0.0);
     free.output_delay.iter_mut().for_each(|t| *t = 0.0);
-    let zeros = skyloop_lti::analysis::zeros(&free)?;
+    let zeros = skyloop_lti::poles_zeros::zeros(&free)?;
     let z = zeros
         .iter()
         .filter(|z| z.re > 0.0)

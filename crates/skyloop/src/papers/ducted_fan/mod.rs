@@ -184,7 +184,7 @@ pub fn actuator_factor(p: &Plants, delta: &StateSpace) -> Result<StateSpace> {
 
 /// Largest real part of the poles of `sys`.
 fn spectral_abscissa(sys: &StateSpace) -> Result<f64> {
-    let ev = skyloop_lti::analysis::poles(sys)?;
+    let ev = skyloop_lti::poles_zeros::poles(sys)?;
     Ok(ev.iter().fold(f64::NEG_INFINITY, |m, z| m.max(z.re)))
 }
 
@@ -239,7 +239,7 @@ fn balanced(sys: &StateSpace) -> Result<StateSpace> {
 /// Damping ratio and natural frequency (rad/s) of the least-damped oscillatory pole of lft(G_nom, K).
 pub fn least_damped(p: &Plants, k: &StateSpace) -> Result<(f64, f64)> {
     let cl = lft_lower(&p.g_nom, k)?;
-    let poles = skyloop_lti::analysis::poles(&cl)?;
+    let poles = skyloop_lti::poles_zeros::poles(&cl)?;
     Ok(poles
         .iter()
         .filter(|z| z.im.abs() > 1e-6 * z.norm().max(1.0))
@@ -250,7 +250,7 @@ pub fn least_damped(p: &Plants, k: &StateSpace) -> Result<(f64, f64)> {
 /// Largest real part of the closed-loop poles of lft(G_nom, K).
 pub fn closed_loop_abscissa(p: &Plants, k: &StateSpace) -> Result<f64> {
     let cl = lft_lower(&p.g_nom, k)?;
-    let ev = skyloop_lti::analysis::poles(&cl)?;
+    let ev = skyloop_lti::poles_zeros::poles(&cl)?;
     Ok(ev.iter().fold(f64::NEG_INFINITY, |m, z| m.max(z.re)))
 }
 

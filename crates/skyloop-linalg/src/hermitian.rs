@@ -12,7 +12,7 @@
 use faer::{c64, Mat, MatRef};
 
 /// Eigenvalues (ascending) and the eigenvectors of the largest ones.
-pub(crate) struct TopEigen {
+pub struct TopEigen {
     /// All eigenvalues, ascending.
     pub lam: Vec<f64>,
     /// Column c is a unit eigenvector for `lam[n − 1 − c]`; the columns are orthonormal.
@@ -21,7 +21,7 @@ pub(crate) struct TopEigen {
 
 /// Work space reused across calls (the μ upper bound evaluates hundreds of spectra of one size).
 #[derive(Default)]
-pub(crate) struct Workspace {
+pub struct Workspace {
     a: Vec<c64>,
     v: Vec<c64>,
     tau: Vec<f64>,
@@ -43,7 +43,7 @@ fn phase_of(x: c64) -> c64 {
 /// Eigen-decomposition of the Hermitian `a` (only its lower triangle is read); `n_vecs(lam)` says how
 /// many of the largest eigenvalues need vectors given all of them (ascending). `None` when the QR
 /// iteration does not converge (not observed; callers fall back to a dense solver).
-pub(crate) fn top_eigen(a: MatRef<c64>, ws: &mut Workspace, n_vecs: impl FnOnce(&[f64]) -> usize) -> Option<TopEigen> {
+pub fn top_eigen(a: MatRef<c64>, ws: &mut Workspace, n_vecs: impl FnOnce(&[f64]) -> usize) -> Option<TopEigen> {
     let n = a.nrows();
     if n == 0 {
         return Some(TopEigen {

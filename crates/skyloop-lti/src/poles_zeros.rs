@@ -13,7 +13,7 @@ use faer::{c64, Mat};
 /// # Examples
 /// ```
 /// let g = skyloop_lti::expr::parse_model("(s+2)/((s+1)*(s+3))")?;
-/// let mut p: Vec<f64> = skyloop_lti::analysis::poles(&g)?.iter().map(|z| z.re).collect();
+/// let mut p: Vec<f64> = skyloop_lti::poles_zeros::poles(&g)?.iter().map(|z| z.re).collect();
 /// p.sort_by(f64::total_cmp);
 /// assert!((p[0] + 3.0).abs() < 1e-12 && (p[1] + 1.0).abs() < 1e-12);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
@@ -60,7 +60,7 @@ pub fn dcgain(sys: &StateSpace) -> Result<Mat<f64>> {
 /// # Examples
 /// ```
 /// let g = skyloop_lti::expr::parse_model("(s+2)/((s+1)*(s+3))")?;
-/// let z = skyloop_lti::analysis::zeros(&g)?;
+/// let z = skyloop_lti::poles_zeros::zeros(&g)?;
 /// assert_eq!(z.len(), 1);
 /// assert!((z[0].re + 2.0).abs() < 1e-10);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
