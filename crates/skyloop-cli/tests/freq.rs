@@ -103,3 +103,14 @@ fn margins_of_mimo_model_is_a_clear_error() {
     assert_eq!(code, 2);
     assert!(err.contains("SISO"), "{err}");
 }
+
+#[test]
+fn absurd_grid_sizes_are_refused_by_name() {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_skyloop"))
+        .args(["freqresp", "1/(s+1)", "--logspace-hz", "0.1,1,1e11"])
+        .output()
+        .expect("runs");
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("--logspace-hz") && err.contains("limit"), "{err}");
+}

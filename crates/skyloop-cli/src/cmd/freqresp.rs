@@ -40,7 +40,12 @@ pub fn run(a: Args) -> skyloop::Result<()> {
             if !ok {
                 return Err("--logspace-hz needs LO,HI,N with 0 < LO < HI and an integer N >= 2".into());
             }
-            skyloop::lti::freqresp::logspace(p[0].log10(), p[1].log10(), p[2] as usize)
+            // A million points already takes seconds to print; beyond it is a typo, not a plot.
+            const MAX_POINTS: f64 = 1e6;
+            if p[2] > MAX_POINTS {
+                return Err(format!("--logspace-hz: N = {} exceeds the limit of {MAX_POINTS:e} points", p[2]).into());
+            }
+            skyloop::lti::freqresp::try_logspace(p[0].log10(), p[1].log10(), p[2] as usize)?
         }
         None => skyloop::lti::freqresp::default_grid(&sys, 50)?
             .into_iter()
