@@ -8,12 +8,10 @@ mod common;
 use common::skyloop;
 
 fn fixture_case(name: &str) -> Value {
-    let text = std::fs::read_to_string(concat!(
+    let v = skyloop_fixtures::load(
         env!("CARGO_MANIFEST_DIR"),
-        "/../skyloop-lti/tests/fixtures/reduce/cases.json"
-    ))
-    .expect("fixture");
-    let v: Value = serde_json::from_str(&text).expect("fixture JSON");
+        "../skyloop-lti/tests/fixtures/reduce/cases.json",
+    );
     v["cases"]
         .as_array()
         .unwrap()

@@ -4,8 +4,7 @@
 use skyloop_control::*;
 
 fn fixture() -> serde_json::Value {
-    let text = include_str!("fixtures/control/control.json");
-    serde_json::from_str(text).expect("fixture parses")
+    skyloop_fixtures::load(env!("CARGO_MANIFEST_DIR"), "tests/fixtures/control/control.json")
 }
 
 fn vec(v: &serde_json::Value) -> Vec<f64> {

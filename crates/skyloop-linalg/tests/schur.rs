@@ -16,10 +16,7 @@ fn mat(v: &Value) -> Mat<f64> {
 }
 
 fn fixtures() -> Vec<Value> {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/schur/cases.json"))
-        .expect("fixture file");
-    let v: Value = serde_json::from_str(&text).expect("json");
-    v["cases"].as_array().expect("cases").clone()
+    skyloop_fixtures::cases(env!("CARGO_MANIFEST_DIR"), "tests/fixtures/schur/cases.json")
 }
 
 fn fro(a: MatRef<f64>) -> f64 {

@@ -8,9 +8,7 @@ use skyloop_lti::margins::{allmargin, diskmargin, margin};
 use skyloop_lti::StateSpace;
 
 fn fixture(name: &str) -> Value {
-    let path = format!("{}/tests/fixtures/freq/{name}.json", env!("CARGO_MANIFEST_DIR"));
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
-    serde_json::from_str(&text).expect("fixture is JSON")
+    skyloop_fixtures::load(env!("CARGO_MANIFEST_DIR"), &format!("tests/fixtures/freq/{name}.json"))
 }
 
 fn sys_of(v: &Value) -> StateSpace {

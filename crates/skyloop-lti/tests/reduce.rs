@@ -27,9 +27,7 @@ fn rows(v: &Value) -> Vec<Vec<f64>> {
 }
 
 fn fixture() -> Value {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/reduce/cases.json"))
-        .expect("fixture file");
-    serde_json::from_str(&text).expect("fixture JSON")
+    skyloop_fixtures::load(env!("CARGO_MANIFEST_DIR"), "tests/fixtures/reduce/cases.json")
 }
 
 fn model(c: &Value) -> StateSpace {

@@ -8,8 +8,7 @@ use skyloop_robust::hinfsyn::{hinfsyn, hinfsyn_with, HinfOptions};
 use skyloop_robust::RobustError;
 
 fn fixture(name: &str) -> Value {
-    let path = format!("{}/tests/fixtures/hinf/{name}", env!("CARGO_MANIFEST_DIR"));
-    serde_json::from_str(&std::fs::read_to_string(path).expect("fixture")).expect("json")
+    skyloop_fixtures::load(env!("CARGO_MANIFEST_DIR"), &format!("tests/fixtures/hinf/{name}"))
 }
 
 fn plant(v: &Value) -> StateSpace {

@@ -264,10 +264,7 @@ fn robust_performance_augments_a_full_block() {
 
 /// The cases of tools/gen_mu.py (numpy/scipy references; see the script for how each was made).
 fn fixture_cases() -> Vec<serde_json::Value> {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/mu/mu_cases.json"))
-        .expect("fixture");
-    let v: serde_json::Value = serde_json::from_str(&text).expect("json");
-    v["cases"].as_array().expect("cases").clone()
+    skyloop_fixtures::cases(env!("CARGO_MANIFEST_DIR"), "tests/fixtures/mu/mu_cases.json")
 }
 
 fn fixture_matrix(c: &serde_json::Value) -> Mat<c64> {

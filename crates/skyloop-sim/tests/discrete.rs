@@ -7,16 +7,11 @@ use skyloop_sim::runtime_controller;
 const HINF_EQ12: &str = "24.02*(s+54.01)*(s+0.2474)*(s^2+139.3*s+26240)/(s*(s^2+24.14*s+8544)*(s^2+232.4*s+70410))";
 
 fn fixture() -> (Vec<f64>, Vec<f64>) {
-    let text = include_str!("../../skyloop-control/tests/fixtures/control/control.json");
-    let v: serde_json::Value = serde_json::from_str(text).expect("json");
-    let get = |k: &str| {
-        v["hinf_bicopter"][k]
-            .as_array()
-            .expect("arr")
-            .iter()
-            .map(|x| x.as_f64().expect("f"))
-            .collect()
-    };
+    let v = skyloop_fixtures::load(
+        env!("CARGO_MANIFEST_DIR"),
+        "../skyloop-control/tests/fixtures/control/control.json",
+    );
+    let get = |k: &str| skyloop_fixtures::f64s(&v["hinf_bicopter"][k]);
     (get("input"), get("output"))
 }
 

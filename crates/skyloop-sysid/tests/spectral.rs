@@ -9,8 +9,7 @@ use serde_json::Value;
 use skyloop_sysid::spectral::{estimate, IoData, Method, Options, Window};
 
 fn fixture(name: &str) -> Value {
-    let p = format!("{}/tests/fixtures/sysid/{name}", env!("CARGO_MANIFEST_DIR"));
-    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    skyloop_fixtures::load(env!("CARGO_MANIFEST_DIR"), &format!("tests/fixtures/sysid/{name}"))
 }
 
 fn vec(v: &Value) -> Vec<f64> {
