@@ -269,6 +269,22 @@ impl Anchor {
     }
 }
 
+/// The predictor context of a slow (S), home (H) or GPS (G) frame: no frame skipping and no motors;
+/// `prev` is that frame kind's own previous frame (GPS only).
+fn side_context<'a>(h: &Header, prev: Option<&'a [i64]>, last_main_time: i64, home: Option<[i64; 2]>) -> Context<'a> {
+    Context {
+        prev,
+        prev2: prev,
+        skipped: 0,
+        minthrottle: h.minthrottle,
+        min_motor: h.min_motor,
+        vbatref: h.vbatref,
+        last_main_time,
+        motor0: None,
+        home,
+    }
+}
+
 /// Decodes the frames of `data` (one session, after its header).
 pub fn decode(h: &Header, data: &[u8]) -> Decoded {
     let defs = &h.defs;
@@ -460,17 +476,7 @@ pub fn decode(h: &Header, data: &[u8]) -> Decoded {
                 }
             }
             b'S' => {
-                let ctx = Context {
-                    prev: None,
-                    prev2: None,
-                    skipped: 0,
-                    minthrottle: h.minthrottle,
-                    min_motor: h.min_motor,
-                    vbatref: h.vbatref,
-                    last_main_time,
-                    motor0: None,
-                    home,
-                };
+                let ctx = side_context(h, None, last_main_time, home);
                 if apply_predictors(frame_defs, &mut raw, &ctx).is_err() {
                     stats.corrupt += 1;
                     continue;
@@ -484,33 +490,13 @@ pub fn decode(h: &Header, data: &[u8]) -> Decoded {
                 }
             }
             b'H' => {
-                let ctx = Context {
-                    prev: None,
-                    prev2: None,
-                    skipped: 0,
-                    minthrottle: h.minthrottle,
-                    min_motor: h.min_motor,
-                    vbatref: h.vbatref,
-                    last_main_time,
-                    motor0: None,
-                    home: None,
-                };
+                let ctx = side_context(h, None, last_main_time, None);
                 if apply_predictors(frame_defs, &mut raw, &ctx).is_ok() && raw.len() >= 2 {
                     home = Some([raw[0], raw[1]]);
                 }
             }
             b'G' => {
-                let ctx = Context {
-                    prev: gps_prev.as_deref(),
-                    prev2: gps_prev.as_deref(),
-                    skipped: 0,
-                    minthrottle: h.minthrottle,
-                    min_motor: h.min_motor,
-                    vbatref: h.vbatref,
-                    last_main_time,
-                    motor0: None,
-                    home,
-                };
+                let ctx = side_context(h, gps_prev.as_deref(), last_main_time, home);
                 match apply_predictors(frame_defs, &mut raw, &ctx) {
                     Ok(()) => {
                         let t = gps_time.map_or(last_main_time, |i| raw[i]);
