@@ -114,3 +114,24 @@ fn absurd_grid_sizes_are_refused_by_name() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("--logspace-hz") && err.contains("limit"), "{err}");
 }
+
+#[test]
+fn all_pass_loops_and_extreme_poles_print_sanely() {
+    let run = |args: &[&str]| {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_skyloop"))
+            .args(args)
+            .output()
+            .expect("runs");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    let text = run(&["margins", "(s-1)/(s+1)"]);
+    assert!(
+        text.contains("gain crossovers (0)") && text.contains("|L| = 1 on the whole band"),
+        "{text}"
+    );
+    let v: serde_json::Value = serde_json::from_str(&run(&["margins", "(s-1)/(s+1)", "--json"])).expect("json");
+    assert!(v["unit_gain_band_hz"].is_array(), "{v}");
+    let text = run(&["poles", "1/(s+1e300)"]);
+    assert!(text.lines().all(|l| l.len() < 80), "{text}");
+}

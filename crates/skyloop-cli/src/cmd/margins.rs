@@ -49,6 +49,7 @@ pub fn run(a: Args) -> skyloop::Result<()> {
                 "freq_hz": fin(hz(dm.w_rad_s)),
             },
             "closed_loop_stable": all.stable,
+            "unit_gain_band_hz": all.unit_gain_band_rad_s.map(|(a, b)| [hz(a), hz(b)]),
             "all_gain_margins": all.gain_margins.iter()
                 .map(|g| json!({"gm_db": fin(g.gm_db), "freq_hz": hz(g.w_rad_s)}))
                 .collect::<Vec<_>>(),
@@ -92,6 +93,13 @@ pub fn run(a: Args) -> skyloop::Result<()> {
             hz(p.w_rad_s),
             p.pm_deg,
             p.delay_margin_s
+        );
+    }
+    if let Some((lo, hi)) = all.unit_gain_band_rad_s {
+        println!(
+            "|L| = 1 on the whole band {:.4e} .. {:.4e} Hz (an all-pass loop: no isolated gain crossover)",
+            hz(lo),
+            hz(hi)
         );
     }
     println!("phase crossovers ({}):", all.gain_margins.len());

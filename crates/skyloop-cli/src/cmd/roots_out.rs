@@ -22,13 +22,9 @@ pub fn print_roots(what: &str, roots: &[c64], dt: f64, json: bool) -> skyloop::R
         let s = if dt > 0.0 { z.ln() / dt } else { *z };
         let wn = s.norm();
         let zeta = if wn > 0.0 { -s.re / wn } else { f64::NAN };
-        println!(
-            "{:>16.8e} {:>16.8e} {:>14.6} {:>10.4}",
-            z.re,
-            z.im,
-            wn / (2.0 * std::f64::consts::PI),
-            zeta
-        );
+        // Bounded width (skyloop::lti::display::Num): a pole at 1e300 prints as 1e300, not 301 digits.
+        let hz = skyloop::lti::display::Num(wn / (2.0 * std::f64::consts::PI)).to_string();
+        println!("{:>16.8e} {:>16.8e} {:>14} {:>10.4}", z.re, z.im, hz, zeta);
     }
     Ok(())
 }
