@@ -91,7 +91,8 @@ pub fn ncfsyn(
     }
     let rational = |s: &StateSpace| -> Result<StateSpace> {
         if s.has_delay() {
-            Ok(s.pade(opts.pade_order))
+            // An order outside 1..=20 is an error, never a silently dropped delay.
+            Ok(s.try_pade(opts.pade_order)?)
         } else {
             Ok(s.clone())
         }
@@ -271,8 +272,16 @@ pub fn four_block_norm(ps: &StateSpace, k_pos: &StateSpace) -> Result<f64> {
 /// u = C·(r − y) (MATLAB's ncfmargin); 0 when C does not stabilize P. Delays are replaced by
 /// Padé approximants of order `pade_order`.
 pub fn ncfmargin(p: &StateSpace, c: &StateSpace, pade_order: usize) -> Result<f64> {
-    let pr = if p.has_delay() { p.pade(pade_order) } else { p.clone() };
-    let cr = if c.has_delay() { c.pade(pade_order) } else { c.clone() };
+    let pr = if p.has_delay() {
+        p.try_pade(pade_order)?
+    } else {
+        p.clone()
+    };
+    let cr = if c.has_delay() {
+        c.try_pade(pade_order)?
+    } else {
+        c.clone()
+    };
     let norm = four_block_norm(&pr, &negate(&cr)?)?;
     Ok(if norm.is_finite() { 1.0 / norm } else { 0.0 })
 }

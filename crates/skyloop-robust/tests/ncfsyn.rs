@@ -143,3 +143,17 @@ fn riccati_without_stabilizing_solution_is_reported() {
         other => panic!("expected Riccati, got {other:?}"),
     }
 }
+
+/// A Padé order outside 1..=20 is an error naming the range; the delay is never dropped silently.
+#[test]
+fn pade_order_out_of_range_is_an_error() {
+    let p = skyloop_lti::expr::parse_model("exp(-0.03*s)/(s*(0.03*s+1))").expect("plant");
+    for order in [0, 100] {
+        let opts = skyloop_robust::ncfsyn::NcfOptions {
+            factor: 1.1,
+            pade_order: order,
+        };
+        let e = skyloop_robust::ncfsyn::ncfsyn(&p, None, None, &opts).expect_err("bad order");
+        assert!(e.to_string().contains("1 to 20"), "{e}");
+    }
+}
