@@ -57,6 +57,19 @@ pub struct Series {
 }
 
 impl Series {
+    /// The unit circle, unlabelled, in the thin grey reference style (Nyquist's |L| = 1, the
+    /// z-plane stability boundary); 361 points.
+    pub fn unit_circle() -> Series {
+        let n = 361;
+        let (cx, cy): (Vec<f64>, Vec<f64>) = (0..n)
+            .map(|i| {
+                let t = 2.0 * std::f64::consts::PI * i as f64 / (n - 1) as f64;
+                (t.cos(), t.sin())
+            })
+            .unzip();
+        Series::line("", cx, cy).styled(SeriesStyle::Reference)
+    }
+
     /// A solid line with a label.
     pub fn line(label: impl Into<String>, x: Vec<f64>, y: Vec<f64>) -> Self {
         Series {

@@ -85,14 +85,7 @@ pub fn nyquist_figure(title: &str, data: &[NyquistData], radius: Option<f64>) ->
         y_range: Some((view.y0, view.y1)),
         ..Panel::default()
     };
-    let n = 361;
-    let (cx, cy): (Vec<f64>, Vec<f64>) = (0..n)
-        .map(|i| {
-            let t = 2.0 * std::f64::consts::PI * i as f64 / (n - 1) as f64;
-            (t.cos(), t.sin())
-        })
-        .unzip();
-    p.series.push(Series::line("", cx, cy).styled(SeriesStyle::Reference));
+    p.series.push(Series::unit_circle());
     for (k, d) in data.iter().enumerate() {
         let pos: Vec<(f64, f64)> = d.re.iter().copied().zip(d.im.iter().copied()).collect();
         let neg: Vec<(f64, f64)> = pos.iter().rev().map(|&(x, y)| (x, -y)).collect();

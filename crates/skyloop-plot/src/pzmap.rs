@@ -66,14 +66,7 @@ fn view(points: impl Iterator<Item = Complex64>, discrete: bool) -> ((f64, f64),
 /// Adds the stability boundary (imaginary axis, or unit circle when `discrete`) and its note.
 fn boundary(p: &mut Panel, discrete: bool, (ylo, yhi): (f64, f64)) {
     if discrete {
-        let n = 361;
-        let (cx, cy): (Vec<f64>, Vec<f64>) = (0..n)
-            .map(|i| {
-                let t = 2.0 * std::f64::consts::PI * i as f64 / (n - 1) as f64;
-                (t.cos(), t.sin())
-            })
-            .unzip();
-        p.series.push(Series::line("", cx, cy).styled(SeriesStyle::Reference));
+        p.series.push(Series::unit_circle());
         p.markers.push(Marker::Note {
             x: 0.5f64.sqrt(),
             y: 0.5f64.sqrt(),

@@ -419,33 +419,24 @@ mod tests {
 
     #[test]
     fn logging_patterns_of_the_format_docs() {
+        // The first 33 iterations as logged: I-frames every 32, P where the rate logs one.
+        let pattern = |p_interval: &str| -> String {
+            let h = header(p_interval, 32);
+            (0..33)
+                .map(|i| {
+                    if i % 32 == 0 {
+                        'I'
+                    } else if h.logs_iteration(i) {
+                        'P'
+                    } else {
+                        '.'
+                    }
+                })
+                .collect()
+        };
         // I-interval 32 at rate 1/3: I..P..P..P...
-        let h = header("1/3", 32);
-        let pattern: String = (0..33)
-            .map(|i| {
-                if i % 32 == 0 {
-                    'I'
-                } else if h.logs_iteration(i) {
-                    'P'
-                } else {
-                    '.'
-                }
-            })
-            .collect();
-        assert_eq!(pattern, "I..P..P..P..P..P..P..P..P..P..P.I");
-        let h = header("2/3", 32);
-        let pattern: String = (0..33)
-            .map(|i| {
-                if i % 32 == 0 {
-                    'I'
-                } else if h.logs_iteration(i) {
-                    'P'
-                } else {
-                    '.'
-                }
-            })
-            .collect();
-        assert_eq!(pattern, "I.PP.PP.PP.PP.PP.PP.PP.PP.PP.PP.I");
+        assert_eq!(pattern("1/3"), "I..P..P..P..P..P..P..P..P..P..P.I");
+        assert_eq!(pattern("2/3"), "I.PP.PP.PP.PP.PP.PP.PP.PP.PP.PP.I");
         // Betaflight 4.x: "P interval:8" means one of every 8 iterations.
         let h = header("8", 256);
         assert_eq!((h.p_num, h.p_denom), (1, 8));
