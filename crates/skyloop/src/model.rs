@@ -107,31 +107,48 @@ fn g6(x: f64) -> String {
     }
 }
 
-/// Real factors of a root list: `s`, `(s+a)`, `(s^2+b*s+c)`, in ascending order of size.
-fn factors(roots: &[skyloop_lti::c64], var: &str) -> Vec<String> {
-    let mut f: Vec<(f64, String)> = Vec::new();
+/// The real factors of a root list with conjugate pairs: the real roots (ascending) and, per pair
+/// a ± jb, the coefficients [c1, c0] of s² + c1·s + c0 (ascending in c0). A root is real when its
+/// imaginary part is within 1e-9 of its modulus (at least 1).
+pub fn real_factors(roots: &[skyloop_lti::c64]) -> (Vec<f64>, Vec<[f64; 2]>) {
+    let mut reals = Vec::new();
+    let mut quads = Vec::new();
     for r in roots {
         if r.im.abs() <= 1e-9 * r.norm().max(1.0) {
-            let a = -r.re;
-            let t = if a == 0.0 || a.abs() < 1e-12 {
-                var.to_string()
-            } else if a > 0.0 {
-                format!("({var}+{})", g6(a))
-            } else {
-                format!("({var}-{})", g6(-a))
-            };
-            f.push((r.norm(), t));
+            reals.push(r.re);
         } else if r.im > 0.0 {
-            let (b, c) = (-2.0 * r.re, r.norm_sqr());
-            let bt = if b.abs() < 1e-12 * c.sqrt() {
-                String::new()
-            } else if b > 0.0 {
-                format!("+{}*{var}", g6(b))
-            } else {
-                format!("-{}*{var}", g6(-b))
-            };
-            f.push((r.norm(), format!("({var}^2{bt}+{})", g6(c))));
+            quads.push([-2.0 * r.re, r.norm_sqr()]);
         }
+    }
+    reals.sort_by(|a, b| a.total_cmp(b));
+    quads.sort_by(|a, b| a[1].total_cmp(&b[1]));
+    (reals, quads)
+}
+
+/// Real factors of a root list as text: `s`, `(s+a)`, `(s^2+b*s+c)`, in ascending order of size.
+fn factors(roots: &[skyloop_lti::c64], var: &str) -> Vec<String> {
+    let (reals, quads) = real_factors(roots);
+    let mut f: Vec<(f64, String)> = Vec::new();
+    for r in reals {
+        let a = -r;
+        let t = if a.abs() < 1e-12 {
+            var.to_string()
+        } else if a > 0.0 {
+            format!("({var}+{})", g6(a))
+        } else {
+            format!("({var}-{})", g6(-a))
+        };
+        f.push((r.abs(), t));
+    }
+    for [b, c] in quads {
+        let bt = if b.abs() < 1e-12 * c.sqrt() {
+            String::new()
+        } else if b > 0.0 {
+            format!("+{}*{var}", g6(b))
+        } else {
+            format!("-{}*{var}", g6(-b))
+        };
+        f.push((c.sqrt(), format!("({var}^2{bt}+{})", g6(c))));
     }
     f.sort_by(|a, b| a.0.total_cmp(&b.0));
     f.into_iter().map(|(_, t)| t).collect()

@@ -4,28 +4,13 @@
 use super::Reproduction;
 use crate::design::design;
 use crate::error::Result;
+use crate::model::real_factors;
 use crate::spec::design::DesignSpec;
 use skyloop_lti::c64;
 use skyloop_lti::zpk::Zpk;
 use std::path::Path;
 
 const SPEC: &str = include_str!("../../../../examples/bicopter.toml");
-
-/// Coefficients [1, c1, c0] of (s − a)(s − b) for a conjugate pair, or [1, −a] for a real root.
-fn factors(roots: &[c64]) -> (Vec<f64>, Vec<[f64; 2]>) {
-    let mut reals = Vec::new();
-    let mut quads = Vec::new();
-    for r in roots {
-        if r.im.abs() <= 1e-9 * r.norm().max(1.0) {
-            reals.push(r.re);
-        } else if r.im > 0.0 {
-            quads.push([-2.0 * r.re, r.norm_sqr()]);
-        }
-    }
-    reals.sort_by(|a, b| a.total_cmp(b));
-    quads.sort_by(|a, b| a[1].total_cmp(&b[1]));
-    (reals, quads)
-}
 
 /// Runs the reproduction, writing `bicopter_summary.json` to `out`.
 ///
@@ -73,8 +58,8 @@ pub fn run(out: &Path) -> Result<Reproduction> {
     // strictly proper): zeros beyond 100x the fastest pole are listed apart, not compared.
     let pmax = z.p[0][0].iter().map(|p| p.norm()).fold(0.0, f64::max);
     let (near, far): (Vec<c64>, Vec<c64>) = z.z[0][0].iter().partition(|q| q.norm() <= 100.0 * pmax);
-    let (zr, zq) = factors(&near);
-    let (pr, pq) = factors(&z.p[0][0]);
+    let (zr, zq) = real_factors(&near);
+    let (pr, pq) = real_factors(&z.p[0][0]);
     if zr.len() == 2 && zq.len() == 1 && pr.len() == 1 && pq.len() == 2 {
         // Four significant digits printed: 0.5% relative.
         let mut eq = |what: &str, paper: f64, ours: f64| c.number(what, paper, ours, 5e-3 * paper.abs());
