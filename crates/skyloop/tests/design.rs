@@ -87,7 +87,7 @@ fn given_controller_is_analysed() {
          [synthesis]\nmethod = \"given\"\ncontroller = \"{EQ12}\"\n[discretize]\nrate_hz = 250\n"
     );
     let r = design(&spec(&text).expect("spec")).expect("design");
-    let m = r.summary.stages[0].margins;
+    let m = &r.summary.stages[0].margins;
     // Eq. (8)·eq. (12): PM 65.8° at 1.47 Hz, GM 7.25 dB (paper Step 4) — read with the exact delay.
     assert!((m.phase_margin_deg - 65.8).abs() < 0.2, "{m:?}");
     assert!((m.crossover_hz - 1.47).abs() < 0.01, "{m:?}");
