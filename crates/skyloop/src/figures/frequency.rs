@@ -67,7 +67,12 @@ fn bode_channels(m: &Labeled, w: &[f64]) -> Result<Vec<Vec<BodeData>>> {
                     label: format!("{}{}", m.label, channel(&m.sys, i, j)),
                     freq_hz: b.freq_hz.clone(),
                     mag_db: b.mag_db[i][j].clone(),
-                    phase_deg: b.phase_deg[i][j].clone(),
+                    // A zero response has no phase: leave it undrawn rather than a line at 0°.
+                    phase_deg: b.phase_deg[i][j]
+                        .iter()
+                        .zip(&b.mag_db[i][j])
+                        .map(|(p, m)| if m.is_finite() { *p } else { f64::NAN })
+                        .collect(),
                 })
                 .collect()
         })
