@@ -134,3 +134,18 @@ fn bad_specs_name_the_key() {
     let e = err(&BICOPTER.replace("method = \"balanced\"", "method = \"hankel\""));
     assert!(e.contains("reduction.method"), "{e}");
 }
+
+/// An improper complementary-sensitivity weight W_T = (s+10)/50 (the textbook form) is synthesized
+/// with a roll-off two decades above the plant, and the summary says so; the loop of the rate-loop
+/// problem is stable with the exact delay.
+#[test]
+fn mixsyn_rolls_off_an_improper_weight_and_says_so() {
+    let text = "[plant]\nmodel = \"800*exp(-0.012*s)/(0.04*s+1)\"\n[synthesis]\nmethod = \"mixsyn\"\n\
+                ws = \"6.283/(s+0.006283)\"\nwks = \"250\"\nwt = \"(s+10)/50\"\n";
+    let r = design(&spec(text).expect("spec")).expect("design");
+    assert_eq!(r.summary.notes.len(), 1, "{:?}", r.summary.notes);
+    assert!(r.summary.notes[0].contains("synthesis.wt") && r.summary.notes[0].contains("roll-off"));
+    let st = &r.summary.stages[0];
+    assert!(st.margins.stable, "{:?}", st.margins);
+    assert!(st.gamma.is_some_and(|g| g.is_finite()));
+}

@@ -64,6 +64,9 @@ fn print_table(r: &DesignResult) {
         "boost gain {:.6}   fast controller modes residualized {}",
         s.boost_gain, s.fast_modes_removed
     );
+    for n in &s.notes {
+        eprintln!("note: {n}");
+    }
     println!(
         "{:<10} {:>5} {:>9} {:>8} {:>9} {:>9} {:>9} {:>9} {:>10}",
         "step", "order", "gamma", "b(P,C)", "PM deg", "fc Hz", "GM dB", "fGM Hz", "disk alpha"

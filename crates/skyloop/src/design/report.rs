@@ -255,6 +255,9 @@ pub fn write_outputs(r: &DesignResult, dir: &Path) -> Result<()> {
         ));
     }
     sec.key_values(&rows);
+    for n in &s.notes {
+        sec.text(format!("Note: {n}"));
+    }
     sec.text(
         "Margins after each design step, read on the loop L = P·C with the exact plant delay. \
          Frequencies in Hz, times in ms, gains in dB, phases in degrees; Ms and Mt absolute (see the glossary).",
