@@ -15,6 +15,7 @@ pub mod expm;
 pub mod hermitian;
 pub mod lm;
 pub mod logm;
+mod multishift;
 pub mod lyapunov;
 pub mod riccati;
 pub mod scalar_search;

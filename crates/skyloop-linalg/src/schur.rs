@@ -100,20 +100,66 @@ pub fn eigenvalues(a: MatRef<f64>) -> Result<Vec<c64>> {
     let mut h = Dm::from_mat(bal.a.as_ref());
     let mut z = Dm::zeros(0);
     hessenberg(&mut h, false);
-    lahqr(&mut h, &mut z)?;
+    crate::multishift::laqr0(&mut h, &mut z)?;
     Ok(block_eigenvalues(&h))
 }
 
 /// Schur form on work matrices: returns `(T, Q)`.
 pub(crate) fn schur_dm(mut h: Dm) -> Result<(Dm, Dm)> {
     let mut q = hessenberg(&mut h, true);
-    lahqr(&mut h, &mut q)?;
+    crate::multishift::laqr0(&mut h, &mut q)?;
     Ok((h, q))
+}
+
+/// Below this order the unblocked reduction [`hessenberg_unblocked`] is used: faer's reduction
+/// (blocked above its own 256 threshold, a fused two-sided unblocked kernel below) and its blocked
+/// accumulation of `Q` win from here on (measured by `examples/time_schur.rs`).
+const FAER_HESSENBERG_MIN: usize = 32;
+
+/// Householder reduction `A = Q·H·Qᵀ` in place, returning `Q` when `want_q` (otherwise an empty
+/// matrix). faer's public `hessenberg_in_place` (blocked, dgehrd-like) and its block-reflector
+/// application form `Q` (as dorghr) for all but tiny orders.
+fn hessenberg(h: &mut Dm, want_q: bool) -> Dm {
+    let n = h.n;
+    if n < FAER_HESSENBERG_MIN {
+        return hessenberg_unblocked(h, want_q);
+    }
+    use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+    use faer::linalg::{evd::hessenberg as fh, householder};
+    use faer::{Conj, MatMut, Par};
+    let bs = faer::linalg::qr::no_pivoting::factor::recommended_block_size::<f64>(n - 1, n - 1);
+    let req = StackReq::any_of(&[
+        fh::hessenberg_in_place_scratch::<f64>(n, bs, Par::Seq, Default::default()),
+        householder::apply_block_householder_sequence_on_the_right_in_place_scratch::<f64>(n - 1, bs, n - 1),
+    ]);
+    let mut buf = MemBuffer::new(req);
+    let stack = MemStack::new(&mut buf);
+    let mut coeffs = Mat::<f64>::zeros(bs, n - 1);
+    let mut a = MatMut::from_column_major_slice_mut(&mut h.d, n, n);
+    fh::hessenberg_in_place(a.as_mut(), coeffs.as_mut(), Par::Seq, stack, Default::default());
+    let mut q = if want_q { Dm::identity(n) } else { Dm::zeros(0) };
+    if want_q {
+        let qm = MatMut::from_column_major_slice_mut(&mut q.d, n, n);
+        householder::apply_block_householder_sequence_on_the_right_in_place_with_conj(
+            a.as_ref().submatrix(1, 0, n - 1, n - 1),
+            coeffs.as_ref(),
+            Conj::No,
+            qm.submatrix_mut(1, 1, n - 1, n - 1),
+            Par::Seq,
+            stack,
+        );
+    }
+    for j in 0..n {
+        for i in j + 2..n {
+            h[(i, j)] = 0.0;
+        }
+    }
+    q
 }
 
 /// Householder reduction `A = Q·H·Qᵀ` in place (dgehd2), returning the accumulated `Q` (dorghr)
 /// when `want_q` (otherwise an empty matrix).
-fn hessenberg(h: &mut Dm, want_q: bool) -> Dm {
+fn hessenberg_unblocked(h: &mut Dm, want_q: bool) -> Dm {
     let n = h.n;
     let mut q = if want_q { Dm::identity(n) } else { Dm::zeros(0) };
     if n < 3 {
@@ -164,7 +210,7 @@ fn hessenberg(h: &mut Dm, want_q: bool) -> Dm {
 
 /// Francis double-shift QR on an upper Hessenberg matrix (LAPACK dlahqr with WANTT = true),
 /// accumulating the transformations into `z` unless `z` is empty (WANTZ = false).
-fn lahqr(h: &mut Dm, z: &mut Dm) -> Result<()> {
+pub(crate) fn lahqr(h: &mut Dm, z: &mut Dm) -> Result<()> {
     let n = h.n;
     if n <= 1 {
         return Ok(());
@@ -488,7 +534,7 @@ pub(crate) fn reorder_dm(t: &mut Dm, q: &mut Dm, select: &dyn Fn(c64) -> bool) -
 
 /// Move the diagonal block starting at `ifst` up to start at `ilst` (`ilst < ifst`) by adjacent
 /// swaps (the upward branch of LAPACK dtrexc).
-fn trexc_up(t: &mut Dm, q: &mut Dm, ifst: usize, ilst: usize) -> Result<()> {
+pub(crate) fn trexc_up(t: &mut Dm, q: &mut Dm, ifst: usize, ilst: usize) -> Result<()> {
     let n = t.n;
     let mut nbf = if ifst + 1 < n && t[(ifst + 1, ifst)] != 0.0 {
         2
