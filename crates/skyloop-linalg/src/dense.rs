@@ -149,7 +149,9 @@ pub(crate) fn lartg(f: f64, g: f64) -> (f64, f64, f64) {
     } else if f == 0.0 {
         (0.0, 1.0, g)
     } else {
-        let r = f.hypot(g).copysign(f);
+        // sqrt of the sum of squares where it cannot overflow or underflow (hypot is slow).
+        let ss = f * f + g * g;
+        let r = if ss > 1e-280 && ss < 1e280 { ss.sqrt() } else { f.hypot(g) }.copysign(f);
         (f / r, g / r, r)
     }
 }

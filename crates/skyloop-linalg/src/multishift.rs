@@ -584,6 +584,9 @@ fn sweep(h: &mut Dm, z: &mut Dm, wantz: bool, ktop: usize, kbot: usize, sr: &[f6
         }
         let w = hi - lo + 1;
         let mut u = Dm::identity(w);
+        // Row range of the possibly nonzero entries of each column of U: a reflector mixes three
+        // columns, so their ranges merge; applying it only there halves the accumulation work.
+        let mut urows: Vec<(usize, usize)> = (0..w).map(|c| (c, c)).collect();
         for s in s0..s1 {
             refl.clear();
             for b in 0..nb {
@@ -661,7 +664,12 @@ fn sweep(h: &mut Dm, z: &mut Dm, wantz: bool, ktop: usize, kbot: usize, sr: &[f6
                 }
                 let rmax = (r.p + 3).min(kbot);
                 cols_reflect(&mut h.d, n, r, lo..rmax + 1, r.p);
-                cols_reflect(&mut u.d, w, r, 0..w, r.p - lo);
+                let c = r.p - lo;
+                let span = urows[c..c + r.len]
+                    .iter()
+                    .fold((usize::MAX, 0), |(a, b), &(x, y)| (a.min(x), b.max(y)));
+                urows[c..c + r.len].iter_mut().for_each(|e| *e = span);
+                cols_reflect(&mut u.d, w, r, span.0..span.1 + 1, c);
             }
         }
         // Off-window parts: rows above (all of them: the full Schur form is wanted), columns to

@@ -614,10 +614,12 @@ fn laexc(t: &mut Dm, q: &mut Dm, j1: usize, n1: usize, n2: usize) -> Result<()> 
     let smlnum = f64::MIN_POSITIVE / eps;
     let thresh = (10.0 * eps * dnorm).max(smlnum);
     // Solve T11·X − X·T22 = scale·T12.
-    let tl: Vec<f64> = (0..n1 * n1).map(|e| d[(e % n1, e / n1)]).collect();
-    let tr: Vec<f64> = (0..n2 * n2).map(|e| d[(n1 + e % n2, n1 + e / n2)]).collect();
-    let b: Vec<f64> = (0..n1 * n2).map(|e| d[(e % n1, n1 + e / n1)]).collect();
-    let (x, scale) = small_sylvester(&tl, n1, &tr, n2, &b);
+    // Fixed-size arrays: a swap is called thousands of times per reordering, heap work shows.
+    let (mut tl, mut tr, mut b) = ([0.0; 4], [0.0; 4], [0.0; 4]);
+    (0..n1 * n1).for_each(|e| tl[e] = d[(e % n1, e / n1)]);
+    (0..n2 * n2).for_each(|e| tr[e] = d[(n1 + e % n2, n1 + e / n2)]);
+    (0..n1 * n2).for_each(|e| b[e] = d[(e % n1, n1 + e / n1)]);
+    let (x, scale) = small_sylvester(&tl[..n1 * n1], n1, &tr[..n2 * n2], n2, &b[..n1 * n2]);
     let xm = |i: usize, j: usize| x[i + j * n1];
 
     let reject = |what: f64| -> Result<()> {
@@ -729,7 +731,7 @@ fn laexc(t: &mut Dm, q: &mut Dm, j1: usize, n1: usize, n2: usize) -> Result<()> 
 /// Solve `TL·X − X·TR = scale·B` for `X` (`n1×n2`, column-major), `n1, n2 ∈ {1, 2}`, by Gaussian
 /// elimination with complete pivoting on the Kronecker form; tiny pivots are raised to `smin` and
 /// `scale ≤ 1` guards against overflow (the method of LAPACK dlasy2).
-fn small_sylvester(tl: &[f64], n1: usize, tr: &[f64], n2: usize, b: &[f64]) -> (Vec<f64>, f64) {
+fn small_sylvester(tl: &[f64], n1: usize, tr: &[f64], n2: usize, b: &[f64]) -> ([f64; 4], f64) {
     let eps = f64::EPSILON;
     let smlnum = f64::MIN_POSITIVE / eps;
     let m = n1 * n2;
@@ -803,7 +805,7 @@ fn small_sylvester(tl: &[f64], n1: usize, tr: &[f64], n2: usize, b: &[f64]) -> (
         }
         y[r] = s / k[r][r];
     }
-    let mut x = vec![0.0; m];
+    let mut x = [0.0; 4];
     for p in 0..m {
         x[colperm[p]] = y[p];
     }
