@@ -17,8 +17,9 @@ use crate::dense::{lanv2, larfg, Dm};
 use crate::schur::{lahqr, trexc_up};
 use crate::Result;
 
-/// Below this order (of the whole matrix) the double-shift code is used (LAPACK's NMIN is 75;
-/// measured here with `examples/time_schur.rs`).
+/// Below this order (of the whole matrix) the double-shift code is used. LAPACK's NMIN is 75 too;
+/// here (callgrind instruction counts of `examples/time_schur.rs` on random matrices) the
+/// multishift code needs 6 % fewer instructions at n = 80, 24 % at 100 and 34 % at 150.
 pub(crate) const NMIN: usize = 75;
 /// Iterations without deflation after which the deflation window grows (LAPACK KEXNW).
 const KEXNW: usize = 5;

@@ -1,8 +1,11 @@
 //! Real Schur decomposition `A = Q·T·Qᵀ` and reordering of the Schur form.
 //!
-//! Householder reduction to Hessenberg form (LAPACK dgehd2/dorghr), then the Francis double-shift
-//! QR iteration with aggressive small-subdiagonal deflation and exceptional shifts (dlahqr),
-//! accumulating `Q`; 2×2 blocks are standardized (dlanv2). Reordering swaps adjacent 1×1/2×2
+//! Householder reduction to Hessenberg form (faer's blocked `hessenberg_in_place`, or LAPACK
+//! dgehd2/dorghr below order 32), then for order ≥ 75 the small-bulge multishift QR with aggressive
+//! early deflation (`multishift.rs`, the method of LAPACK dlaqr0/3/5), and below that the Francis
+//! double-shift QR iteration with small-subdiagonal deflation and exceptional shifts (dlahqr),
+//! which is also the kernel of the multishift code's deflation window; `Q` is accumulated and 2×2
+//! blocks are standardized (dlanv2). Reordering swaps adjacent 1×1/2×2
 //! diagonal blocks by orthogonal similarities (dtrexc/dlaexc), solving the small Sylvester equation
 //! of each swap with complete pivoting (as dlasy2), and rejects a swap whose result would not be
 //! upper quasi-triangular to working accuracy.
@@ -113,7 +116,8 @@ pub(crate) fn schur_dm(mut h: Dm) -> Result<(Dm, Dm)> {
 
 /// Below this order the unblocked reduction [`hessenberg_unblocked`] is used: faer's reduction
 /// (blocked above its own 256 threshold, a fused two-sided unblocked kernel below) and its blocked
-/// accumulation of `Q` win from here on (measured by `examples/time_schur.rs`).
+/// accumulation of `Q` pay for their setup only on larger matrices (a judgement, not tuned: the
+/// reduction is a small part of the Schur time at these orders).
 const FAER_HESSENBERG_MIN: usize = 32;
 
 /// Householder reduction `A = Q·H·Qᵀ` in place, returning `Q` when `want_q` (otherwise an empty

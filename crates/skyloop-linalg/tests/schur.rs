@@ -309,3 +309,31 @@ fn schur_n1000_backward_error() {
         check_schur(a.as_ref(), &s, 1e-14 * n as f64);
     }
 }
+
+/// Structured matrices of multishift order that stall or trivialize QR: zero, identity, the cyclic
+/// shift (all eigenvalues on the unit circle: needs exceptional shifts), a nilpotent Jordan block
+/// (one defective eigenvalue) and a Hamiltonian-like block matrix with ± pairs.
+#[test]
+fn schur_multishift_structured() {
+    let n = 100;
+    let zero = Mat::<f64>::zeros(n, n);
+    let s = real_schur(zero.as_ref()).unwrap();
+    assert_eq!(s.t, zero);
+    let eye = Mat::<f64>::identity(n, n);
+    check_schur(eye.as_ref(), &real_schur(eye.as_ref()).unwrap(), 1e-13);
+    let cyclic = Mat::from_fn(n, n, |i, j| if i == (j + 1) % n { 1.0 } else { 0.0 });
+    let s = real_schur(cyclic.as_ref()).unwrap();
+    check_schur(cyclic.as_ref(), &s, 1e-12);
+    assert!(s.eigenvalues().iter().all(|z| (z.norm() - 1.0).abs() < 1e-10));
+    let jordan = Mat::from_fn(n, n, |i, j| if i == j + 1 { 1.0 } else { 0.0 });
+    check_schur(jordan.as_ref(), &real_schur(jordan.as_ref()).unwrap(), 1e-12);
+    let a = random_matrix(50, 31);
+    let g = random_matrix(50, 32);
+    let ham = Mat::from_fn(n, n, |i, j| match (i < 50, j < 50) {
+        (true, true) => a[(i, j)],
+        (true, false) => g[(i, j - 50)] + g[(j - 50, i)],
+        (false, true) => -(a[(i - 50, j)] * a[(j, i - 50)]),
+        (false, false) => -a[(j - 50, i - 50)],
+    });
+    check_schur(ham.as_ref(), &real_schur(ham.as_ref()).unwrap(), 1e-12);
+}
