@@ -410,7 +410,7 @@ fn slow_channels_refuse_or_limit_the_band() {
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let fmax = v["frf"]["freq_hz"].as_array().unwrap().iter().map(|f| f.as_f64().unwrap()).fold(0.0, f64::max);
     // 1/2.5 of the channel's median rate (9.62 Hz), below its Nyquist frequency.
-    assert!(fmax < 3.85 && fmax < 4.8, "{fmax}");
+    assert!(fmax < 3.85, "{fmax}");
 }
 
 #[test]

@@ -62,9 +62,9 @@ fn flight_csv() -> PathBuf {
     p
 }
 
-fn request(data: &PathBuf, from: Option<f64>, to: Option<f64>) -> IdentifyRequest {
+fn request(data: &std::path::Path, from: Option<f64>, to: Option<f64>) -> IdentifyRequest {
     IdentifyRequest {
-        data: data.clone(),
+        data: data.to_path_buf(),
         input: Some("u".into()),
         output: Some("gyro".into()),
         excitation: Some("setpoint".into()),
