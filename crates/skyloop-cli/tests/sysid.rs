@@ -328,3 +328,170 @@ fn identify_betaflight_rate_loop() {
         "never holds",
     );
 }
+
+#[test]
+fn identify_axis_preset_on_a_betaflight_acro_flight() {
+    // btfl_all.bbl session 4, the ~130 s acro flight: the pilot's one command.
+    let log = log_path("btfl_all.bbl");
+    let args = ["identify", &log, "--axis", "roll", "--fmin-hz", "1", "--fmax-hz", "40", "--json"];
+    let out = skyloop(&args);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["firmware"], "Betaflight");
+    assert_eq!(v["input"], "axisP[0]+axisI[0]+axisD[0]+axisF[0]");
+    assert_eq!(v["output"], "gyroADC[0]");
+    assert_eq!(v["instrument"], "setpoint[0]");
+    assert_eq!(v["units"]["params"]["K"], "deg/s² per PID unit");
+    let mut names: Vec<&String> = v["fit"]["params"].as_object().unwrap().keys().collect();
+    names.sort();
+    assert_eq!(names, ["K", "Td", "tau"]);
+    assert!(v["fit"]["stderr"]["K"].as_f64().unwrap() > 0.0);
+    // Several airborne segments, inside the session and ordered; idle ground time left out.
+    let segs = v["segments"].as_array().unwrap();
+    assert!(segs.len() >= 2, "{segs:?}");
+    let total: f64 = segs
+        .iter()
+        .map(|s| s["to_s"].as_f64().unwrap() - s["from_s"].as_f64().unwrap())
+        .sum();
+    assert!(total > 100.0 && total < 145.0, "{total}");
+    for w in segs.windows(2) {
+        assert!(w[1]["from_s"].as_f64().unwrap() > w[0]["to_s"].as_f64().unwrap());
+    }
+    for k in ["fit_percent", "frf_residual"] {
+        assert!(v["validation"][k].as_f64().is_some(), "{k}");
+    }
+    assert!(v["converged"].is_boolean() && v["at_bounds"].is_array());
+    let band = v["coherent_band_hz"].as_array().unwrap();
+    assert!(band[0].as_f64().unwrap() < band[1].as_f64().unwrap());
+    // The jackknife error is part of what is reported: never below it.
+    let jk = v["uncertainty"]["jackknife_stderr"]["K"].as_f64().unwrap();
+    assert!(v["fit"]["stderr"]["K"].as_f64().unwrap() >= jk);
+    // An explicit flag overrides its part of the preset.
+    let v2 = ok_json(&[
+        "identify", &log, "--axis", "roll", "--output", "gyroADC[1]", "--fmin-hz", "1", "--fmax-hz", "40",
+        "--blocks", "0", "--allow-poor-fit", "--json",
+    ]);
+    assert_eq!(v2["output"], "gyroADC[1]");
+    assert!(v2.get("validation").is_none());
+    fails_with(&["identify", &log, "--axis", "sideways"], "roll, pitch or yaw");
+}
+
+#[test]
+fn open_loop_estimates_of_flight_logs_warn() {
+    let log = log_path("btfl_all.bbl");
+    let out = skyloop(&[
+        "identify", &log, "--input", "axisP[0]+axisI[0]+axisD[0]+axisF[0]", "--output", "gyroADC[0]", "--from", "10",
+        "--to", "40",
+    ]);
+    assert!(out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    let line = err.lines().find(|l| l.starts_with("warning:") && l.contains("closed loop")).unwrap_or_else(|| panic!("{err}"));
+    assert!(line.contains("--excitation setpoint[0]") && line.contains("--axis"), "{line}");
+    // With the instrument, no such warning.
+    let out = skyloop(&[
+        "identify", &log, "--input", "axisP[0]", "--output", "gyroADC[0]", "--excitation", "setpoint[0]", "--from",
+        "10", "--to", "40",
+    ]);
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("closed loop"));
+}
+
+#[test]
+fn slow_channels_refuse_or_limit_the_band() {
+    // esc_status_log.ulg logs sensor_combined (the gyro) at 9.6 Hz (SOURCES.md).
+    let log = log_path("esc_status_log.ulg");
+    let out = skyloop(&["identify", &log, "--axis", "roll", "--fmax-hz", "10"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("sensor_combined.gyro_rad[0]") && err.contains("9.6 Hz") && err.contains("10 Hz"), "{err}");
+    let out = skyloop(&["identify", &log, "--axis", "roll", "--allow-poor-fit", "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("warning: channel 'sensor_combined.gyro_rad[0]' is logged at only 9.6 Hz"), "{err}");
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let fmax = v["frf"]["freq_hz"].as_array().unwrap().iter().map(|f| f.as_f64().unwrap()).fold(0.0, f64::max);
+    // 1/2.5 of the channel's median rate (9.62 Hz), below its Nyquist frequency.
+    assert!(fmax < 3.85, "{fmax}");
+}
+
+#[test]
+fn diverged_or_poor_fits_are_flagged() {
+    let p = first_order_csv();
+    let ps = p.to_str().unwrap();
+    // A pure delay cannot describe a lag: the fit is worse than the mean, which is an error …
+    let args = [
+        "identify", ps, "--input", "u", "--output", "y", "--fmin-hz", "0.5", "--fmax-hz", "40", "--model",
+        "K*exp(-Td*s)", "--init", "K=0.005,Td=0.01", "--bounds", "K=0:0.01,Td=0:0.02",
+    ];
+    fails_with(&args, "--allow-poor-fit");
+    // … unless asked for, and then flagged: at a bound, in the JSON and on stderr.
+    let mut with = args.to_vec();
+    with.extend(["--allow-poor-fit", "--json"]);
+    let out = skyloop(&with);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(v["at_bounds"].as_array().unwrap().iter().any(|x| x == "K"), "{v}");
+    assert!(v["fit"]["fit_percent"].as_f64().unwrap() < 0.0);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("warning: the fit ended on a bound for K"), "{err}");
+}
+
+#[test]
+fn log_info_shows_the_firmware_tuning() {
+    let v = ok_json(&["log", "info", &log_path("btfl_all.bbl"), "--session", "4", "--json"]);
+    let t = &v["tuning"];
+    // The session's header lines rollPID:35,75,35, feedforward_weight:140,170,90, d_min:27,30,0,
+    // dterm_lowpass_hz:100 (filter type 1), looptime:125, tpa_rate:70.
+    assert_eq!(t["firmware"], "betaflight");
+    assert_eq!(t["pidf"][0]["p"], 35.0);
+    assert_eq!(t["pidf"][0]["i"], 75.0);
+    assert_eq!(t["pidf"][0]["d"], 35.0);
+    assert_eq!(t["pidf"][1]["f"], 170.0);
+    assert_eq!(t["pidf"][1]["d_min"], 30.0);
+    assert_eq!(t["dterm_lowpass"]["kind"], "BIQUAD");
+    assert_eq!(t["dterm_lowpass"]["cutoff_hz"], 100.0);
+    assert_eq!(t["gyro_rate_hz"], 8000.0);
+    assert_eq!(t["tpa_rate_percent"], 70.0);
+    assert_eq!(t["rpm_filter"]["harmonics"], 3.0);
+    // PX4 parameters (values as pyulog lists them for this log's MC_ROLLRATE_K and IMU_GYRO_CUTOFF).
+    let v = ok_json(&["log", "info", &log_path("sample_px4_events.ulg"), "--json"]);
+    assert_eq!(v["tuning"]["firmware"], "px4");
+    assert!((v["tuning"]["rate"][0]["k"].as_f64().unwrap() - 1.05).abs() < 1e-6);
+    assert_eq!(v["tuning"]["gyro_cutoff_hz"], 40.0);
+}
+
+#[test]
+fn log_export_and_plot() {
+    let out_csv = tmp("export.csv");
+    let o = out_csv.to_str().unwrap();
+    let log = log_path("LOG00037.BFL");
+    let r = skyloop(&["log", "export", &log, "--fields", "gyroADC[0],motor[0]", "--out", o]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let text = std::fs::read_to_string(&out_csv).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next().unwrap(), "time_s,gyroADC[0],motor[0]");
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    // One row per main frame, as `log info` counts them; times increase; raw integers.
+    let info = ok_json(&["log", "info", &log, "--json"]);
+    let main = info["groups"].as_array().unwrap().iter().find(|g| g["name"] == "main").unwrap();
+    assert_eq!(rows.len() as u64, main["samples"].as_u64().unwrap());
+    assert!(rows.windows(2).all(|w| w[1][0] > w[0][0]));
+    assert!(rows.iter().all(|r| r[2].fract() == 0.0));
+    // ULog: one topic at a time.
+    fails_with(
+        &[
+            "log", "export", &log_path("sample_px4_events.ulg"), "--fields",
+            "vehicle_angular_velocity.xyz[0],sensor_combined.gyro_rad[0]", "--out", o,
+        ],
+        "one group",
+    );
+    let png = tmp("log.png");
+    let r = skyloop(&[
+        "log", "plot", &log_path("btfl_all.bbl"), "--fields", "gyroADC[0],setpoint[0],rcCommand[3]", "--out",
+        png.to_str().unwrap(),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("airborne segments shaded"));
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+}

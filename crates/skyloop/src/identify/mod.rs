@@ -401,10 +401,12 @@ pub fn identify(a: &IdentifyRequest) -> Result<Identification> {
 
     // Closed-loop data estimated open loop: Φ_yu/Φ_uu is pulled towards −1/C by the feedback noise.
     if excitation.is_none() {
-        let setpoint = log
-            .field_names()
-            .into_iter()
-            .find(|f| f.to_lowercase().contains("setpoint") || f.starts_with("rcCommand["));
+        let fields = log.field_names();
+        let setpoint = fields
+            .iter()
+            .find(|f| f.to_lowercase().contains("setpoint"))
+            .or_else(|| fields.iter().find(|f| f.starts_with("rcCommand[")))
+            .cloned();
         if log.format != LogFormat::Csv || setpoint.is_some() {
             let better = match (&a.axis, &setpoint) {
                 (Some(_), _) => "drop --excitation none".to_string(),
