@@ -198,9 +198,11 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", help="run only comparisons whose name contains this text")
     ap.add_argument("--skip-build", action="store_true", help="use the existing release binary")
+    ap.add_argument("--group", action="append",
+                    help="run only this group (linalg, hinf_norm, freq, or a compare_<area> module); repeatable")
     args = ap.parse_args()
-    if not args.skip_build:
-        build()
+    if not args.skip_build and not (args.group and set(args.group) <= {"linalg", "hinf_norm"}):
+        build()  # the linalg and hinf_norm groups build their own small examples
     groups = [("linalg", linalg_comparisons), ("hinf_norm", hinf_norm_comparisons), ("freq", freq_comparisons)]
     for path in sorted(glob.glob(os.path.join(os.path.dirname(__file__), "compare_*.py"))):
         name = os.path.splitext(os.path.basename(path))[0]
@@ -209,6 +211,8 @@ def main():
         spec.loader.exec_module(mod)
         if hasattr(mod, "comparisons"):
             groups.append((name, mod.comparisons))
+    if args.group:
+        groups = [(g, fn) for g, fn in groups if g in args.group or g.removeprefix("compare_") in args.group]
     print(f"{'comparison':<48} {'skyloop':>11} {'reference':>11} {'ratio':>8} {'target':>8}  ok")
     failed = 0
     for gname, fn in groups:

@@ -91,11 +91,15 @@ fn main() -> Result<(), String> {
     let e = |e: skyloop_linalg::LinalgError| e.to_string();
     let (a, b, q, r) = fixture("care.json", "random_n50_m10")?;
     let t_care = best_of(repeats, || {
-        care(a.as_ref(), b.as_ref(), q.as_ref(), r.as_ref(), None).map(|_| ()).map_err(e)
+        care(a.as_ref(), b.as_ref(), q.as_ref(), r.as_ref(), None)
+            .map(|_| ())
+            .map_err(e)
     })?;
     let (a, b, q, r) = fixture("dare.json", "random_n50_m5")?;
     let t_dare = best_of(repeats, || {
-        dare(a.as_ref(), b.as_ref(), q.as_ref(), r.as_ref(), None).map(|_| ()).map_err(e)
+        dare(a.as_ref(), b.as_ref(), q.as_ref(), r.as_ref(), None)
+            .map(|_| ())
+            .map_err(e)
     })?;
     let m100 = random(100, 100, 7);
     let t_s100 = best_of(repeats, || real_schur(m100.as_ref()).map(|_| ()).map_err(e))?;

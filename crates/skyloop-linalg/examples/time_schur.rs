@@ -51,6 +51,9 @@ fn main() {
         let recon = &s.q * &s.t * s.q.transpose();
         let berr = (&recon - &a).norm_l2() / a.norm_l2();
         let orth = (s.q.transpose() * &s.q - Mat::<f64>::identity(n, n)).norm_l2();
-        println!("n={n} best={:.3} ms (of {reps}) backward={berr:.2e} orth={orth:.2e}", best * 1e3);
+        println!(
+            "n={n} best={:.3} ms (of {reps}) backward={berr:.2e} orth={orth:.2e}",
+            best * 1e3
+        );
     }
 }

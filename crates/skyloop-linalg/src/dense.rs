@@ -151,7 +151,12 @@ pub(crate) fn lartg(f: f64, g: f64) -> (f64, f64, f64) {
     } else {
         // sqrt of the sum of squares where it cannot overflow or underflow (hypot is slow).
         let ss = f * f + g * g;
-        let r = if ss > 1e-280 && ss < 1e280 { ss.sqrt() } else { f.hypot(g) }.copysign(f);
+        let r = if ss > 1e-280 && ss < 1e280 {
+            ss.sqrt()
+        } else {
+            f.hypot(g)
+        }
+        .copysign(f);
         (f / r, g / r, r)
     }
 }

@@ -120,7 +120,11 @@ pub(crate) fn laqr0(h: &mut Dm, z: &mut Dm) -> Result<()> {
 
         // Deflation-window size (dlaqr0's heuristics: grow it while nothing deflates).
         let nwupbd = nh.min(nwmax);
-        nw = if ndfl < KEXNW { nwupbd.min(nwr) } else { nwupbd.min(2 * nw) };
+        nw = if ndfl < KEXNW {
+            nwupbd.min(nwr)
+        } else {
+            nwupbd.min(2 * nw)
+        };
         if nw < nwmax {
             if nw + 1 >= nh {
                 nw = nh;
@@ -175,7 +179,7 @@ pub(crate) fn laqr0(h: &mut Dm, z: &mut Dm) -> Result<()> {
                     si[ktop] = 0.0;
                 }
             } else {
-                if kbot - ks + 1 <= (ns / 2) as isize {
+                if kbot - ks < (ns / 2) as isize {
                     // Too few shifts from the window: use the eigenvalues of the trailing block.
                     ks = (kb + 1 - ns) as isize;
                     let k0 = ks as usize;
@@ -190,8 +194,7 @@ pub(crate) fn laqr0(h: &mut Dm, z: &mut Dm) -> Result<()> {
                     } else {
                         ks = kbot - 1;
                         let k = kb - 1;
-                        let ((r1, i1), (r2, i2)) =
-                            eig2(h[(k, k)], h[(k, k + 1)], h[(k + 1, k)], h[(k + 1, k + 1)]);
+                        let ((r1, i1), (r2, i2)) = eig2(h[(k, k)], h[(k, k + 1)], h[(k + 1, k)], h[(k + 1, k + 1)]);
                         sr[k] = r1;
                         si[k] = i1;
                         sr[k + 1] = r2;
@@ -365,7 +368,14 @@ fn update_left(m: &mut Dm, r0: usize, cols: std::ops::Range<usize>, u: &Dm) {
     let mut blk = view.as_mut().submatrix_mut(r0, cols.start, w, nc);
     let tmp: Mat<f64> = blk.as_ref().to_owned();
     let uref = MatRef::from_column_major_slice(&u.d, w, w);
-    matmul(blk.as_mut(), Accum::Replace, uref.transpose(), tmp.as_ref(), 1.0, Par::Seq);
+    matmul(
+        blk.as_mut(),
+        Accum::Replace,
+        uref.transpose(),
+        tmp.as_ref(),
+        1.0,
+        Par::Seq,
+    );
 }
 
 /// Aggressive early deflation on the trailing `nw`×`nw` window of the active block
@@ -419,11 +429,11 @@ fn aed(
     while ilst < ns {
         let pair = ns >= 2 && t[(ns - 1, ns - 2)] != 0.0;
         if !pair {
-            let mut foo = t[(ns - 1, ns - 1)].abs();
-            if foo == 0.0 {
-                foo = s.abs();
+            let mut scale = t[(ns - 1, ns - 1)].abs();
+            if scale == 0.0 {
+                scale = s.abs();
             }
-            if (s * v[(0, ns - 1)]).abs() <= smlnum.max(ulp * foo) {
+            if (s * v[(0, ns - 1)]).abs() <= smlnum.max(ulp * scale) {
                 ns -= 1;
             } else {
                 let ifst = ns - 1;
@@ -434,12 +444,13 @@ fn aed(
                 ilst += 1;
             }
         } else {
-            let mut foo = t[(ns - 1, ns - 1)].abs() + t[(ns - 1, ns - 2)].abs().sqrt() * t[(ns - 2, ns - 1)].abs().sqrt();
-            if foo == 0.0 {
-                foo = s.abs();
+            let mut scale =
+                t[(ns - 1, ns - 1)].abs() + t[(ns - 1, ns - 2)].abs().sqrt() * t[(ns - 2, ns - 1)].abs().sqrt();
+            if scale == 0.0 {
+                scale = s.abs();
             }
             let spike = (s * v[(0, ns - 1)]).abs().max((s * v[(0, ns - 2)]).abs());
-            if spike <= smlnum.max(ulp * foo) {
+            if spike <= smlnum.max(ulp * scale) {
                 ns -= 2;
             } else {
                 let ifst = ns - 2;
@@ -599,12 +610,24 @@ fn sweep(h: &mut Dm, z: &mut Dm, wantz: bool, ktop: usize, kbot: usize, sr: &[f6
                     let vv = shift_vector(h, ktop, sr1, si1, sr2, si2);
                     let mut x = [vv[1], vv[2]];
                     let (_, tau) = larfg(vv[0], &mut x);
-                    Refl { p, len: 3, u1: x[0], u2: x[1], tau }
+                    Refl {
+                        p,
+                        len: 3,
+                        u1: x[0],
+                        u2: x[1],
+                        tau,
+                    }
                 } else if len == 3 {
                     let k = p - 1;
                     let mut x = [h[(k + 2, k)], h[(k + 3, k)]];
                     let (beta, tau) = larfg(h[(k + 1, k)], &mut x);
-                    let mut r = Refl { p, len, u1: x[0], u2: x[1], tau };
+                    let mut r = Refl {
+                        p,
+                        len,
+                        u1: x[0],
+                        u2: x[1],
+                        tau,
+                    };
                     if h[(k + 3, k)] != 0.0 || h[(k + 3, k + 1)] != 0.0 || h[(k + 3, k + 2)] == 0.0 {
                         h[(k + 1, k)] = beta;
                     } else {
@@ -620,7 +643,13 @@ fn sweep(h: &mut Dm, z: &mut Dm, wantz: bool, ktop: usize, kbot: usize, sr: &[f6
                             h[(k + 1, k)] = beta;
                         } else {
                             h[(k + 1, k)] -= refsum;
-                            r = Refl { p, len, u1: xt[0], u2: xt[1], tau: taut };
+                            r = Refl {
+                                p,
+                                len,
+                                u1: xt[0],
+                                u2: xt[1],
+                                tau: taut,
+                            };
                         }
                     }
                     h[(k + 2, k)] = 0.0;
@@ -633,7 +662,13 @@ fn sweep(h: &mut Dm, z: &mut Dm, wantz: bool, ktop: usize, kbot: usize, sr: &[f6
                     let (beta, tau) = larfg(h[(k + 1, k)], &mut x);
                     h[(k + 1, k)] = beta;
                     h[(k + 2, k)] = 0.0;
-                    Refl { p, len, u1: x[0], u2: 0.0, tau }
+                    Refl {
+                        p,
+                        len,
+                        u1: x[0],
+                        u2: 0.0,
+                        tau,
+                    }
                 };
                 refl.push(r);
             }

@@ -299,7 +299,10 @@ fn schur_multishift_random_and_graded() {
 #[test]
 #[ignore]
 fn schur_n1000_backward_error() {
-    for (name, a) in [("random", random_matrix(1000, 21)), ("graded", graded_matrix(1000, 22, 6.0))] {
+    for (name, a) in [
+        ("random", random_matrix(1000, 21)),
+        ("graded", graded_matrix(1000, 22, 6.0)),
+    ] {
         let s = real_schur(a.as_ref()).unwrap();
         let n = a.nrows();
         let recon = &s.q * &s.t * s.q.transpose();
