@@ -48,7 +48,7 @@ def test_bad_operations():
     with pytest.raises(sk.SkyloopError):
         sk.freqresp(g, [1.0, np.nan])
     with pytest.raises(sk.SkyloopError):
-        g.pade(0)
+        sk.tf("exp(-0.1*s)/(s+1)").pade(0)
 
 
 def test_bad_synthesis():
