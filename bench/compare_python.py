@@ -14,6 +14,7 @@ skips it; everything runs under `main()`.
 import argparse
 import os
 import re
+import resource
 import time
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
@@ -121,12 +122,14 @@ def main():
         t0 = time.perf_counter()
         one = sk.montecarlo(text, threads=1)
         t1 = time.perf_counter() - t0
-        t0 = time.perf_counter()
+        c0, t0 = resource.getrusage(resource.RUSAGE_SELF), time.perf_counter()
         two = sk.montecarlo(text, threads=2)
-        t2 = time.perf_counter() - t0
+        t2, c1 = time.perf_counter() - t0, resource.getrusage(resource.RUSAGE_SELF)
+        cpu2 = (c1.ru_utime - c0.ru_utime) + (c1.ru_stime - c0.ru_stime)
         assert one == two, "the Monte Carlo result depends on the thread count"
         print(f"{'montecarlo ' + str(a.runs) + ' flights x 20 s':<34} 2 threads {t2:8.2f} s   1 thread {t1:8.2f} s"
-              f"   speed-up {t1 / t2:5.2f}x  (target >= 1.8x: {'ok' if t1 / t2 >= 1.8 else 'BELOW TARGET'})")
+              f"   speed-up {t1 / t2:5.2f}x  (target >= 1.8x: {'ok' if t1 / t2 >= 1.8 else 'BELOW TARGET'}); "
+              f"cores used on 2 threads {cpu2 / t2:4.2f}")
     if not have_slycot:
         print("slycot not installed: the hinf_norm, hinfsyn and balred comparisons were skipped")
     print(f"load average at the end: {os.getloadavg()[0]:.1f} (ratios are only meaningful near 0)")
