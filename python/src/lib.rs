@@ -14,15 +14,60 @@ use std::f64::consts::TAU;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::PathBuf;
 
-create_exception!(_skyloop, SkyloopError, PyException, "Base class of every error skyloop raises; the message is the Rust error's.");
-create_exception!(_skyloop, LinalgError, SkyloopError, "Dense numerics failed (Schur, Riccati, Lyapunov, ...).");
-create_exception!(_skyloop, ModelError, SkyloopError, "A model or classical analysis failed: bad dimensions, parse error, unsupported delay, ...");
-create_exception!(_skyloop, RobustError, SkyloopError, "Robust synthesis or analysis failed: infeasible γ, unstabilizable modes, ...");
-create_exception!(_skyloop, SysidError, SkyloopError, "Identification or log reading failed.");
-create_exception!(_skyloop, SimError, SkyloopError, "Nonlinear simulation failed (invalid vehicle, controller or scenario).");
-create_exception!(_skyloop, InputError, SkyloopError, "An argument outside what the function accepts; the message names it.");
-create_exception!(_skyloop, FileError, SkyloopError, "A file that could not be read or written.");
-create_exception!(_skyloop, InternalError, SkyloopError, "A panic inside skyloop, caught at the boundary (a bug: please report it).");
+create_exception!(
+    _skyloop,
+    SkyloopError,
+    PyException,
+    "Base class of every error skyloop raises; the message is the Rust error's."
+);
+create_exception!(
+    _skyloop,
+    LinalgError,
+    SkyloopError,
+    "Dense numerics failed (Schur, Riccati, Lyapunov, ...)."
+);
+create_exception!(
+    _skyloop,
+    ModelError,
+    SkyloopError,
+    "A model or classical analysis failed: bad dimensions, parse error, unsupported delay, ..."
+);
+create_exception!(
+    _skyloop,
+    RobustError,
+    SkyloopError,
+    "Robust synthesis or analysis failed: infeasible γ, unstabilizable modes, ..."
+);
+create_exception!(
+    _skyloop,
+    SysidError,
+    SkyloopError,
+    "Identification or log reading failed."
+);
+create_exception!(
+    _skyloop,
+    SimError,
+    SkyloopError,
+    "Nonlinear simulation failed (invalid vehicle, controller or scenario)."
+);
+create_exception!(
+    _skyloop,
+    InputError,
+    SkyloopError,
+    "An argument outside what the function accepts; the message names it."
+);
+create_exception!(
+    _skyloop,
+    FileError,
+    SkyloopError,
+    "A file that could not be read or written."
+);
+create_exception!(
+    _skyloop,
+    InternalError,
+    SkyloopError,
+    "A panic inside skyloop, caught at the boundary (a bug: please report it)."
+);
 
 /// The Python exception for a library error, by its cause.
 fn py_err(e: skyloop::Error) -> PyErr {
@@ -46,7 +91,10 @@ fn input_err(msg: impl Into<String>) -> PyErr {
 
 /// Runs `f` without the GIL and with panics caught, so a bug in skyloop is a Python exception,
 /// never a crash across the FFI.
-fn guarded<T: Send, E: Into<skyloop::Error> + Send>(py: Python<'_>, f: impl FnOnce() -> Result<T, E> + Send) -> PyResult<T> {
+fn guarded<T: Send, E: Into<skyloop::Error> + Send>(
+    py: Python<'_>,
+    f: impl FnOnce() -> Result<T, E> + Send,
+) -> PyResult<T> {
     match py.allow_threads(|| catch_unwind(AssertUnwindSafe(f))) {
         Ok(Ok(v)) => Ok(v),
         Ok(Err(e)) => Err(py_err(e.into())),
@@ -156,14 +204,19 @@ fn as_model(other: &Bound<'_, PyAny>, n: usize, dt: f64) -> PyResult<Option<Stat
         return StateSpace::gain(d, dt).map(Some).map_err(|e| py_err(e.into()));
     }
     if let Ok(a) = other.extract::<PyReadonlyArray2<'_, f64>>() {
-        return StateSpace::gain(mat_from(&a), dt).map(Some).map_err(|e| py_err(e.into()));
+        return StateSpace::gain(mat_from(&a), dt)
+            .map(Some)
+            .map_err(|e| py_err(e.into()));
     }
     Ok(None)
 }
 
 /// −sys, as the series connection with the gain −I.
 fn negated(s: &StateSpace) -> Result<StateSpace, skyloop::lti::LtiError> {
-    let minus = StateSpace::gain(Mat::from_fn(s.ny(), s.ny(), |i, j| if i == j { -1.0 } else { 0.0 }), s.dt)?;
+    let minus = StateSpace::gain(
+        Mat::from_fn(s.ny(), s.ny(), |i, j| if i == j { -1.0 } else { 0.0 }),
+        s.dt,
+    )?;
     skyloop::lti::interconnect::series(s, &minus)
 }
 
@@ -254,20 +307,45 @@ impl PyStateSpace {
             }
         };
         let control = py.import("control")?;
-        let dt: PyObject = if s.dt == 0.0 { 0.into_py_any(py)? } else { s.dt.into_py_any(py)? };
+        let dt: PyObject = if s.dt == 0.0 {
+            0.into_py_any(py)?
+        } else {
+            s.dt.into_py_any(py)?
+        };
         Ok(control
-            .call_method1("ss", (mat_to(py, &s.a), mat_to(py, &s.b), mat_to(py, &s.c), mat_to(py, &s.d), dt))?
+            .call_method1(
+                "ss",
+                (
+                    mat_to(py, &s.a),
+                    mat_to(py, &s.b),
+                    mat_to(py, &s.c),
+                    mat_to(py, &s.d),
+                    dt,
+                ),
+            )?
             .unbind())
     }
     fn __repr__(&self) -> String {
         let s = &self.inner;
-        let time = if s.dt == 0.0 { "continuous".to_string() } else { format!("dt={} s", s.dt) };
+        let time = if s.dt == 0.0 {
+            "continuous".to_string()
+        } else {
+            format!("dt={} s", s.dt)
+        };
         let delays = if s.has_delay() {
-            format!(", input_delay={:?} s, output_delay={:?} s", s.input_delay, s.output_delay)
+            format!(
+                ", input_delay={:?} s, output_delay={:?} s",
+                s.input_delay, s.output_delay
+            )
         } else {
             String::new()
         };
-        format!("<skyloop.StateSpace: {} states, {} outputs, {} inputs, {time}{delays}>", s.nx(), s.ny(), s.nu())
+        format!(
+            "<skyloop.StateSpace: {} states, {} outputs, {} inputs, {time}{delays}>",
+            s.nx(),
+            s.ny(),
+            s.nu()
+        )
     }
     fn __reduce__(&self, py: Python<'_>) -> PyResult<(PyObject, (String,))> {
         let f = py.import("skyloop._skyloop")?.getattr("_from_json")?.unbind();
@@ -276,28 +354,36 @@ impl PyStateSpace {
     fn __mul__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<PyObject> {
         let s = &self.inner;
         match as_model(other, s.nu(), s.dt)? {
-            Some(o) => guarded(py, || skyloop::lti::interconnect::series(&o, s)).map(wrap)?.into_py_any(py),
+            Some(o) => guarded(py, || skyloop::lti::interconnect::series(&o, s))
+                .map(wrap)?
+                .into_py_any(py),
             None => Ok(py.NotImplemented()),
         }
     }
     fn __rmul__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<PyObject> {
         let s = &self.inner;
         match as_model(other, s.ny(), s.dt)? {
-            Some(o) => guarded(py, || skyloop::lti::interconnect::series(s, &o)).map(wrap)?.into_py_any(py),
+            Some(o) => guarded(py, || skyloop::lti::interconnect::series(s, &o))
+                .map(wrap)?
+                .into_py_any(py),
             None => Ok(py.NotImplemented()),
         }
     }
     fn __add__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<PyObject> {
         let s = &self.inner;
         match as_model(other, s.ny(), s.dt)? {
-            Some(o) => guarded(py, || skyloop::lti::interconnect::parallel(s, &o)).map(wrap)?.into_py_any(py),
+            Some(o) => guarded(py, || skyloop::lti::interconnect::parallel(s, &o))
+                .map(wrap)?
+                .into_py_any(py),
             None => Ok(py.NotImplemented()),
         }
     }
     fn __radd__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<PyObject> {
         let s = &self.inner;
         match as_model(other, s.ny(), s.dt)? {
-            Some(o) => guarded(py, || skyloop::lti::interconnect::parallel(&o, s)).map(wrap)?.into_py_any(py),
+            Some(o) => guarded(py, || skyloop::lti::interconnect::parallel(&o, s))
+                .map(wrap)?
+                .into_py_any(py),
             None => Ok(py.NotImplemented()),
         }
     }
@@ -385,15 +471,20 @@ fn sys_of(s: &Bound<'_, PyAny>) -> PyResult<StateSpace> {
 /// negative feedback: y = sys1·(u + sign·sys2·y). ``sys2`` may be a number (a gain).
 #[pyfunction]
 #[pyo3(signature = (sys1, sys2=None, sign=-1.0))]
-fn feedback(py: Python<'_>, sys1: &Bound<'_, PyAny>, sys2: Option<&Bound<'_, PyAny>>, sign: f64) -> PyResult<PyStateSpace> {
+fn feedback(
+    py: Python<'_>,
+    sys1: &Bound<'_, PyAny>,
+    sys2: Option<&Bound<'_, PyAny>>,
+    sign: f64,
+) -> PyResult<PyStateSpace> {
     let g1 = sys_of(sys1)?;
     let g2 = match sys2 {
         None => StateSpace::gain(Mat::identity(g1.nu(), g1.ny()), g1.dt).map_err(|e| py_err(e.into()))?,
-        Some(o) => as_model(o, g1.ny().min(g1.nu()), g1.dt)?.ok_or_else(|| input_err("sys2 must be a StateSpace, a number or a 2-D array"))?,
+        Some(o) => as_model(o, g1.ny().min(g1.nu()), g1.dt)?
+            .ok_or_else(|| input_err("sys2 must be a StateSpace, a number or a 2-D array"))?,
     };
     guarded(py, || skyloop::lti::interconnect::feedback(&g1, &g2, sign)).map(wrap)
 }
-
 
 /// Lower linear fractional transformation lft(P, K): K (u = K·y) closes the last K.noutputs inputs
 /// and K.ninputs outputs of P (MATLAB ``lft(P, K)``).
@@ -410,10 +501,16 @@ fn lft(py: Python<'_>, P: &Bound<'_, PyAny>, K: &Bound<'_, PyAny>) -> PyResult<P
 fn subsystem(sys: &Bound<'_, PyAny>, outputs: Vec<usize>, inputs: Vec<usize>) -> PyResult<PyStateSpace> {
     let s = sys_of(sys)?;
     if let Some(&i) = outputs.iter().find(|&&i| i >= s.ny()) {
-        return Err(input_err(format!("output {i} out of range: the model has {} outputs", s.ny())));
+        return Err(input_err(format!(
+            "output {i} out of range: the model has {} outputs",
+            s.ny()
+        )));
     }
     if let Some(&j) = inputs.iter().find(|&&j| j >= s.nu()) {
-        return Err(input_err(format!("input {j} out of range: the model has {} inputs", s.nu())));
+        return Err(input_err(format!(
+            "input {j} out of range: the model has {} inputs",
+            s.nu()
+        )));
     }
     let n = s.nx();
     Ok(wrap(StateSpace {
@@ -462,7 +559,11 @@ fn reproduce(py: Python<'_>, name: String, out: PathBuf, quick: bool) -> PyResul
 
 /// Frequency response at ``omega`` (rad/s): complex array [nfreq, ny, nu], exact with delays.
 #[pyfunction]
-fn _freqresp<'py>(py: Python<'py>, sys: &Bound<'py, PyAny>, omega: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyArray3<Complex64>>> {
+fn _freqresp<'py>(
+    py: Python<'py>,
+    sys: &Bound<'py, PyAny>,
+    omega: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Bound<'py, PyArray3<Complex64>>> {
     let s = sys_of(sys)?;
     let w = omega.as_slice().map_err(|e| input_err(e.to_string()))?.to_vec();
     let (ny, nu) = (s.ny(), s.nu());
@@ -647,7 +748,9 @@ fn _step(py: Python<'_>, sys: &Bound<'_, PyAny>, t: Option<PyReadonlyArray1<'_, 
 fn c2d(py: Python<'_>, sys: &Bound<'_, PyAny>, dt: f64, method: &str, prewarp: Option<f64>) -> PyResult<PyStateSpace> {
     use skyloop::lti::discretize::Method;
     let s = sys_of(sys)?;
-    let mut m: Method = method.parse().map_err(|e: skyloop::lti::LtiError| input_err(e.to_string()))?;
+    let mut m: Method = method
+        .parse()
+        .map_err(|e: skyloop::lti::LtiError| input_err(e.to_string()))?;
     if let Some(w) = prewarp {
         match &mut m {
             Method::Tustin { prewarp_rad_s } => *prewarp_rad_s = Some(w),
@@ -663,7 +766,9 @@ fn c2d(py: Python<'_>, sys: &Bound<'_, PyAny>, dt: f64, method: &str, prewarp: O
 #[pyo3(signature = (sys, order, method="truncate"))]
 fn balred(py: Python<'_>, sys: &Bound<'_, PyAny>, order: usize, method: &str) -> PyResult<PyStateSpace> {
     let s = sys_of(sys)?;
-    let m: skyloop::lti::reduce::Method = method.parse().map_err(|e: skyloop::lti::LtiError| input_err(e.to_string()))?;
+    let m: skyloop::lti::reduce::Method = method
+        .parse()
+        .map_err(|e: skyloop::lti::LtiError| input_err(e.to_string()))?;
     guarded(py, move || skyloop::lti::reduce::balred(&s, order, m)).map(|r| wrap(r.sys))
 }
 
@@ -743,8 +848,13 @@ fn ncfsyn(
     pade: usize,
 ) -> PyResult<PyObject> {
     let (p, w1, w2) = (sys_of(P)?, opt_sys(W1)?, opt_sys(W2)?);
-    let o = skyloop::robust::ncfsyn::NcfOptions { factor, pade_order: pade };
-    let sol = guarded(py, move || skyloop::robust::ncfsyn::ncfsyn(&p, w1.as_ref(), w2.as_ref(), &o))?;
+    let o = skyloop::robust::ncfsyn::NcfOptions {
+        factor,
+        pade_order: pade,
+    };
+    let sol = guarded(py, move || {
+        skyloop::robust::ncfsyn::ncfsyn(&p, w1.as_ref(), w2.as_ref(), &o)
+    })?;
     let d = PyDict::new(py);
     d.set_item("controller", wrap(sol.controller))?;
     d.set_item("k_inf", wrap(sol.k_inf))?;
@@ -770,7 +880,9 @@ fn mixsyn(
 ) -> PyResult<(PyStateSpace, PyStateSpace, f64)> {
     let (g, w1, w2, w3) = (sys_of(G)?, opt_sys(W1)?, opt_sys(W2)?, opt_sys(W3)?);
     let o = hinf_opts(0.0, gamma_max, tol);
-    let sol = guarded(py, move || skyloop::robust::mixsyn::mixsyn(&g, w1.as_ref(), w2.as_ref(), w3.as_ref(), &o))?;
+    let sol = guarded(py, move || {
+        skyloop::robust::mixsyn::mixsyn(&g, w1.as_ref(), w2.as_ref(), w3.as_ref(), &o)
+    })?;
     Ok((wrap(sol.controller), wrap(sol.closed_loop), sol.gamma))
 }
 
@@ -786,7 +898,12 @@ fn blocks_of(text: &str) -> PyResult<skyloop::robust::uncertainty::BlockStructur
 #[pyfunction]
 #[pyo3(signature = (M, blocks, omega=None))]
 #[allow(non_snake_case)]
-fn _mu(py: Python<'_>, M: &Bound<'_, PyAny>, blocks: &str, omega: Option<PyReadonlyArray1<'_, f64>>) -> PyResult<PyObject> {
+fn _mu(
+    py: Python<'_>,
+    M: &Bound<'_, PyAny>,
+    blocks: &str,
+    omega: Option<PyReadonlyArray1<'_, f64>>,
+) -> PyResult<PyObject> {
     use skyloop::robust::mu::{mu, mu_system, robust_stability, MuOptions};
     let bs = blocks_of(blocks)?;
     if let Ok(a) = M.extract::<PyReadonlyArray2<'_, Complex64>>() {
@@ -957,7 +1074,10 @@ fn identify(
         skyloop::identify::identify(&req).map(|id| (id.to_json(), id.notes))
     })?;
     let d = json_to_py(py, &v)?;
-    if d.bind(py).downcast::<PyDict>().is_ok_and(|d| !d.contains("notes").unwrap_or(true)) {
+    if d.bind(py)
+        .downcast::<PyDict>()
+        .is_ok_and(|d| !d.contains("notes").unwrap_or(true))
+    {
         d.bind(py).set_item("notes", notes)?;
     }
     Ok(d)
@@ -971,7 +1091,13 @@ fn identify(
 fn read_log(py: Python<'_>, path: PathBuf, session: Option<usize>) -> PyResult<PyObject> {
     use skyloop::sysid::logs::{Log, OpenOptions};
     let log = guarded(py, move || {
-        Log::open(&path, &OpenOptions { session, ..Default::default() })
+        Log::open(
+            &path,
+            &OpenOptions {
+                session,
+                ..Default::default()
+            },
+        )
     })?;
     let d = PyDict::new(py);
     let names = log.field_names();
@@ -1018,8 +1144,14 @@ fn _simulate(py: Python<'_>, scenario: &str) -> PyResult<PyObject> {
     t.set_item("tracked", v3(&|s| s.tracked))?;
     t.set_item("rate_sp_rad_s", v3(&|s| s.rate_sp))?;
     t.set_item("torque_n_m", v3(&|s| s.torque))?;
-    t.set_item("u", Array2::from_shape_fn((n, nu), |(k, i)| trace[k].u[i]).into_pyarray(py))?;
-    t.set_item("saturated", Array1::from_iter(trace.iter().map(|s| s.saturated)).into_pyarray(py))?;
+    t.set_item(
+        "u",
+        Array2::from_shape_fn((n, nu), |(k, i)| trace[k].u[i]).into_pyarray(py),
+    )?;
+    t.set_item(
+        "saturated",
+        Array1::from_iter(trace.iter().map(|s| s.saturated)).into_pyarray(py),
+    )?;
     let d = PyDict::new(py);
     d.set_item("metrics", ser_to_py(py, &m)?)?;
     d.set_item("trajectory", t)?;
@@ -1032,14 +1164,21 @@ fn _simulate(py: Python<'_>, scenario: &str) -> PyResult<PyObject> {
 /// summary {runs, crashed, unsettled, max_abs_error {mean, std, min, p95, max}, ...}}.
 #[pyfunction]
 #[pyo3(signature = (scenario, seeds=None, threads=None))]
-fn _montecarlo(py: Python<'_>, scenario: &str, seeds: Option<Vec<usize>>, threads: Option<usize>) -> PyResult<PyObject> {
+fn _montecarlo(
+    py: Python<'_>,
+    scenario: &str,
+    seeds: Option<Vec<usize>>,
+    threads: Option<usize>,
+) -> PyResult<PyObject> {
     let scn = scenario_of(scenario)?;
     let seeds = match seeds {
         Some(s) => s,
         None => (0..scn.monte_carlo.as_ref().map_or(0, |m| m.runs)).collect(),
     };
     let s2 = seeds.clone();
-    let (runs, summary) = guarded(py, move || skyloop::simulation::monte_carlo_runs(&scn, &s2, threads, &|_, _| {}))?;
+    let (runs, summary) = guarded(py, move || {
+        skyloop::simulation::monte_carlo_runs(&scn, &s2, threads, &|_, _| {})
+    })?;
     let d = PyDict::new(py);
     d.set_item("seeds", seeds)?;
     d.set_item("runs", ser_to_py(py, &runs)?)?;
@@ -1048,7 +1187,8 @@ fn _montecarlo(py: Python<'_>, scenario: &str, seeds: Option<Vec<usize>>, thread
 }
 
 fn field<'py>(d: &Bound<'py, PyDict>, k: &str) -> PyResult<Bound<'py, PyAny>> {
-    d.get_item(k)?.ok_or_else(|| input_err(format!("runs: a run without '{k}'")))
+    d.get_item(k)?
+        .ok_or_else(|| input_err(format!("runs: a run without '{k}'")))
 }
 
 /// Summary statistics of Monte Carlo runs (a list of run-metrics dicts, as in
@@ -1065,7 +1205,9 @@ fn _summarize(py: Python<'_>, runs: Vec<Bound<'_, PyDict>>) -> PyResult<PyObject
             crashed: field(d, "crashed")?.extract()?,
         });
     }
-    let s = guarded(py, move || Ok::<_, skyloop::Error>(skyloop::sim::montecarlo::summarize(&all)))?;
+    let s = guarded(py, move || {
+        Ok::<_, skyloop::Error>(skyloop::sim::montecarlo::summarize(&all))
+    })?;
     ser_to_py(py, &s)
 }
 

@@ -221,7 +221,13 @@ fn monte_carlo_seed_ranges_write_csv_that_splits_a_campaign() {
     let text = std::fs::read_to_string(example("quadrotor-ssi.toml")).expect("example");
     let short = text
         .lines()
-        .map(|l| if l.starts_with("duration_s") { "duration_s = 1.5" } else { l })
+        .map(|l| {
+            if l.starts_with("duration_s") {
+                "duration_s = 1.5"
+            } else {
+                l
+            }
+        })
         .collect::<Vec<_>>()
         .join("\n");
     let spec = dir.join("mc.toml");

@@ -110,7 +110,10 @@ pub fn parse_seed_range(text: &str) -> Result<Vec<usize>> {
     let bad = || Error::Input(format!("--seeds: expected A..B with integers 0 <= A < B, got '{text}'"));
     let t = text.trim();
     let (a, b) = match t.split_once("..") {
-        Some((a, b)) => (a.trim().parse::<usize>().map_err(|_| bad())?, b.trim().parse::<usize>().map_err(|_| bad())?),
+        Some((a, b)) => (
+            a.trim().parse::<usize>().map_err(|_| bad())?,
+            b.trim().parse::<usize>().map_err(|_| bad())?,
+        ),
         None => {
             let a = t.parse::<usize>().map_err(|_| bad())?;
             (a, a + 1)

@@ -3,7 +3,9 @@
 //! runs `--seeds A..B`, written as CSV with `--out FILE.csv`, so job arrays can split a campaign).
 
 use crate::output;
-use skyloop::simulation::{load_scenario, monte_carlo_runs, monte_carlo_to, parse_seed_range, simulate_to, write_runs_csv};
+use skyloop::simulation::{
+    load_scenario, monte_carlo_runs, monte_carlo_to, parse_seed_range, simulate_to, write_runs_csv,
+};
 use std::path::PathBuf;
 
 /// Arguments of `skyloop simulate`.
@@ -52,7 +54,11 @@ pub fn run(a: Args) -> skyloop::Result<()> {
                 None => (0..scn.monte_carlo.as_ref().map_or(0, |m| m.runs)).collect(),
             };
             let (runs, summary) = monte_carlo_runs(&scn, &seeds, None, &progress)?;
-            let path = if csv { a.out.clone() } else { a.out.join("monte_carlo.csv") };
+            let path = if csv {
+                a.out.clone()
+            } else {
+                a.out.join("monte_carlo.csv")
+            };
             let base = scn.monte_carlo.as_ref().map_or(0, |m| m.seed);
             write_runs_csv(&path, base, &seeds, &runs)?;
             (summary, path)
