@@ -70,3 +70,31 @@ def fixture_path_tmp(text):
     with os.fdopen(fd, "w") as f:
         f.write(text)
     return path
+
+
+def test_the_gil_is_released_during_a_computation(scenario):
+    """A Python thread keeps running while skyloop computes (it would stall if the GIL were held)."""
+    import threading
+    import time
+
+    stop, ticks = threading.Event(), [0]
+
+    def spin():
+        while not stop.is_set():
+            ticks[0] += 1
+
+    th = threading.Thread(target=spin)
+    th.start()
+    try:
+        t0, k0 = time.perf_counter(), ticks[0]
+        time.sleep(0.3)  # sleep releases the GIL: the spinner's free-running rate
+        r_free = (ticks[0] - k0) / (time.perf_counter() - t0)
+        t0, k0 = time.perf_counter(), ticks[0]
+        sk.montecarlo(re.sub(r"(?m)^duration_s = .*$", "duration_s = 10.0", scenario), range(30), threads=1)
+        dt = time.perf_counter() - t0
+        r_call = (ticks[0] - k0) / dt
+    finally:
+        stop.set()
+        th.join()
+    assert dt > 0.05
+    assert r_call > 0.2 * r_free, (r_call, r_free)
