@@ -42,7 +42,6 @@ from ._skyloop import (  # noqa: F401  (re-exported API)
     hinf_norm,
     hinfsyn,
     hsvd,
-    identify,
     lft,
     margins,
     minreal,
@@ -180,6 +179,33 @@ def musyn(P, blocks: str, nmeas: int, ncon: int, omega=None, max_iter: int = 6, 
     w = None if omega is None else [float(x) for x in _vec(omega, "omega")]
     return _skyloop._musyn(_as_sys(P), blocks, int(nmeas), int(ncon), w, int(max_iter), int(d_order),
                            float(tol), reduce_order)
+
+
+def identify(data, input: str, output: str, **options) -> dict:
+    """Frequency response (and optional parametric fits) of logged data; the options are the flags of
+    ``skyloop identify`` (``method``, ``fmin_hz``, ``fmax_hz``, ``start_s``, ``end_s``, ``where_``,
+    ``model``, ``init``, ``bounds``, ``tf``, ...; frequencies Hz, times s).
+
+    ``data`` a log path (CSV with a time_s column, PX4 ULog, Betaflight blackbox) or a mapping of
+    equal-length 1-D arrays with a ``time_s`` column (s), written to a temporary CSV at full
+    precision and read by the same reader. Dict as ``identify --json``: {frf {freq_hz, mag,
+    phase_deg, coherence, ...}, fit {...} with ``model``, tf {...} with ``tf``}.
+    """
+    if isinstance(data, dict):
+        import tempfile
+
+        if "time_s" not in data:
+            raise InputError("data: a mapping of arrays needs a 'time_s' column (s)")
+        names = ["time_s"] + [k for k in data if k != "time_s"]
+        cols = [_vec(data[k], k) for k in names]
+        if len({c.size for c in cols}) != 1:
+            raise InputError("data: every column must have the length of time_s")
+        with tempfile.TemporaryDirectory() as d:
+            path = _os.path.join(d, "data.csv")
+            _np.savetxt(path, _np.column_stack(cols), delimiter=",", header=",".join(names), comments="",
+                        fmt="%.17g")
+            return _skyloop.identify(path, input, output, **options)
+    return _skyloop.identify(_os.fspath(data), input, output, **options)
 
 
 def scenario_text(scenario: Union[str, "_os.PathLike[str]"]) -> str:

@@ -95,7 +95,7 @@ def musyn(P: StateSpace, blocks: str, nmeas: int, ncon: int, omega: Optional[npt
           max_iter: int = 6, d_order: int = 2, tol: float = 1e-2, reduce_order: Optional[int] = None) -> dict: ...
 def musyn_spec(path: Union[str, PathLike]) -> dict: ...
 
-def identify(data: Union[str, PathLike], input: str, output: str, excitation: Optional[str] = None,
+def identify(data: Union[str, PathLike, dict], input: str, output: str, excitation: Optional[str] = None,
              method: str = "spafdr", fmin_hz: Optional[float] = None, fmax_hz: Optional[float] = None,
              start_s: Optional[float] = None, end_s: Optional[float] = None, where_: Optional[str] = None,
              rate_hz: Optional[float] = None, session: Optional[int] = None, n_freq: int = 100,

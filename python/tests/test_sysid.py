@@ -45,3 +45,16 @@ def test_identify_first_order(tmp_path):
     assert r["fit"]["fit_percent"] > 99
     with pytest.raises(sk.SkyloopError, match="nope"):
         sk.identify(str(p), "u", "nope")
+
+
+def test_identify_from_arrays_equals_identify_from_the_file(tmp_path):
+    p = tmp_path / "fo.csv"
+    first_order_csv(p)
+    t, u, y = np.loadtxt(p, delimiter=",", skiprows=1).T
+    kw = dict(fmin_hz=0.5, fmax_hz=40, model="K/(tau*s+1)*(1-exp(-0.001*s))/(0.001*s)", init="K=1,tau=0.1")
+    a = sk.identify({"time_s": t, "u": u, "y": y}, "u", "y", **kw)
+    b = sk.identify(str(p), "u", "y", **kw)
+    assert a["frf"] == b["frf"] and a["fit"] == b["fit"]
+    assert abs(a["fit"]["params"]["K"] - 2) < 0.02
+    with pytest.raises(sk.InputError, match="time_s"):
+        sk.identify({"u": u, "y": y}, "u", "y")
