@@ -181,12 +181,13 @@ def musyn(P, blocks: str, nmeas: int, ncon: int, omega=None, max_iter: int = 6, 
                            float(tol), reduce_order)
 
 
-def identify(data, input: str, output: str, **options) -> dict:
+def identify(data, input: Optional[str] = None, output: Optional[str] = None, **options) -> dict:
     """Frequency response (and optional parametric fits) of logged data; the options are the flags of
     ``skyloop identify`` (``method``, ``fmin_hz``, ``fmax_hz``, ``start_s``, ``end_s``, ``where_``,
     ``model``, ``init``, ``bounds``, ``tf``, ...; frequencies Hz, times s).
 
-    ``data`` a log path (CSV with a time_s column, PX4 ULog, Betaflight blackbox) or a mapping of
+    ``axis="roll"|"pitch"|"yaw"`` applies the firmware's rate-loop preset (columns, airborne
+    segments, model) instead of ``input`` / ``output``. ``data`` a log path (CSV with a time_s column, PX4 ULog, Betaflight blackbox) or a mapping of
     equal-length 1-D arrays with a ``time_s`` column (s), written to a temporary CSV at full
     precision and read by the same reader. Dict as ``identify --json``: {frf {freq_hz, mag,
     phase_deg, coherence, ...}, fit {...} with ``model``, tf {...} with ``tf``}.

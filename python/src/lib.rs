@@ -1005,19 +1005,22 @@ fn musyn_spec(py: Python<'_>, path: PathBuf) -> PyResult<PyObject> {
 // Identification and logs
 
 /// Frequency response (and optional parametric fits) of a flight log; the arguments are those of
-/// ``skyloop identify`` (frequencies in Hz, times in s). Dict as ``identify --json``: {frf {freq_hz,
-/// mag, phase_deg, coherence, ...}, fit {...} with ``model``, tf {...} with ``tf``, notes}.
+/// ``skyloop identify`` (frequencies in Hz, times in s; ``axis`` roll/pitch/yaw for the firmware's
+/// rate-loop preset, else ``input`` and ``output`` columns; ``blocks`` of the jackknife, default
+/// the CLI's). Dict as ``identify --json``: {frf {freq_hz, mag, phase_deg, coherence, ...},
+/// fit {...} with ``model``, tf {...} with ``tf``, notes, ...}.
 #[pyfunction]
-#[pyo3(signature = (data, input, output, excitation=None, method="spafdr", fmin_hz=None, fmax_hz=None,
+#[pyo3(signature = (data, input=None, output=None, axis=None, excitation=None, method="spafdr", fmin_hz=None, fmax_hz=None,
     start_s=None, end_s=None, where_=None, rate_hz=None, session=None, n_freq=100, nfft=None, window="hann",
     overlap=0.5, lag_window=None, resolution=0.15, model=None, init=None, bounds=None, error="log",
-    weighting="inverse-variance", tf=None, delay_s=None, max_delay_s=0.1))]
+    weighting="inverse-variance", tf=None, delay_s=None, max_delay_s=0.1, blocks=None, allow_poor_fit=false))]
 #[allow(clippy::too_many_arguments)]
 fn identify(
     py: Python<'_>,
     data: PathBuf,
-    input: String,
-    output: String,
+    input: Option<String>,
+    output: Option<String>,
+    axis: Option<String>,
     excitation: Option<String>,
     method: &str,
     fmin_hz: Option<f64>,
@@ -1041,9 +1044,13 @@ fn identify(
     tf: Option<String>,
     delay_s: Option<f64>,
     max_delay_s: f64,
+    blocks: Option<usize>,
+    allow_poor_fit: bool,
 ) -> PyResult<PyObject> {
+    let defaults = skyloop::identify::IdentifyRequest::default();
     let req = skyloop::identify::IdentifyRequest {
         data,
+        axis,
         input,
         output,
         excitation,
@@ -1069,6 +1076,8 @@ fn identify(
         tf,
         delay_s,
         max_delay_s,
+        blocks: blocks.unwrap_or(defaults.blocks),
+        allow_poor_fit,
     };
     let (v, notes) = guarded(py, move || {
         skyloop::identify::identify(&req).map(|id| (id.to_json(), id.notes))

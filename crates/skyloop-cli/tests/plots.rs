@@ -40,7 +40,8 @@ fn bode_and_nyquist_write_svg_and_png() {
     ]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     let svg = std::fs::read_to_string(&out).expect("svg");
-    assert!(svg.starts_with("<svg") && svg.contains("out 2 ← in 2"));
+    // A MIMO model among them: MATLAB's input–output grid, one panel pair per channel.
+    assert!(svg.starts_with("<svg") && svg.contains("from u2 to y2"), "no I/O grid");
 
     let out = tmp("nyq.png");
     let r = skyloop(&[
@@ -202,4 +203,57 @@ fn show_forms_and_pade() {
     let r = skyloop(&["pade", "exp(-0.1*s)/(s+1)", "--order", "0"]);
     assert_eq!(r.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&r.stderr).contains("--order 0"));
+}
+
+#[test]
+fn sigma_nichols_pzmap_rlocus_and_interactive_html() {
+    let (siso, mimo) = models();
+    let (siso, mimo) = (siso.to_str().unwrap_or_default(), mimo.to_str().unwrap_or_default());
+    let cases: [(&str, &[&str], &str, &str); 5] = [
+        ("sigma", &[mimo], "sigma.svg", "singular values [dB]"),
+        ("nichols", &["10*exp(-0.01*s)/(s*(0.1*s+1))"], "nichols.svg", "open-loop phase [deg]"),
+        ("pzmap", &["(s+2)/((s+1)*(s^2+0.4*s+4))", siso], "pz.svg", "imaginary axis"),
+        ("rlocus", &["(s+2)/(s*(s+1)*(s+5))"], "rl.svg", "open-loop poles"),
+        ("bode", &[siso], "bode.html", "skl-int"),
+    ];
+    for (cmd, models, file, needle) in cases {
+        let out = tmp(file);
+        let mut args = vec![cmd];
+        args.extend_from_slice(models);
+        args.extend(["--out", out.to_str().unwrap_or_default()]);
+        let r = skyloop(&args);
+        assert!(r.status.success(), "{cmd}: {}", String::from_utf8_lossy(&r.stderr));
+        let text = std::fs::read_to_string(&out).expect("file");
+        assert!(text.contains(needle), "{cmd}: no {needle:?} in {file}");
+    }
+    // Loop-only figures refuse a MIMO model; a delayed root locus asks for pade.
+    let out = tmp("bad.svg");
+    let o = out.to_str().unwrap_or_default();
+    assert_eq!(skyloop(&["nichols", mimo, "--out", o]).status.code(), Some(2));
+    let r = skyloop(&["rlocus", "exp(-0.1*s)/(s+1)", "--out", o]);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("pade"));
+    assert_eq!(skyloop(&["rlocus", "1/(s+1)", "--gains", "5,1", "--out", o]).status.code(), Some(2));
+}
+
+#[test]
+fn step_reports_stepinfo() {
+    // L = 1/(s(s+1)) closes to T = 1/(s²+s+1): overshoot 16.30 % and peak at 3.628 s (closed forms).
+    let r = skyloop(&["step", "1/(s*(s+1))", "--closed-loop", "--json", "--label", "T"]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&r.stdout).expect("json");
+    let m = &v["models"][0];
+    assert_eq!(m["label"], "T");
+    let info = &m["info"][0][0];
+    assert!((info["overshoot_pct"].as_f64().expect("os") - 16.303).abs() < 0.05, "{info}");
+    assert!((info["final_value"].as_f64().expect("yf") - 1.0).abs() < 1e-9);
+    assert!((info["peak"][1].as_f64().expect("tp") - 3.628).abs() < 0.05, "{info}");
+    // A PI zero almost cancelling a slow pole: the window follows the fast settling (~0.16 s), not
+    // seven time constants of the slow pole (70 s).
+    let r = skyloop(&["step", "50*(s+0.1001)/(s*(s+0.1)*(0.02*s+1))", "--closed-loop", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&r.stdout).expect("json");
+    let t_end = v["models"][0]["t_s"].as_array().expect("t").last().and_then(|x| x.as_f64()).expect("t");
+    assert!(t_end < 1.0, "window {t_end} s");
+    let r = skyloop(&["step", "1/(s+1)", "--tfinal", "nan", "--json"]);
+    assert_eq!(r.status.code(), Some(2));
 }

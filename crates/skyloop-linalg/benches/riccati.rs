@@ -1,5 +1,5 @@
 //! Riccati and Schur timings. The CARE/DARE problems are the 50-state fixtures also timed with scipy
-//! by `bench/compare_riccati.py`.
+//! by `bench/compare.py` (through `examples/time_linalg.rs`).
 #![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 #![allow(missing_docs)] // criterion's macros generate undocumented public functions
 

@@ -120,11 +120,19 @@ impl Dm {
 /// `(I − τ·[1;v]·[1;v]ᵀ)·[α; x] = [β; 0]`.
 #[inline]
 pub(crate) fn larfg(alpha: f64, x: &mut [f64]) -> (f64, f64) {
-    let xnorm = x.iter().fold(0.0f64, |acc, v| acc.hypot(*v));
+    // Plain sum of squares when it can neither overflow nor lose the tiny entries (the common
+    // case, and libm's hypot is a measurable part of the QR sweeps); scaled hypot otherwise.
+    let ssq: f64 = x.iter().map(|v| v * v).sum();
+    let (xnorm, anorm) = if ssq > 1e-280 && ssq < 1e280 && alpha.abs() < 1e140 {
+        (ssq.sqrt(), (alpha * alpha + ssq).sqrt())
+    } else {
+        let xn = x.iter().fold(0.0f64, |acc, v| acc.hypot(*v));
+        (xn, alpha.hypot(xn))
+    };
     if xnorm == 0.0 {
         return (alpha, 0.0);
     }
-    let beta = -alpha.hypot(xnorm).copysign(alpha);
+    let beta = -anorm.copysign(alpha);
     let tau = (beta - alpha) / beta;
     let inv = 1.0 / (alpha - beta);
     for v in x.iter_mut() {
@@ -141,7 +149,9 @@ pub(crate) fn lartg(f: f64, g: f64) -> (f64, f64, f64) {
     } else if f == 0.0 {
         (0.0, 1.0, g)
     } else {
-        let r = f.hypot(g).copysign(f);
+        // sqrt of the sum of squares where it cannot overflow or underflow (hypot is slow).
+        let ss = f * f + g * g;
+        let r = if ss > 1e-280 && ss < 1e280 { ss.sqrt() } else { f.hypot(g) }.copysign(f);
         (f / r, g / r, r)
     }
 }

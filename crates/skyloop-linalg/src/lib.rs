@@ -2,7 +2,7 @@
 //! (also in Cholesky-factor form), CARE and DARE, matrix exponential, bounded Levenberg–Marquardt,
 //! the top eigenpairs of small Hermitian matrices, and scalar root finding and maximization.
 //!
-//! Ported from the published algorithms (LAPACK dgebal/dlahqr/dtrexc/dlaexc/dlasy2/dtrsyl,
+//! Ported from the published algorithms (LAPACK dgebal/dlahqr/dlaqr0–5/dtrexc/dlaexc/dlasy2/dtrsyl,
 //! Hammarling, Laub's ordered-Schur Riccati method); no Fortran.
 
 pub mod error;
@@ -15,6 +15,7 @@ pub mod expm;
 pub mod hermitian;
 pub mod lm;
 pub mod logm;
+mod multishift;
 pub mod lyapunov;
 pub mod riccati;
 pub mod scalar_search;

@@ -279,7 +279,14 @@ pub fn care_with(
             }
         }
     }
-    let hnorm = h.d.iter().fold(0.0f64, |acc, v| acc.hypot(*v));
+    // Frobenius norm scaled by the largest entry: overflow-safe without a hypot per entry (which
+    // cost as much as a tenth of a 50-state solve).
+    let hmax = h.d.iter().fold(0.0f64, |acc, v| acc.max(v.abs()));
+    let hnorm = if hmax > 0.0 {
+        hmax * h.d.iter().map(|v| (v / hmax) * (v / hmax)).sum::<f64>().sqrt()
+    } else {
+        0.0
+    };
 
     let (mut t, mut z) = schur_dm(h)?;
     let tol = opts.axis_tol * hnorm.max(f64::MIN_POSITIVE);

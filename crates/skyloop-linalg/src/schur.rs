@@ -1,8 +1,11 @@
 //! Real Schur decomposition `A = Q·T·Qᵀ` and reordering of the Schur form.
 //!
-//! Householder reduction to Hessenberg form (LAPACK dgehd2/dorghr), then the Francis double-shift
-//! QR iteration with aggressive small-subdiagonal deflation and exceptional shifts (dlahqr),
-//! accumulating `Q`; 2×2 blocks are standardized (dlanv2). Reordering swaps adjacent 1×1/2×2
+//! Householder reduction to Hessenberg form (faer's blocked `hessenberg_in_place`, or LAPACK
+//! dgehd2/dorghr below order 32), then for order ≥ 75 the small-bulge multishift QR with aggressive
+//! early deflation (`multishift.rs`, the method of LAPACK dlaqr0/3/5), and below that the Francis
+//! double-shift QR iteration with small-subdiagonal deflation and exceptional shifts (dlahqr),
+//! which is also the kernel of the multishift code's deflation window; `Q` is accumulated and 2×2
+//! blocks are standardized (dlanv2). Reordering swaps adjacent 1×1/2×2
 //! diagonal blocks by orthogonal similarities (dtrexc/dlaexc), solving the small Sylvester equation
 //! of each swap with complete pivoting (as dlasy2), and rejects a swap whose result would not be
 //! upper quasi-triangular to working accuracy.
@@ -100,20 +103,67 @@ pub fn eigenvalues(a: MatRef<f64>) -> Result<Vec<c64>> {
     let mut h = Dm::from_mat(bal.a.as_ref());
     let mut z = Dm::zeros(0);
     hessenberg(&mut h, false);
-    lahqr(&mut h, &mut z)?;
+    crate::multishift::laqr0(&mut h, &mut z)?;
     Ok(block_eigenvalues(&h))
 }
 
 /// Schur form on work matrices: returns `(T, Q)`.
 pub(crate) fn schur_dm(mut h: Dm) -> Result<(Dm, Dm)> {
     let mut q = hessenberg(&mut h, true);
-    lahqr(&mut h, &mut q)?;
+    crate::multishift::laqr0(&mut h, &mut q)?;
     Ok((h, q))
+}
+
+/// Below this order the unblocked reduction [`hessenberg_unblocked`] is used: faer's reduction
+/// (blocked above its own 256 threshold, a fused two-sided unblocked kernel below) and its blocked
+/// accumulation of `Q` pay for their setup only on larger matrices (a judgement, not tuned: the
+/// reduction is a small part of the Schur time at these orders).
+const FAER_HESSENBERG_MIN: usize = 32;
+
+/// Householder reduction `A = Q·H·Qᵀ` in place, returning `Q` when `want_q` (otherwise an empty
+/// matrix). faer's public `hessenberg_in_place` (blocked, dgehrd-like) and its block-reflector
+/// application form `Q` (as dorghr) for all but tiny orders.
+fn hessenberg(h: &mut Dm, want_q: bool) -> Dm {
+    let n = h.n;
+    if n < FAER_HESSENBERG_MIN {
+        return hessenberg_unblocked(h, want_q);
+    }
+    use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+    use faer::linalg::{evd::hessenberg as fh, householder};
+    use faer::{Conj, MatMut, Par};
+    let bs = faer::linalg::qr::no_pivoting::factor::recommended_block_size::<f64>(n - 1, n - 1);
+    let req = StackReq::any_of(&[
+        fh::hessenberg_in_place_scratch::<f64>(n, bs, Par::Seq, Default::default()),
+        householder::apply_block_householder_sequence_on_the_right_in_place_scratch::<f64>(n - 1, bs, n - 1),
+    ]);
+    let mut buf = MemBuffer::new(req);
+    let stack = MemStack::new(&mut buf);
+    let mut coeffs = Mat::<f64>::zeros(bs, n - 1);
+    let mut a = MatMut::from_column_major_slice_mut(&mut h.d, n, n);
+    fh::hessenberg_in_place(a.as_mut(), coeffs.as_mut(), Par::Seq, stack, Default::default());
+    let mut q = if want_q { Dm::identity(n) } else { Dm::zeros(0) };
+    if want_q {
+        let qm = MatMut::from_column_major_slice_mut(&mut q.d, n, n);
+        householder::apply_block_householder_sequence_on_the_right_in_place_with_conj(
+            a.as_ref().submatrix(1, 0, n - 1, n - 1),
+            coeffs.as_ref(),
+            Conj::No,
+            qm.submatrix_mut(1, 1, n - 1, n - 1),
+            Par::Seq,
+            stack,
+        );
+    }
+    for j in 0..n {
+        for i in j + 2..n {
+            h[(i, j)] = 0.0;
+        }
+    }
+    q
 }
 
 /// Householder reduction `A = Q·H·Qᵀ` in place (dgehd2), returning the accumulated `Q` (dorghr)
 /// when `want_q` (otherwise an empty matrix).
-fn hessenberg(h: &mut Dm, want_q: bool) -> Dm {
+fn hessenberg_unblocked(h: &mut Dm, want_q: bool) -> Dm {
     let n = h.n;
     let mut q = if want_q { Dm::identity(n) } else { Dm::zeros(0) };
     if n < 3 {
@@ -164,7 +214,7 @@ fn hessenberg(h: &mut Dm, want_q: bool) -> Dm {
 
 /// Francis double-shift QR on an upper Hessenberg matrix (LAPACK dlahqr with WANTT = true),
 /// accumulating the transformations into `z` unless `z` is empty (WANTZ = false).
-fn lahqr(h: &mut Dm, z: &mut Dm) -> Result<()> {
+pub(crate) fn lahqr(h: &mut Dm, z: &mut Dm) -> Result<()> {
     let n = h.n;
     if n <= 1 {
         return Ok(());
@@ -488,7 +538,7 @@ pub(crate) fn reorder_dm(t: &mut Dm, q: &mut Dm, select: &dyn Fn(c64) -> bool) -
 
 /// Move the diagonal block starting at `ifst` up to start at `ilst` (`ilst < ifst`) by adjacent
 /// swaps (the upward branch of LAPACK dtrexc).
-fn trexc_up(t: &mut Dm, q: &mut Dm, ifst: usize, ilst: usize) -> Result<()> {
+pub(crate) fn trexc_up(t: &mut Dm, q: &mut Dm, ifst: usize, ilst: usize) -> Result<()> {
     let n = t.n;
     let mut nbf = if ifst + 1 < n && t[(ifst + 1, ifst)] != 0.0 {
         2
@@ -568,10 +618,12 @@ fn laexc(t: &mut Dm, q: &mut Dm, j1: usize, n1: usize, n2: usize) -> Result<()> 
     let smlnum = f64::MIN_POSITIVE / eps;
     let thresh = (10.0 * eps * dnorm).max(smlnum);
     // Solve T11·X − X·T22 = scale·T12.
-    let tl: Vec<f64> = (0..n1 * n1).map(|e| d[(e % n1, e / n1)]).collect();
-    let tr: Vec<f64> = (0..n2 * n2).map(|e| d[(n1 + e % n2, n1 + e / n2)]).collect();
-    let b: Vec<f64> = (0..n1 * n2).map(|e| d[(e % n1, n1 + e / n1)]).collect();
-    let (x, scale) = small_sylvester(&tl, n1, &tr, n2, &b);
+    // Fixed-size arrays: a swap is called thousands of times per reordering, heap work shows.
+    let (mut tl, mut tr, mut b) = ([0.0; 4], [0.0; 4], [0.0; 4]);
+    (0..n1 * n1).for_each(|e| tl[e] = d[(e % n1, e / n1)]);
+    (0..n2 * n2).for_each(|e| tr[e] = d[(n1 + e % n2, n1 + e / n2)]);
+    (0..n1 * n2).for_each(|e| b[e] = d[(e % n1, n1 + e / n1)]);
+    let (x, scale) = small_sylvester(&tl[..n1 * n1], n1, &tr[..n2 * n2], n2, &b[..n1 * n2]);
     let xm = |i: usize, j: usize| x[i + j * n1];
 
     let reject = |what: f64| -> Result<()> {
@@ -683,7 +735,7 @@ fn laexc(t: &mut Dm, q: &mut Dm, j1: usize, n1: usize, n2: usize) -> Result<()> 
 /// Solve `TL·X − X·TR = scale·B` for `X` (`n1×n2`, column-major), `n1, n2 ∈ {1, 2}`, by Gaussian
 /// elimination with complete pivoting on the Kronecker form; tiny pivots are raised to `smin` and
 /// `scale ≤ 1` guards against overflow (the method of LAPACK dlasy2).
-fn small_sylvester(tl: &[f64], n1: usize, tr: &[f64], n2: usize, b: &[f64]) -> (Vec<f64>, f64) {
+fn small_sylvester(tl: &[f64], n1: usize, tr: &[f64], n2: usize, b: &[f64]) -> ([f64; 4], f64) {
     let eps = f64::EPSILON;
     let smlnum = f64::MIN_POSITIVE / eps;
     let m = n1 * n2;
@@ -757,7 +809,7 @@ fn small_sylvester(tl: &[f64], n1: usize, tr: &[f64], n2: usize, b: &[f64]) -> (
         }
         y[r] = s / k[r][r];
     }
-    let mut x = vec![0.0; m];
+    let mut x = [0.0; 4];
     for p in 0..m {
         x[colperm[p]] = y[p];
     }

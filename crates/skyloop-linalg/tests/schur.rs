@@ -248,3 +248,92 @@ fn bad_input_is_an_error() {
         Err(LinalgError::Dimension(_))
     ));
 }
+
+/// `D·R·D` with `D = diag(10^(−decades·i/n))`: entries graded over `2·decades` orders of magnitude,
+/// the case where the multishift code's deflation criteria matter most.
+fn graded_matrix(n: usize, seed: u64, decades: f64) -> Mat<f64> {
+    let r = random_matrix(n, seed);
+    let d = |i: usize| 10f64.powf(-decades * i as f64 / n as f64);
+    Mat::from_fn(n, n, |i, j| d(i) * r[(i, j)] * d(j))
+}
+
+/// Orders on both sides of the multishift crossover (75), through the size where faer's blocked
+/// Hessenberg reduction takes over (256): backward error and orthogonality as tight as the
+/// double-shift code gives, for random, graded, symmetric-ish and block-structured matrices.
+#[test]
+fn schur_multishift_random_and_graded() {
+    for (n, seed) in [(74usize, 11u64), (76, 12), (101, 13), (150, 14), (260, 15), (300, 16)] {
+        let tol = 1e-14 * n as f64;
+        let a = random_matrix(n, seed);
+        let s = real_schur(a.as_ref()).unwrap();
+        check_schur(a.as_ref(), &s, tol);
+        let g = graded_matrix(n, seed, 6.0);
+        let s = real_schur(g.as_ref()).unwrap();
+        check_schur(g.as_ref(), &s, tol);
+        // The eigenvalues of the graded matrix agree with those of its balanced Schur form.
+        let ours = s.eigenvalues();
+        let bal = eigenvalues(g.as_ref()).unwrap();
+        assert!(eig_distance(&ours, &bal) < 1e-10, "n={n}");
+        // Symmetric plus a small skew part: clustered real eigenvalues with a few close pairs.
+        let sy = Mat::from_fn(n, n, |i, j| a[(i, j)] + a[(j, i)] + 1e-3 * (a[(i, j)] - a[(j, i)]));
+        check_schur(sy.as_ref(), &real_schur(sy.as_ref()).unwrap(), tol);
+    }
+    // Block upper triangular with repeated diagonal blocks: many exactly equal eigenvalues.
+    let n = 120;
+    let b = random_matrix(6, 3);
+    let r = random_matrix(n, 4);
+    let m = Mat::from_fn(n, n, |i, j| {
+        if i / 6 == j / 6 {
+            b[(i % 6, j % 6)]
+        } else if i / 6 < j / 6 {
+            r[(i, j)]
+        } else {
+            0.0
+        }
+    });
+    check_schur(m.as_ref(), &real_schur(m.as_ref()).unwrap(), 1e-14 * n as f64);
+}
+
+/// The n = 1000 check of issue 19 (slow in a debug build; run by hand with
+/// `cargo test --release -p skyloop-linalg --test schur -- --ignored`).
+#[test]
+#[ignore]
+fn schur_n1000_backward_error() {
+    for (name, a) in [("random", random_matrix(1000, 21)), ("graded", graded_matrix(1000, 22, 6.0))] {
+        let s = real_schur(a.as_ref()).unwrap();
+        let n = a.nrows();
+        let recon = &s.q * &s.t * s.q.transpose();
+        let berr = fro((&recon - &a).as_ref()) / fro(a.as_ref());
+        let orth = fro((s.q.transpose() * &s.q - Mat::<f64>::identity(n, n)).as_ref());
+        println!("n=1000 {name}: ‖A − QTQᵀ‖/‖A‖ = {berr:.2e}, ‖QᵀQ − I‖ = {orth:.2e}");
+        check_schur(a.as_ref(), &s, 1e-14 * n as f64);
+    }
+}
+
+/// Structured matrices of multishift order that stall or trivialize QR: zero, identity, the cyclic
+/// shift (all eigenvalues on the unit circle: needs exceptional shifts), a nilpotent Jordan block
+/// (one defective eigenvalue) and a Hamiltonian-like block matrix with ± pairs.
+#[test]
+fn schur_multishift_structured() {
+    let n = 100;
+    let zero = Mat::<f64>::zeros(n, n);
+    let s = real_schur(zero.as_ref()).unwrap();
+    assert_eq!(s.t, zero);
+    let eye = Mat::<f64>::identity(n, n);
+    check_schur(eye.as_ref(), &real_schur(eye.as_ref()).unwrap(), 1e-13);
+    let cyclic = Mat::from_fn(n, n, |i, j| if i == (j + 1) % n { 1.0 } else { 0.0 });
+    let s = real_schur(cyclic.as_ref()).unwrap();
+    check_schur(cyclic.as_ref(), &s, 1e-12);
+    assert!(s.eigenvalues().iter().all(|z| (z.norm() - 1.0).abs() < 1e-10));
+    let jordan = Mat::from_fn(n, n, |i, j| if i == j + 1 { 1.0 } else { 0.0 });
+    check_schur(jordan.as_ref(), &real_schur(jordan.as_ref()).unwrap(), 1e-12);
+    let a = random_matrix(50, 31);
+    let g = random_matrix(50, 32);
+    let ham = Mat::from_fn(n, n, |i, j| match (i < 50, j < 50) {
+        (true, true) => a[(i, j)],
+        (true, false) => g[(i, j - 50)] + g[(j - 50, i)],
+        (false, true) => -(a[(i - 50, j)] * a[(j, i - 50)]),
+        (false, false) => -a[(j - 50, i - 50)],
+    });
+    check_schur(ham.as_ref(), &real_schur(ham.as_ref()).unwrap(), 1e-12);
+}

@@ -560,3 +560,27 @@ mod edge_tests {
         assert!(e.contains("range"), "{e}");
     }
 }
+
+/// Singular values of the frequency response, as MATLAB's `sigma`: `sv[k]` holds the
+/// min(ny, nu) singular values of G(jω_k) (or G(e^{jω_k·dt}) in discrete time), largest first,
+/// in absolute units (not dB), at `w_rad_s` (rad/s). Exact with delays (they do not change them).
+///
+/// # Examples
+/// ```
+/// let g = skyloop_lti::expr::parse_model("2/(s+1)")?;
+/// let sv = skyloop_lti::norms::sigma(&g, &[0.0, 1.0])?;
+/// assert!((sv[0][0] - 2.0).abs() < 1e-12 && (sv[1][0] - 2.0f64.sqrt()).abs() < 1e-12);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn sigma(sys: &StateSpace, w_rad_s: &[f64]) -> Result<Vec<Vec<f64>>> {
+    let g = crate::freqresp::freqresp(sys, w_rad_s)?;
+    g.iter()
+        .map(|m| {
+            let mut sv = m
+                .singular_values()
+                .map_err(|e| LtiError::Numerical(format!("singular values of the frequency response: {e:?}")))?;
+            sv.sort_by(|a, b| b.total_cmp(a));
+            Ok(sv)
+        })
+        .collect()
+}

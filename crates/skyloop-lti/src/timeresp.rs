@@ -359,3 +359,151 @@ mod tests {
         assert!(step(&g, Some(&[1.0, 2.0])).is_err());
     }
 }
+
+/// Step-response characteristics as MATLAB's `stepinfo` reports them. Times in seconds, overshoot
+/// and undershoot in percent of the final value; a characteristic the response never shows (no
+/// rise to 90 %, no settling inside the window) is `None`.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct StepInfo {
+    /// The value the response settles to (the reference for the percentages and the band).
+    pub final_value: f64,
+    /// Rise time, s: from `rise_limits.0` to `rise_limits.1` of the final value.
+    pub rise_time_s: Option<f64>,
+    /// Fractions of the final value between which the rise time is measured (MATLAB: 0.1, 0.9).
+    pub rise_limits: (f64, f64),
+    /// Settling time, s: after it the response stays within `settling_band` of the final value.
+    pub settling_time_s: Option<f64>,
+    /// Half-width of the settling band as a fraction of the final value (MATLAB: 0.02).
+    pub settling_band: f64,
+    /// Overshoot, % of the final value.
+    pub overshoot_pct: Option<f64>,
+    /// Undershoot (the largest excursion the opposite way of the final value), %.
+    pub undershoot_pct: Option<f64>,
+    /// Peak value (largest |y|, with its sign) and its time, s.
+    pub peak: Option<(f64, f64)>,
+}
+
+impl StepInfo {
+    /// No characteristics yet, MATLAB's limits (10–90 % rise, 2 % settling) and the final value.
+    pub fn new(final_value: f64) -> Self {
+        StepInfo {
+            final_value,
+            rise_time_s: None,
+            rise_limits: (0.1, 0.9),
+            settling_time_s: None,
+            settling_band: 0.02,
+            overshoot_pct: None,
+            undershoot_pct: None,
+            peak: None,
+        }
+    }
+}
+
+/// MATLAB's `stepinfo` of a sampled step response `y(t)` starting from 0: rise time (10→90 %),
+/// settling time (2 % band, interpolated at the last exit), overshoot, undershoot and peak, against
+/// `final_value` (the DC gain when the response is stable; pass `None` to take the last sample).
+///
+/// A zero or non-finite final value (an integrating or unstable response) leaves every
+/// characteristic `None` but the peak, since percentages of it mean nothing.
+///
+/// # Examples
+/// ```
+/// let t: Vec<f64> = (0..=1000).map(|k| k as f64 * 0.01).collect();
+/// let y: Vec<f64> = t.iter().map(|t| 1.0 - (-t).exp()).collect();
+/// let s = skyloop_lti::timeresp::stepinfo(&t, &y, Some(1.0));
+/// // First order: rise ln 9 = 2.197 s, 2 % settling ln 50 = 3.912 s, no overshoot.
+/// assert!((s.rise_time_s.unwrap() - 9f64.ln()).abs() < 1e-3);
+/// assert!((s.settling_time_s.unwrap() - 50f64.ln()).abs() < 1e-3);
+/// assert_eq!(s.overshoot_pct, Some(0.0));
+/// ```
+pub fn stepinfo(t: &[f64], y: &[f64], final_value: Option<f64>) -> StepInfo {
+    let n = t.len().min(y.len());
+    let (t, y) = (&t[..n], &y[..n]);
+    let yf = final_value.unwrap_or_else(|| y.last().copied().unwrap_or(f64::NAN));
+    let mut info = StepInfo::new(yf);
+    let peak = (0..n)
+        .filter(|&k| y[k].is_finite())
+        .max_by(|&a, &b| y[a].abs().total_cmp(&y[b].abs()));
+    info.peak = peak.map(|k| (y[k], t[k]));
+    if !(yf.is_finite() && yf != 0.0) || n < 2 {
+        return info;
+    }
+    // Work on y/yf so that a negative final value reads the same way as a positive one.
+    let r: Vec<f64> = y.iter().map(|v| v / yf).collect();
+    let cross = |level: f64| {
+        (1..n).find_map(|k| {
+            (r[k - 1] < level && r[k] >= level)
+                .then(|| t[k - 1] + (level - r[k - 1]) / (r[k] - r[k - 1]) * (t[k] - t[k - 1]))
+        })
+    };
+    let (lo, hi) = info.rise_limits;
+    let t_lo = if r[0] >= lo { Some(t[0]) } else { cross(lo) };
+    info.rise_time_s = match (t_lo, cross(hi)) {
+        (Some(a), Some(b)) => Some(b - a),
+        _ => None,
+    };
+    let band = info.settling_band;
+    info.settling_time_s = match (0..n).rev().find(|&k| (r[k] - 1.0).abs() > band) {
+        None => Some(t[0]),
+        // Still outside the band at the end of the window: not settled.
+        Some(k) if k + 1 == n => None,
+        Some(k) => {
+            // Interpolate where the response enters the band for the last time.
+            let edge = if r[k] > 1.0 { 1.0 + band } else { 1.0 - band };
+            let f = (edge - r[k]) / (r[k + 1] - r[k]);
+            Some(t[k] + f.clamp(0.0, 1.0) * (t[k + 1] - t[k]))
+        }
+    };
+    let max_r = r.iter().copied().filter(|v| v.is_finite()).fold(f64::NEG_INFINITY, f64::max);
+    let min_r = r.iter().copied().filter(|v| v.is_finite()).fold(f64::INFINITY, f64::min);
+    info.overshoot_pct = Some(100.0 * (max_r - 1.0).max(0.0));
+    // `+ 0.0` turns a −0 (a response starting exactly at 0) into 0.
+    info.undershoot_pct = Some(100.0 * (-min_r).max(0.0) + 0.0);
+    info
+}
+
+#[cfg(test)]
+mod stepinfo_tests {
+    use super::*;
+
+    /// Second order, ζ = 0.5, ωn = 1: overshoot exp(−πζ/√(1−ζ²)) = 16.30 %, peak at π/ωd = 3.628 s.
+    #[test]
+    fn second_order_matches_closed_forms() {
+        let g = crate::expr::parse_model("1/(s^2+s+1)").unwrap();
+        let t: Vec<f64> = (0..=4000).map(|k| k as f64 * 0.005).collect();
+        let r = step(&g, Some(&t)).unwrap();
+        let s = stepinfo(&t, &r.y[0][0], Some(1.0));
+        assert!((s.overshoot_pct.unwrap() - 16.303).abs() < 0.01, "{s:?}");
+        let (peak, tp) = s.peak.unwrap();
+        assert!((peak - 1.16303).abs() < 1e-4 && (tp - 3.6276).abs() < 0.006, "{s:?}");
+        // scipy.signal.step on a 5e-5 s grid, crossings interpolated: rise 1.6376 s, last exit from
+        // the 2 % band at 8.0763 s.
+        assert!((s.rise_time_s.unwrap() - 1.6376).abs() < 2e-3, "{s:?}");
+        assert!((s.settling_time_s.unwrap() - 8.0763).abs() < 1e-2, "{s:?}");
+        assert_eq!(s.undershoot_pct, Some(0.0));
+    }
+
+    /// A non-minimum-phase response dips the wrong way first; a negative gain reads the same.
+    #[test]
+    fn undershoot_and_negative_gain() {
+        let g = crate::expr::parse_model("-(1-s)/((s+1)*(0.5*s+1))").unwrap();
+        let t: Vec<f64> = (0..=3000).map(|k| k as f64 * 0.005).collect();
+        let r = step(&g, Some(&t)).unwrap();
+        let s = stepinfo(&t, &r.y[0][0], Some(-1.0));
+        let us = s.undershoot_pct.unwrap();
+        assert!(us > 5.0 && us < 50.0, "{s:?}");
+        assert!(s.rise_time_s.is_some() && s.settling_time_s.is_some());
+    }
+
+    /// Not settled in the window, and a zero final value: honest Nones.
+    #[test]
+    fn unsettled_and_zero_final() {
+        let t: Vec<f64> = (0..100).map(|k| k as f64 * 0.1).collect();
+        let ramp: Vec<f64> = t.clone();
+        let s = stepinfo(&t, &ramp, Some(20.0));
+        assert_eq!(s.settling_time_s, None);
+        let z = stepinfo(&t, &vec![0.0; 100], Some(0.0));
+        assert_eq!(z.rise_time_s, None);
+        assert_eq!(z.overshoot_pct, None);
+    }
+}

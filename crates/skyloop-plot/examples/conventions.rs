@@ -17,7 +17,7 @@ use skyloop_plot::nichols::{nichols_figure, DEFAULT_M_DB};
 use skyloop_plot::nyquist::{nyquist_figure, NyquistData};
 use skyloop_plot::pzmap::{pzmap_figure, rlocus_figure, PoleZeroData, RootLocusData};
 use skyloop_plot::sigma::{sigma_figure, SigmaData};
-use skyloop_plot::traces::{step_figure, StepInfo, Trace};
+use skyloop_plot::traces::{step_figure, Trace};
 use skyloop_plot::Report;
 
 fn plant(s: C) -> C {
@@ -210,7 +210,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .iter()
         .map(|t| 1.0 - (-z * wn * t).exp() * ((wdd * t).cos() + z / (1.0 - z * z).sqrt() * (wdd * t).sin()))
         .collect();
-    let info = stepinfo(&t, &y, 1.0);
+    let info = skyloop_lti::timeresp::stepinfo(&t, &y, Some(1.0));
     let step = step_figure(
         "Step response with its characteristics",
         &[Trace {
@@ -286,32 +286,3 @@ fn roots(c: &[f64]) -> Vec<C> {
     z
 }
 
-/// MATLAB-style step characteristics of a trace with final value `yf`.
-fn stepinfo(t: &[f64], y: &[f64], yf: f64) -> StepInfo {
-    let cross = |level: f64| {
-        (1..t.len()).find_map(|i| {
-            (y[i - 1] < level && y[i] >= level)
-                .then(|| t[i - 1] + (level - y[i - 1]) / (y[i] - y[i - 1]) * (t[i] - t[i - 1]))
-        })
-    };
-    let rise = match (cross(0.1 * yf), cross(0.9 * yf)) {
-        (Some(a), Some(b)) => Some(b - a),
-        _ => None,
-    };
-    let (ip, peak) = y.iter().enumerate().fold(
-        (0, f64::NEG_INFINITY),
-        |(bi, bv), (i, v)| if *v > bv { (i, *v) } else { (bi, bv) },
-    );
-    let settle = (0..t.len())
-        .rev()
-        .find(|&i| (y[i] - yf).abs() > 0.02 * yf.abs())
-        .map(|i| t[(i + 1).min(t.len() - 1)]);
-    StepInfo {
-        rise_time_s: rise,
-        settling_time_s: settle,
-        overshoot_pct: Some(100.0 * ((peak - yf) / yf).max(0.0)),
-        undershoot_pct: None,
-        peak: Some((peak, t[ip])),
-        ..StepInfo::new(yf)
-    }
-}

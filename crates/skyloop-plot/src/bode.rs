@@ -273,6 +273,20 @@ pub fn bode_mimo_figure(title: &str, systems: &[Vec<Vec<BodeData>>], names: &IoN
                 series.color = Some(*s);
             }
             mag.title = format!("from {} to {}", names.input(j), names.output(i));
+            let zero = data.iter().all(|d| d.mag_db.iter().all(|m| !m.is_finite()));
+            if zero {
+                // An identically zero channel (e.g. off the diagonal): empty axes over the others'
+                // frequencies, as MATLAB draws it, instead of a curve at −∞.
+                let f = systems.iter().flatten().flatten().flat_map(|d| d.freq_hz.iter().copied());
+                let (lo, hi) = f
+                    .filter(|v| *v > 0.0 && v.is_finite())
+                    .fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
+                mag.title.push_str(" (zero)");
+                mag.x_range = Some((lo, hi));
+                mag.y_range = Some((-40.0, 0.0));
+                phase.x_range = Some((lo, hi));
+                phase.y_range = Some((-180.0, 180.0));
+            }
             // Axis descriptions once per row and column keep small panels readable.
             mag.x_label.clear();
             if i + 1 != ny {

@@ -306,7 +306,9 @@ impl Figure {
                     .zip(&s.y)
                     .any(|(x, y)| usable(*x, p.x_log) && usable(*y, p.y_log))
             });
-            if !finite {
+            // A panel whose axes the caller fixed may be empty on purpose (a zero channel of a MIMO
+            // grid); any other empty panel is a caller's mistake.
+            if !finite && (p.x_range.is_none() || p.y_range.is_none()) {
                 return Err(PlotError::Data(format!(
                     "panel '{}' has no finite data to draw",
                     p.title

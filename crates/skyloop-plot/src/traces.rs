@@ -68,44 +68,8 @@ pub fn plot_step(path: &Path, title: &str, traces: &[Trace]) -> Result<()> {
     traces_figure(title, &[panel]).save(path)
 }
 
-/// Step-response characteristics to mark on a step trace, as MATLAB's `stepinfo` reports them; each
-/// is optional and drawn with its value. Times in seconds, the overshoot and undershoot in percent of
-/// the final value.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct StepInfo {
-    /// The value the response settles to (the reference for the percentages and the band).
-    pub final_value: f64,
-    /// Rise time, s: from `rise_limits.0` to `rise_limits.1` of the final value.
-    pub rise_time_s: Option<f64>,
-    /// Fractions of the final value between which the rise time is measured (MATLAB: 0.1, 0.9).
-    pub rise_limits: (f64, f64),
-    /// Settling time, s: after it the response stays within `settling_band` of the final value.
-    pub settling_time_s: Option<f64>,
-    /// Half-width of the settling band as a fraction of the final value (MATLAB: 0.02).
-    pub settling_band: f64,
-    /// Overshoot, % of the final value.
-    pub overshoot_pct: Option<f64>,
-    /// Undershoot (the largest excursion below zero for a positive final value), %.
-    pub undershoot_pct: Option<f64>,
-    /// Peak value and its time, s.
-    pub peak: Option<(f64, f64)>,
-}
-
-impl StepInfo {
-    /// No characteristics yet, MATLAB's limits (10–90 % rise, 2 % settling) and the final value.
-    pub fn new(final_value: f64) -> Self {
-        StepInfo {
-            final_value,
-            rise_time_s: None,
-            rise_limits: (0.1, 0.9),
-            settling_time_s: None,
-            settling_band: 0.02,
-            overshoot_pct: None,
-            undershoot_pct: None,
-            peak: None,
-        }
-    }
-}
+/// Step-response characteristics to mark on a step trace: the analysis crate's `stepinfo` result.
+pub use skyloop_lti::timeresp::StepInfo;
 
 /// The first time (interpolated) at which `y` reaches `level` going the way of `sign`.
 fn first_crossing(t: &[f64], y: &[f64], level: f64) -> Option<f64> {

@@ -168,6 +168,8 @@ impl Scenario {
 
     /// Checks what can be checked without building.
     pub fn validate(&self) -> Result<()> {
+        let tree = toml::Value::try_from(self).map_err(|e| SimError::Scenario(e.to_string()))?;
+        check_numbers(&tree, "")?;
         check_pos(self.sim.duration_s, "sim.duration_s")?;
         check_pos(self.sim.physics_hz, "sim.physics_hz")?;
         if self.sim.duration_s * self.sim.physics_hz > 1e9 {
@@ -181,6 +183,41 @@ impl Scenario {
         }
         Ok(())
     }
+}
+
+/// Every number of a scenario must be finite, and every limit (a key with `max` in its name: rate,
+/// torque, tilt, thrust, deflection limits) ≥ 0: a NaN or a negative limit would otherwise reach
+/// `f64::clamp` deep in a run and abort it, or silently disable the limit.
+fn check_numbers(v: &toml::Value, path: &str) -> Result<()> {
+    let is_limit = path.rsplit('.').next().is_some_and(|k| k.contains("max"));
+    match v {
+        toml::Value::Float(x) => {
+            if !x.is_finite() {
+                return Err(SimError::Param(format!("{path} = {x} (must be finite)")));
+            }
+            if is_limit && *x < 0.0 {
+                return Err(SimError::Param(format!("{path} = {x} (a limit must be ≥ 0)")));
+            }
+        }
+        toml::Value::Integer(x) if is_limit && *x < 0 => {
+            return Err(SimError::Param(format!("{path} = {x} (a limit must be ≥ 0)")));
+        }
+        toml::Value::Array(items) => {
+            for (i, item) in items.iter().enumerate() {
+                // Elements of a limit array are limits too: keep the key's name last.
+                let p = if matches!(item, toml::Value::Table(_)) { format!("{path}[{i}]") } else { path.to_string() };
+                check_numbers(item, &p)?;
+            }
+        }
+        toml::Value::Table(t) => {
+            for (k, item) in t {
+                let p = if path.is_empty() { k.clone() } else { format!("{path}.{k}") };
+                check_numbers(item, &p)?;
+            }
+        }
+        _ => {}
+    }
+    Ok(())
 }
 
 /// Monte Carlo settings as written in a scenario.
@@ -201,4 +238,24 @@ pub struct MonteCarloSpec {
     /// Relative standard deviation of disturbance magnitudes.
     #[serde(default)]
     pub disturbance_sd: f64,
+}
+
+#[cfg(test)]
+mod number_tests {
+    use super::*;
+
+    #[test]
+    fn nan_and_negative_limits_are_named() {
+        let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/bicopter-hinf.toml"))
+            .expect("example");
+        Scenario::from_toml(&text).expect("the example is valid");
+        let bad = text.replacen("max_rate_rad_s = 4.0", "max_rate_rad_s = -4.0", 1);
+        assert_ne!(bad, text);
+        let e = Scenario::from_toml(&bad).unwrap_err().to_string();
+        assert!(e.contains("controller.max_rate_rad_s") && e.contains("≥ 0"), "{e}");
+        let bad = text.replacen("duration_s = 8.0", "duration_s = nan", 1);
+        assert_ne!(bad, text);
+        let e = Scenario::from_toml(&bad).unwrap_err().to_string();
+        assert!(e.contains("sim.duration_s") && e.contains("finite"), "{e}");
+    }
 }

@@ -76,6 +76,8 @@
 pub mod design;
 pub mod error;
 pub mod export;
+pub mod figures;
+pub mod flightlog;
 pub mod identify;
 pub mod model;
 pub mod papers;

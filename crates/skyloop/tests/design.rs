@@ -87,7 +87,7 @@ fn given_controller_is_analysed() {
          [synthesis]\nmethod = \"given\"\ncontroller = \"{EQ12}\"\n[discretize]\nrate_hz = 250\n"
     );
     let r = design(&spec(&text).expect("spec")).expect("design");
-    let m = r.summary.stages[0].margins;
+    let m = &r.summary.stages[0].margins;
     // Eq. (8)·eq. (12): PM 65.8° at 1.47 Hz, GM 7.25 dB (paper Step 4) — read with the exact delay.
     assert!((m.phase_margin_deg - 65.8).abs() < 0.2, "{m:?}");
     assert!((m.crossover_hz - 1.47).abs() < 0.01, "{m:?}");
@@ -133,4 +133,19 @@ fn bad_specs_name_the_key() {
     assert!(e.contains("plant"), "{e}");
     let e = err(&BICOPTER.replace("method = \"balanced\"", "method = \"hankel\""));
     assert!(e.contains("reduction.method"), "{e}");
+}
+
+/// An improper complementary-sensitivity weight W_T = (s+10)/50 (the textbook form) is synthesized
+/// with a roll-off two decades above the plant, and the summary says so; the loop of the rate-loop
+/// problem is stable with the exact delay.
+#[test]
+fn mixsyn_rolls_off_an_improper_weight_and_says_so() {
+    let text = "[plant]\nmodel = \"800*exp(-0.012*s)/(0.04*s+1)\"\n[synthesis]\nmethod = \"mixsyn\"\n\
+                ws = \"6.283/(s+0.006283)\"\nwks = \"250\"\nwt = \"(s+10)/50\"\n";
+    let r = design(&spec(text).expect("spec")).expect("design");
+    assert_eq!(r.summary.notes.len(), 1, "{:?}", r.summary.notes);
+    assert!(r.summary.notes[0].contains("synthesis.wt") && r.summary.notes[0].contains("roll-off"));
+    let st = &r.summary.stages[0];
+    assert!(st.margins.stable, "{:?}", st.margins);
+    assert!(st.gamma.is_some_and(|g| g.is_finite()));
 }

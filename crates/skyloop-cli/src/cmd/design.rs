@@ -64,14 +64,17 @@ fn print_table(r: &DesignResult) {
         "boost gain {:.6}   fast controller modes residualized {}",
         s.boost_gain, s.fast_modes_removed
     );
+    for n in &s.notes {
+        eprintln!("note: {n}");
+    }
     println!(
-        "{:<10} {:>5} {:>9} {:>8} {:>9} {:>9} {:>9} {:>9} {:>10}",
-        "step", "order", "gamma", "b(P,C)", "PM deg", "fc Hz", "GM dB", "fGM Hz", "disk alpha"
+        "{:<10} {:>5} {:>9} {:>8} {:>9} {:>9} {:>9} {:>9} {:>10} {:>9} {:>7} {:>7}",
+        "step", "order", "gamma", "b(P,C)", "PM deg", "fc Hz", "GM dB", "fGM Hz", "disk alpha", "DM ms", "Ms", "Mt"
     );
     for st in &s.stages {
         let m = &st.margins;
         println!(
-            "{:<10} {:>5} {:>9} {:>8.4} {:>9.2} {:>9.4} {:>9.3} {:>9.4} {:>10.4}{}",
+            "{:<10} {:>5} {:>9} {:>8.4} {:>9.2} {:>9.4} {:>9.3} {:>9.4} {:>10.4} {:>9.1} {:>7.3} {:>7.3}{}",
             st.stage,
             st.order,
             opt(st.gamma, 4),
@@ -81,8 +84,18 @@ fn print_table(r: &DesignResult) {
             m.gain_margin_db,
             m.gain_margin_freq_hz,
             m.disk_alpha,
+            1e3 * m.delay_margin_s,
+            m.ms,
+            m.mt,
             if m.stable { "" } else { "  UNSTABLE" }
         );
+    }
+    for st in &s.stages {
+        let m = &st.margins;
+        if m.gain_crossovers_hz.len() > 1 {
+            let list: Vec<String> = m.gain_crossovers_hz.iter().map(|f| format!("{f:.3}")).collect();
+            println!("{}: the loop crosses 0 dB {} times, at {} Hz", st.stage, list.len(), list.join(", "));
+        }
     }
     if let Some(c) = &s.reduced_vs_full {
         println!(

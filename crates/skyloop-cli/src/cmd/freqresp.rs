@@ -64,21 +64,12 @@ pub fn run(a: Args) -> skyloop::Result<()> {
         eprintln!("bench_seconds {best:e}");
     }
     let g = skyloop::lti::freqresp::freqresp(&sys, &w)?;
-    let part = |f: fn(&skyloop::lti::c64) -> f64| -> Vec<Vec<Vec<f64>>> {
-        g.iter()
-            .map(|m| {
-                (0..m.nrows())
-                    .map(|i| (0..m.ncols()).map(|j| f(&m[(i, j)])).collect())
-                    .collect()
-            })
-            .collect()
-    };
     if a.json {
-        return output::print_json(&serde_json::json!({
-            "freq_hz": freq_hz,
-            "re": part(|z| z.re),
-            "im": part(|z| z.im),
-        }));
+        return output::print_json(&Response {
+            freq_hz: &freq_hz,
+            re: Part { g: &g, f: |z| z.re },
+            im: Part { g: &g, f: |z| z.im },
+        });
     }
     println!(
         "{:>14} {:>8} {:>14} {:>14} {:>12} {:>12}",
@@ -101,4 +92,32 @@ pub fn run(a: Args) -> skyloop::Result<()> {
         }
     }
     Ok(())
+}
+
+/// The JSON of a response, serialized from the matrices as they are (no nested copies).
+#[derive(serde::Serialize)]
+struct Response<'a> {
+    freq_hz: &'a [f64],
+    re: Part<'a>,
+    im: Part<'a>,
+}
+
+/// One part (real or imaginary) of every response matrix, as `[frequency][output][input]`.
+struct Part<'a> {
+    g: &'a [skyloop::lti::Mat<skyloop::lti::c64>],
+    f: fn(&skyloop::lti::c64) -> f64,
+}
+
+impl serde::Serialize for Part<'_> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeSeq;
+        let mut freqs = s.serialize_seq(Some(self.g.len()))?;
+        for m in self.g {
+            let rows: Vec<Vec<f64>> = (0..m.nrows())
+                .map(|i| (0..m.ncols()).map(|j| (self.f)(&m[(i, j)])).collect())
+                .collect();
+            freqs.serialize_element(&rows)?;
+        }
+        freqs.end()
+    }
 }

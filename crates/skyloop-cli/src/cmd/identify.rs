@@ -1,26 +1,30 @@
-//! `skyloop identify DATA --input COL --output COL [--excitation COL] [--method ..] [--model EXPR
-//! --init ..]`: frequency response from a log (open loop, or closed loop with a measured excitation),
-//! optionally a parametric fit; `--json` prints `{"frf": {...}, "fit": {...}}`.
+//! `skyloop identify LOG --axis roll|pitch|yaw` (the pilot's preset) or `skyloop identify DATA --input
+//! COL --output COL [--excitation COL] [--method ..] [--model EXPR --init ..]`: frequency response
+//! from a log (open loop, or closed loop with the setpoint as instrument), a parametric fit with
+//! honest errors and a held-out validation; `--json` prints the fields of
+//! [`skyloop::identify::Identification::to_json`]. Warnings go to stderr as `warning: ...` lines.
 
 use std::path::PathBuf;
 
 use crate::output::print_json;
-use skyloop::identify::{identify, plot_identification, IdentifyRequest};
-use skyloop::sysid::fit::{FitResult, TfFit};
-use skyloop::sysid::spectral::Frf;
+use skyloop::identify::{identify, plot_identification, Identification, IdentifyRequest};
 
 /// Arguments of `skyloop identify`.
 #[derive(clap::Args)]
 pub struct Args {
     /// Log file: CSV with a time_s column, PX4 ULog, or Betaflight blackbox.
     data: PathBuf,
+    /// roll, pitch or yaw: the firmware's rate-loop channels (PID sum → gyro, setpoint as instrument),
+    /// all airborne segments and the model K*exp(-Td*s)/(s*(tau*s+1)); other flags override it.
+    #[arg(long)]
+    axis: Option<String>,
     /// Plant input column (e.g. `axisP[0]+axisI[0]+axisD[0]+axisF[0]`, `actuator_controls_0.control[0]`).
     #[arg(long)]
-    input: String,
+    input: Option<String>,
     /// Plant output column (e.g. `gyroADC[0]`, `vehicle_angular_velocity.xyz[0]`).
     #[arg(long)]
-    output: String,
-    /// Measured excitation for a closed-loop estimate G = Φ_yr/Φ_ur.
+    output: Option<String>,
+    /// Measured excitation (instrument) for a closed-loop estimate G = Φ_yr/Φ_ur; `none` for open loop.
     #[arg(long)]
     excitation: Option<String>,
     /// etfe, welch, spa or spafdr.
@@ -89,6 +93,12 @@ pub struct Args {
     /// Largest delay the rational fit considers, s.
     #[arg(long, default_value_t = 0.1)]
     max_delay_s: f64,
+    /// Blocks of the jackknife errors and the held-out validation (2..=64; 0: off).
+    #[arg(long, default_value_t = 8)]
+    blocks: usize,
+    /// Report a fit whose fit percentage is below 0 instead of failing.
+    #[arg(long)]
+    allow_poor_fit: bool,
     /// Write the measured FRF with its 95 % band and the fitted models to this SVG/PNG.
     #[arg(long)]
     plot: Option<PathBuf>,
@@ -102,6 +112,7 @@ pub fn run(a: Args) -> skyloop::Result<()> {
     let (plot, json) = (a.plot.clone(), a.json);
     let req = IdentifyRequest {
         data: a.data,
+        axis: a.axis,
         input: a.input,
         output: a.output,
         excitation: a.excitation,
@@ -127,10 +138,15 @@ pub fn run(a: Args) -> skyloop::Result<()> {
         tf: a.tf,
         delay_s: a.delay_s,
         max_delay_s: a.max_delay_s,
+        blocks: a.blocks,
+        allow_poor_fit: a.allow_poor_fit,
     };
     let id = identify(&req)?;
     for n in &id.notes {
         eprintln!("{n}");
+    }
+    for w in &id.warnings {
+        eprintln!("warning: {w}");
     }
     if let Some(p) = &plot {
         plot_identification(p, &id)?;
@@ -139,11 +155,12 @@ pub fn run(a: Args) -> skyloop::Result<()> {
     if json {
         return print_json(&id.to_json());
     }
-    print_table(&id.frf, id.fit.as_ref().map(|f| &f.1), id.tf.as_ref());
+    print_table(&id);
     Ok(())
 }
 
-fn print_table(frf: &Frf, fit: Option<&FitResult>, tf: Option<&TfFit>) {
+fn print_table(id: &Identification) {
+    let (frf, fit, tf) = (&id.frf, id.fit.as_ref().map(|f| &f.1), id.tf.as_ref());
     println!(
         "{:>10} {:>12} {:>11} {:>10}",
         "freq_hz", "mag_db", "phase_deg", "coherence"
@@ -161,12 +178,32 @@ fn print_table(frf: &Frf, fit: Option<&FitResult>, tf: Option<&TfFit>) {
             r.fit_percent,
             if r.converged { "" } else { " (iteration limit reached)" }
         );
+        let unit = |k: &str| {
+            id.units
+                .as_ref()
+                .and_then(|u| u.params.get(k))
+                .map(|u| format!(" {u}"))
+                .unwrap_or_default()
+        };
         for (k, v) in &r.params {
-            println!("  {k} = {v:.6} ± {:.3e}", r.stderr[k]);
+            println!("  {k} = {v:.6} ± {:.3e}{}", r.stderr[k], unit(k));
         }
         if !r.at_bounds.is_empty() {
             println!("  at a bound: {}", r.at_bounds.join(", "));
         }
+    }
+    if !id.segments.is_empty() {
+        let total: f64 = id.segments.iter().map(|s| s.to_s - s.from_s).sum();
+        println!("segments: {} ({total:.1} s)", id.segments.len());
+    }
+    if let Some((lo, hi)) = id.coherent_band_hz {
+        println!("coherent band: {lo:.2} .. {hi:.2} Hz");
+    }
+    if let Some(v) = &id.validation {
+        println!(
+            "validation (held-out blocks {:?}): fit {:.1} %, FRF residual {:.3} (training fit {:.1} %)",
+            v.test_blocks, v.fit_percent, v.frf_residual, v.train_fit_percent
+        );
     }
     if let Some(t) = tf {
         println!(

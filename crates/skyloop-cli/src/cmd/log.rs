@@ -1,7 +1,11 @@
-//! `skyloop log info FILE`: topics/fields, rates and duration of a ULog, blackbox or CSV log.
+//! `skyloop log info FILE`: topics/fields, rates, duration and the firmware's tuning of a ULog,
+//! blackbox or CSV log; `skyloop log export FILE --fields .. --out F.csv`: raw channels as CSV;
+//! `skyloop log plot FILE --fields .. --out F.png|svg`: channels against time, airborne segments shaded.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
+use skyloop::flightlog::{export_csv, plot_fields};
+use skyloop::sysid::logs::tuning::FirmwareTuning;
 use skyloop::sysid::logs::{blackbox, detect, Log, LogFormat, OpenOptions};
 
 use crate::output::print_json;
@@ -26,18 +30,82 @@ enum Action {
         #[arg(long)]
         json: bool,
     },
+    /// Write time_s (the flight controller's clock, s) and the fields as CSV, one row per logged
+    /// frame, values as decoded (no resampling); the fields must share one group (ULog: one topic).
+    Export {
+        /// The log file.
+        file: PathBuf,
+        /// Blackbox session (counted from 1); default: the longest.
+        #[arg(long)]
+        session: Option<usize>,
+        /// Comma-separated field names, as `log info` lists them.
+        #[arg(long, value_delimiter = ',', required = true)]
+        fields: Vec<String>,
+        /// Output CSV file.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Plot fields against time (s from the log start), one panel each, with the airborne segments
+    /// that `identify --axis` would use shaded.
+    Plot {
+        /// The log file.
+        file: PathBuf,
+        /// Blackbox session (counted from 1); default: the longest.
+        #[arg(long)]
+        session: Option<usize>,
+        /// Comma-separated field names (sums such as axisP[0]+axisI[0] allowed).
+        #[arg(long, value_delimiter = ',', required = true)]
+        fields: Vec<String>,
+        /// Output .png or .svg.
+        #[arg(long)]
+        out: PathBuf,
+    },
 }
 
-/// Reads the log and prints its summary.
-pub fn run(a: Args) -> skyloop::Result<()> {
-    let Action::Info { file, session, json } = a.action;
-    let log = Log::open(
-        &file,
+fn open(file: &Path, session: Option<usize>) -> skyloop::Result<Log> {
+    Ok(Log::open(
+        file,
         &OpenOptions {
             session,
             ..Default::default()
         },
-    )?;
+    )?)
+}
+
+/// Runs a `log` action.
+pub fn run(a: Args) -> skyloop::Result<()> {
+    match a.action {
+        Action::Info { file, session, json } => info(&file, session, json),
+        Action::Export {
+            file,
+            session,
+            fields,
+            out,
+        } => {
+            let log = open(&file, session)?;
+            let rows = export_csv(&log, &fields, &out)?;
+            eprintln!("wrote {} ({rows} rows)", out.display());
+            Ok(())
+        }
+        Action::Plot {
+            file,
+            session,
+            fields,
+            out,
+        } => {
+            let log = open(&file, session)?;
+            let spans = plot_fields(&log, &fields, &out)?;
+            eprintln!("wrote {} ({} airborne segments shaded)", out.display(), spans.len());
+            Ok(())
+        }
+    }
+}
+
+/// Reads the log and prints its summary.
+fn info(file: &Path, session: Option<usize>, json: bool) -> skyloop::Result<()> {
+    let file = file.to_path_buf();
+    let log = open(&file, session)?;
+    let tuning = FirmwareTuning::from_log(&log);
     let sessions = if log.format == LogFormat::Blackbox {
         let bytes = std::fs::read(&file).map_err(|e| format!("cannot read {}: {e}", file.display()))?;
         debug_assert_eq!(detect(&bytes), LogFormat::Blackbox);
@@ -54,6 +122,7 @@ pub fn run(a: Args) -> skyloop::Result<()> {
             "notes": log.notes,
             "groups": groups,
             "sessions": sessions,
+            "tuning": tuning,
         });
         return print_json(&v);
     }
@@ -73,6 +142,9 @@ pub fn run(a: Args) -> skyloop::Result<()> {
             }
         }
     }
+    if let Some(t) = &tuning {
+        print_tuning(t);
+    }
     for g in &groups {
         println!(
             "{}  ({} samples, {:.1} Hz, {:.2} s)",
@@ -83,4 +155,75 @@ pub fn run(a: Args) -> skyloop::Result<()> {
         }
     }
     Ok(())
+}
+
+fn opt(x: Option<f64>) -> String {
+    x.map_or("-".to_string(), |v| format!("{v}"))
+}
+
+fn print_tuning(t: &FirmwareTuning) {
+    match t {
+        FirmwareTuning::Betaflight(b) => {
+            println!("tuning ({}):", b.firmware_revision);
+            for (axis, g) in ["roll", "pitch", "yaw"].iter().zip(&b.pidf) {
+                println!(
+                    "  {axis:<5} P {} I {} D {} F {} d_min {}",
+                    g.p,
+                    g.i,
+                    g.d,
+                    opt(g.f),
+                    opt(g.d_min)
+                );
+            }
+            let lp = |name: &str, l: &Option<skyloop::sysid::logs::tuning::Lowpass>| match l {
+                Some(l) => println!(
+                    "  {name}: {} {} Hz{}",
+                    l.kind,
+                    l.cutoff_hz,
+                    l.dynamic_hz.map(|(a, b)| format!(" (dynamic {a}..{b} Hz)")).unwrap_or_default()
+                ),
+                None => println!("  {name}: off"),
+            };
+            lp("gyro lowpass", &b.gyro_lowpass);
+            lp("gyro lowpass 2", &b.gyro_lowpass2);
+            lp("D-term lowpass", &b.dterm_lowpass);
+            lp("D-term lowpass 2", &b.dterm_lowpass2);
+            match &b.dynamic_notch {
+                Some(n) => println!("  dynamic notch: {}..{} Hz, Q {}", n.min_hz, n.max_hz, opt(n.q)),
+                None => println!("  dynamic notch: off"),
+            }
+            match &b.rpm_filter {
+                Some(r) => println!("  RPM filter: {} harmonics, Q {}, min {} Hz", r.harmonics, opt(r.q), opt(r.min_hz)),
+                None => println!("  RPM filter: off"),
+            }
+            println!(
+                "  loop: gyro {} Hz, PID {} Hz; TPA {} % from {} us; d_min gain {}, advance {}",
+                opt(b.gyro_rate_hz),
+                opt(b.pid_rate_hz),
+                opt(b.tpa_rate_percent),
+                opt(b.tpa_breakpoint_us),
+                opt(b.d_min_gain),
+                opt(b.d_min_advance)
+            );
+        }
+        FirmwareTuning::Px4(p) => {
+            println!("tuning (PX4 parameters):");
+            for (axis, g) in ["ROLL", "PITCH", "YAW"].iter().zip(&p.rate) {
+                println!(
+                    "  MC_{axis}RATE_  K {} P {} I {} D {} FF {}",
+                    opt(g.k),
+                    opt(g.p),
+                    opt(g.i),
+                    opt(g.d),
+                    opt(g.ff)
+                );
+            }
+            println!(
+                "  IMU_GYRO_CUTOFF {} Hz, IMU_DGYRO_CUTOFF {} Hz, IMU_GYRO_RATEMAX {} Hz",
+                opt(p.gyro_cutoff_hz),
+                opt(p.dgyro_cutoff_hz),
+                opt(p.gyro_rate_max_hz)
+            );
+        }
+    }
 }

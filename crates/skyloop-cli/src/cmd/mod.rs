@@ -14,14 +14,17 @@ mod mu;
 mod musyn;
 mod ncfsyn;
 mod norm;
+mod nichols;
 mod nyquist;
 mod pade;
 mod plot_args;
 mod poles;
+mod pzmap;
 mod reduce;
 mod reproduce;
 mod roots_out;
 mod show;
+mod sigma;
 mod signal;
 mod simulate;
 mod step;
@@ -42,6 +45,14 @@ pub enum Command {
     Bode(bode::Args),
     /// Nyquist plot of one or more SISO loop transfers to an SVG or PNG file.
     Nyquist(nyquist::Args),
+    /// Singular values of the frequency response (dB vs Hz) of one or more models (MATLAB sigma).
+    Sigma(sigma::Args),
+    /// Nichols chart (open-loop gain dB vs phase deg, with M-circles) of SISO loop transfers.
+    Nichols(nichols::Args),
+    /// Pole-zero map of one or more models (imaginary axis, or unit circle when discrete).
+    Pzmap(pzmap::Args),
+    /// Root locus of a SISO loop transfer under a swept gain k (closed loop 1 + k·L = 0).
+    Rlocus(pzmap::RlocusArgs),
     /// Structured singular value (mu) bounds of a model against a block structure, over frequency.
     Mu(mu::Args),
     /// H∞ norm with its peak frequency, and the H2 norm (null where infinite).
@@ -91,6 +102,10 @@ pub fn run(cmd: Command) -> skyloop::Result<()> {
         Command::Step(a) => step::run(a),
         Command::Bode(a) => bode::run(a),
         Command::Nyquist(a) => nyquist::run(a),
+        Command::Sigma(a) => sigma::run(a),
+        Command::Nichols(a) => nichols::run(a),
+        Command::Pzmap(a) => pzmap::run(a),
+        Command::Rlocus(a) => pzmap::run_rlocus(a),
         Command::Mu(a) => mu::run(a),
         Command::Norm(a) => norm::run(a),
         Command::Signal(a) => signal::run(a),

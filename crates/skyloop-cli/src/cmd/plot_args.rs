@@ -1,14 +1,48 @@
-//! Arguments and helpers shared by the plotting subcommands (`bode`, `nyquist`, `step`).
+//! Arguments shared by the plotting subcommands (`bode`, `sigma`, `nichols`, `nyquist`, `pzmap`,
+//! `rlocus`, `step`): models with their legend names, an output file, a frequency range.
 
-use skyloop::lti::StateSpace;
+use skyloop::figures::{short_label, Labeled};
+use skyloop::plot::figure::Figure;
 
-/// What every plotting subcommand takes: models, an output file and a frequency range.
+/// Models and their legend names.
 #[derive(clap::Args)]
-pub struct PlotArgs {
+pub struct ModelArgs {
     /// Transfer-function expressions or paths to LTI JSON files; each becomes one curve.
     #[arg(required = true)]
     pub models: Vec<String>,
-    /// Output file; `.svg` or `.png`.
+    /// Legend name of each model, in order (repeat the flag); default: the text of the model.
+    #[arg(long = "label")]
+    pub labels: Vec<String>,
+}
+
+impl ModelArgs {
+    /// Loads every model with its legend name.
+    pub fn load(&self) -> skyloop::Result<Vec<Labeled>> {
+        if self.labels.len() > self.models.len() {
+            return Err(format!(
+                "--label given {} times for {} models",
+                self.labels.len(),
+                self.models.len()
+            )
+            .into());
+        }
+        self.models
+            .iter()
+            .enumerate()
+            .map(|(k, m)| {
+                let label = self.labels.get(k).cloned().unwrap_or_else(|| short_label(m));
+                Ok(Labeled::new(label, skyloop::model::load_model(m)?))
+            })
+            .collect()
+    }
+}
+
+/// What every frequency-plot subcommand takes: models, an output file and a frequency range.
+#[derive(clap::Args)]
+pub struct PlotArgs {
+    #[command(flatten)]
+    pub models: ModelArgs,
+    /// Output file; `.svg`, `.png` or `.html` (interactive: zoom, hover values).
     #[arg(long)]
     pub out: std::path::PathBuf,
     /// Plot title (defaults to the subcommand's name).
@@ -26,67 +60,25 @@ pub struct PlotArgs {
 }
 
 impl PlotArgs {
-    /// Loads every model, labelled by the text the user gave for it.
-    pub fn load(&self) -> skyloop::Result<Vec<(String, StateSpace)>> {
-        self.models
-            .iter()
-            .map(|m| Ok((label(m), skyloop::model::load_model(m)?)))
-            .collect()
+    /// The models and one log-spaced grid (rad/s) covering them, or the user's range.
+    pub fn load(&self) -> skyloop::Result<(Vec<Labeled>, Vec<f64>)> {
+        let models = self.models.load()?;
+        let w = skyloop::figures::frequency_grid(&models, self.hz_min, self.hz_max, self.points)?;
+        Ok((models, w))
     }
 
-    /// One log-spaced grid (rad/s) covering every model, or the user's range.
-    pub fn grid(&self, models: &[(String, StateSpace)]) -> skyloop::Result<Vec<f64>> {
-        if self.points < 2 {
-            return Err("--points must be at least 2".into());
-        }
-        let two_pi = 2.0 * std::f64::consts::PI;
-        let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
-        for (_, m) in models {
-            let g = skyloop::lti::freqresp::default_grid(m, 2)?;
-            lo = lo.min(g[0]);
-            hi = hi.max(g[g.len() - 1]);
-        }
-        if let Some(f) = self.hz_min {
-            lo = f * two_pi;
-        }
-        if let Some(f) = self.hz_max {
-            hi = f * two_pi;
-        }
-        if !(lo > 0.0 && hi > lo && hi.is_finite()) {
-            return Err(format!(
-                "frequency range must satisfy 0 < hz-min < hz-max, got {} .. {} Hz",
-                lo / two_pi,
-                hi / two_pi
-            )
-            .into());
-        }
-        Ok(skyloop::lti::freqresp::logspace(lo.log10(), hi.log10(), self.points))
-    }
-
-    /// The title, or `default` when none was given.
-    pub fn title_or(&self, default: &str) -> String {
-        self.title.clone().unwrap_or_else(|| default.to_string())
+    /// Writes the figure under the user's title (if any) and says where.
+    pub fn save(&self, fig: Figure) -> skyloop::Result<()> {
+        save(fig, self.title.as_deref(), &self.out)
     }
 }
 
-/// A legend label for a model argument: the expression itself, its middle elided when long (products
-/// of models often share a long prefix, so both ends are kept).
-pub fn label(arg: &str) -> String {
-    let chars: Vec<char> = arg.chars().collect();
-    if chars.len() > 48 {
-        let head: String = chars[..22].iter().collect();
-        let tail: String = chars[chars.len() - 22..].iter().collect();
-        format!("{head}…{tail}")
-    } else {
-        arg.to_string()
+/// Writes a figure (`.svg`, `.png`, or `.html` for the interactive page), retitled when asked.
+pub fn save(mut fig: Figure, title: Option<&str>, out: &std::path::Path) -> skyloop::Result<()> {
+    if let Some(t) = title {
+        fig.title = t.to_string();
     }
-}
-
-/// Channel suffix for MIMO curves (empty for SISO).
-pub fn channel(sys: &StateSpace, i: usize, j: usize) -> String {
-    if sys.ny() * sys.nu() > 1 {
-        format!(" [out {} ← in {}]", i + 1, j + 1)
-    } else {
-        String::new()
-    }
+    skyloop::figures::save(&fig, out)?;
+    eprintln!("wrote {}", out.display());
+    Ok(())
 }

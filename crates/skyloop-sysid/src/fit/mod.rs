@@ -11,7 +11,7 @@ pub use skyloop_linalg::lm;
 pub mod model;
 pub mod tfest;
 
-pub use model::{fit_expr, ParamSpec};
+pub use model::{evaluate, fit_expr, Evaluation, ParamSpec};
 pub use tfest::{fit_tf, DelaySpec, TfFit};
 
 use std::collections::BTreeMap;

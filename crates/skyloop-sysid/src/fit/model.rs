@@ -35,6 +35,44 @@ impl ParamSpec {
     }
 }
 
+/// How well a model with given parameters matches a measured response.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Evaluation {
+    /// 100·(1 − ‖G_data − G_model‖/‖G_data − mean G_data‖), percent (MATLAB's NRMSE fit).
+    pub fit_percent: f64,
+    /// Root mean square of |ln(G_model/G_data)| over the points (unweighted; 0.1 is about 0.9 dB or
+    /// 5.7° of combined magnitude and phase error).
+    pub log_residual_rms: f64,
+    /// Number of points compared.
+    pub points: usize,
+}
+
+/// Compares `model` at `params` with `frf` on the points [`FitOptions`] selects (its band; weights
+/// are not used).
+///
+/// # Errors
+/// No point in the band, or a model that cannot be evaluated.
+pub fn evaluate(frf: &Frf, model: &Expr, params: &BTreeMap<String, f64>, o: &FitOptions) -> Result<Evaluation> {
+    let target = Target::new(frf, o)?;
+    let map: HashMap<String, f64> = params.iter().map(|(k, v)| (k.clone(), *v)).collect();
+    let m = target
+        .w
+        .iter()
+        .map(|w| {
+            model
+                .eval(C64::new(0.0, *w), &map)
+                .map_err(|e| SysidError::InvalidArgument(e.to_string()))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let n = m.len();
+    let ss: f64 = m.iter().zip(&target.g).map(|(gm, gd)| (gm / gd).ln().norm_sqr()).sum();
+    Ok(Evaluation {
+        fit_percent: target.fit_percent(&m),
+        log_residual_rms: (ss / n as f64).sqrt(),
+        points: n,
+    })
+}
+
 /// Fits `model`'s parameters to `frf`; every parameter of the expression needs a [`ParamSpec`].
 pub fn fit_expr(frf: &Frf, model: &Expr, params: &[ParamSpec], o: &FitOptions) -> Result<FitResult> {
     let names = model.params();

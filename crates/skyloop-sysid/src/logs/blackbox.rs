@@ -206,6 +206,8 @@ fn to_log(raw: &RawSession, source: &str) -> Result<Log> {
         format: LogFormat::Blackbox,
         groups,
         notes: notes_of(raw, last_s),
+        clock_origin_s: t0 as f64 * 1e-6,
+        settings: h.lines.iter().map(|(k, v)| (k.clone(), v.trim().to_string())).collect(),
     })
 }
 

@@ -100,6 +100,8 @@ pub fn read_str(text: &str, source: &str, time_column: Option<&str>) -> Result<L
             channels,
         }],
         notes: Vec::new(),
+        settings: Vec::new(),
+        clock_origin_s: 0.0,
     })
 }
 

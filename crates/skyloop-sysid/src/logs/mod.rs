@@ -14,6 +14,8 @@
 
 pub mod blackbox;
 pub mod csv;
+pub mod flight;
+pub mod tuning;
 pub mod ulog;
 pub mod uniform;
 
@@ -68,6 +70,13 @@ pub struct Log {
     pub groups: Vec<Group>,
     /// Warnings such as "log truncated after 12.3 s: data read up to there".
     pub notes: Vec<String>,
+    /// The firmware's settings as the log records them, in file order (a later entry overrides an
+    /// earlier one of the same name): blackbox `H name:value` header lines (value as written), ULog
+    /// parameters (value as decimal text, the last value logged). Empty for CSV.
+    pub settings: Vec<(String, String)>,
+    /// The flight controller's clock at time 0 of [`Group::time_s`], s: a sample's time as the firmware
+    /// logged it is `time_s + clock_origin_s` (0 for CSV, whose times are as in the file).
+    pub clock_origin_s: f64,
 }
 
 /// Options for [`Log::open`].
@@ -120,6 +129,15 @@ impl Log {
             .iter()
             .flat_map(|g| g.channels.iter().map(move |c| full_name(g, &c.name)))
             .collect()
+    }
+
+    /// The last value recorded for setting `name` (see [`Log::settings`]).
+    pub fn setting(&self, name: &str) -> Option<&str> {
+        self.settings
+            .iter()
+            .rev()
+            .find(|(k, _)| k == name)
+            .map(|(_, v)| v.as_str())
     }
 
     /// Per-group summaries (fields, rate, duration).

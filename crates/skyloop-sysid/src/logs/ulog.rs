@@ -18,7 +18,7 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use px4_ulog::stream_parser::model::DropoutMessage;
-use px4_ulog::stream_parser::model::{DataMessage, FlattenedFieldType};
+use px4_ulog::stream_parser::model::{DataMessage, FlattenedFieldType, ParameterMessage};
 use px4_ulog::stream_parser::LogParser;
 
 mod guard;
@@ -196,6 +196,7 @@ pub fn read_bytes(bytes: &[u8], source: &str) -> Result<Log> {
     let mut builders: Vec<Builder> = Vec::new();
     let mut short = 0usize;
     let mut dropouts_ms = 0u64;
+    let mut settings: Vec<(String, String)> = Vec::new();
     let safe = guard::safe_ranges(bytes);
     // The guard keeps px4-ulog away from every record it is known to panic on; catch_unwind stays as
     // a last line of defence (its panic message would still reach stderr, hence the guard).
@@ -213,9 +214,16 @@ pub fn read_bytes(bytes: &[u8], source: &str) -> Result<Log> {
             }
         };
         let mut on_dropout = |d: &DropoutMessage| dropouts_ms += u64::from(d.duration_ms);
+        let mut on_param = |p: &ParameterMessage| {
+            settings.push(match p {
+                ParameterMessage::Float(k, v, _) => (k.to_string(), v.to_string()),
+                ParameterMessage::Int32(k, v, _) => (k.to_string(), v.to_string()),
+            })
+        };
         let mut parser = LogParser::default();
         parser.set_data_message_callback(&mut on_data);
         parser.set_dropout_message_callback(&mut on_dropout);
+        parser.set_parameter_message_callback(&mut on_param);
         for (i, &(a, b)) in safe.ranges.iter().enumerate() {
             if i > 0 {
                 // An appended section starts a fresh record stream.
@@ -340,6 +348,8 @@ pub fn read_bytes(bytes: &[u8], source: &str) -> Result<Log> {
         format: LogFormat::Ulog,
         groups,
         notes,
+        settings,
+        clock_origin_s: t0 as f64 * 1e-6,
     };
     super::check_not_empty(&log)?;
     Ok(log)

@@ -49,6 +49,38 @@ impl UniformData {
         })
     }
 
+    /// Every column's samples in `ranges`, joined end to end: each segment's own mean removed (separate
+    /// flight segments sit at different trims) and its first and last `taper` samples faded in and out
+    /// by a raised cosine, so that no segment starts or ends with a step. A step at a join would put
+    /// broadband power into input, output and instrument alike that the plant did not make, and bias
+    /// the estimate; the taper costs only the ramps' share of the data. Ranges outside the data are
+    /// clipped; empty ones are skipped.
+    pub fn segments_joined(&self, ranges: &[Range<usize>], taper: usize) -> Vec<Vec<f64>> {
+        self.columns
+            .iter()
+            .map(|c| {
+                let mut out = Vec::new();
+                for r in ranges {
+                    let r = r.start.min(c.len())..r.end.min(c.len());
+                    if r.is_empty() {
+                        continue;
+                    }
+                    let mut seg = c[r].to_vec();
+                    detrend(&mut seg, Detrend::Mean);
+                    let n = seg.len();
+                    let m = taper.min(n / 2);
+                    for i in 0..m {
+                        let w = 0.5 * (1.0 - (std::f64::consts::PI * (i as f64 + 0.5) / m as f64).cos());
+                        seg[i] *= w;
+                        seg[n - 1 - i] *= w;
+                    }
+                    out.extend(seg);
+                }
+                out
+            })
+            .collect()
+    }
+
     /// The column called `name`.
     pub fn column(&self, name: &str) -> Result<&[f64]> {
         self.names

@@ -88,6 +88,7 @@ pub fn chirp(spec: &ChirpSpec, rate_hz: f64) -> Result<Signal> {
             rate_hz
         )));
     }
+    super::check_samples(spec.duration_s, rate_hz, "chirp")?;
     let n = (spec.duration_s * rate_hz).round() as usize;
     let a1 = spec.amplitude_end.unwrap_or(spec.amplitude);
     let values = (0..n)

@@ -36,6 +36,7 @@ pub fn multisine(spec: &MultisineSpec, rate_hz: f64) -> Result<Signal> {
             rate_hz / 2.0
         )));
     }
+    super::check_samples(spec.period_s * spec.periods as f64, rate_hz, "multisine")?;
     let n_per = (spec.period_s * rate_hz).round() as usize;
     let period = n_per as f64 / rate_hz;
     let k0 = (spec.f_min_hz * period).ceil().max(1.0) as usize;

@@ -69,10 +69,17 @@ pub fn prbs(spec: &PrbsSpec, rate_hz: f64) -> Result<Signal> {
         return Err(invalid("PRBS amplitude must be finite"));
     }
     let seq = mls(spec.order)?;
-    let total = seq.len() * spec.samples_per_bit * spec.periods;
-    if total > 100_000_000 {
-        return Err(invalid(format!("PRBS of {total} samples is too long")));
+    let total = (seq.len() as f64) * (spec.samples_per_bit as f64) * (spec.periods as f64);
+    if total > super::MAX_SIGNAL_SAMPLES {
+        return Err(invalid(format!(
+            "PRBS of {total:.3e} samples (order {}, {} samples per bit, {} periods) is above the limit of {:e}",
+            spec.order,
+            spec.samples_per_bit,
+            spec.periods,
+            super::MAX_SIGNAL_SAMPLES
+        )));
     }
+    let total = total as usize;
     let mut values = Vec::with_capacity(total);
     for _ in 0..spec.periods {
         for &b in &seq {

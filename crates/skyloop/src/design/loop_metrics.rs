@@ -17,8 +17,9 @@ pub(crate) fn hz(w_rad_s: f64) -> f64 {
     w_rad_s / (2.0 * PI)
 }
 
-/// Classic (MATLAB `margin`) and symmetric disk margins of L = P·C, read with the exact delays.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+/// Classic (MATLAB `margin`) and symmetric disk margins of L = P·C, read with the exact delays,
+/// every gain crossover, and the sensitivity peaks Ms and Mt.
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct LoopMargins {
     /// Closed loop 1/(1 + L) stable (Nyquist, exact delays).
     pub stable: bool,
@@ -40,6 +41,19 @@ pub struct LoopMargins {
     pub disk_phase_deg: f64,
     /// Frequency of the smallest disk margin, Hz.
     pub disk_freq_hz: f64,
+    /// Every gain crossover |L| = 1, Hz, increasing (a loop that crosses 0 dB again above the
+    /// crossover has its delay margin set there).
+    pub gain_crossovers_hz: Vec<f64>,
+    /// The phase margin at each of `gain_crossovers_hz`, degrees.
+    pub phase_margins_deg: Vec<f64>,
+    /// Ms = max |S(jω)| = max 1/|1 + L|, absolute (1/Ms is the distance of L to −1).
+    pub ms: f64,
+    /// Frequency of Ms, Hz.
+    pub ms_freq_hz: f64,
+    /// Mt = max |T(jω)| = max |L/(1 + L)|, absolute.
+    pub mt: f64,
+    /// Frequency of Mt, Hz.
+    pub mt_freq_hz: f64,
 }
 
 /// Margins of L = P·C (`p` may carry exact delays).
@@ -48,6 +62,9 @@ pub fn loop_margins(p: &StateSpace, c: &StateSpace) -> Result<LoopMargins> {
     let all = allmargin(&l)?;
     let m = margin_from(&all);
     let dm = diskmargin(&l)?;
+    let peaks = sensitivity_peaks(&l)?;
+    let mut crossings: Vec<(f64, f64)> = all.phase_margins.iter().map(|p| (hz(p.w_rad_s), p.pm_deg)).collect();
+    crossings.sort_by(|a, b| a.0.total_cmp(&b.0));
     Ok(LoopMargins {
         stable: all.stable,
         phase_margin_deg: m.pm_deg,
@@ -59,7 +76,48 @@ pub fn loop_margins(p: &StateSpace, c: &StateSpace) -> Result<LoopMargins> {
         disk_gain_db: dm.gain_db,
         disk_phase_deg: dm.phase_deg,
         disk_freq_hz: hz(dm.w_rad_s),
+        gain_crossovers_hz: crossings.iter().map(|c| c.0).collect(),
+        phase_margins_deg: crossings.iter().map(|c| c.1).collect(),
+        ms: peaks[0].0,
+        ms_freq_hz: hz(peaks[0].1),
+        mt: peaks[1].0,
+        mt_freq_hz: hz(peaks[1].1),
     })
+}
+
+/// [(Ms, ω), (Mt, ω)] of a SISO loop `l` (exact delays), ω in rad/s: the peaks of |1/(1 + L)| and
+/// |L/(1 + L)| on a grid of 80 points per decade over the loop's dynamics ±3 decades, each refined
+/// by golden-section search between its grid neighbours. Meaningful for a stable closed loop.
+pub fn sensitivity_peaks(l: &StateSpace) -> Result<[(f64, f64); 2]> {
+    let mut ls = Siso::new(l)?;
+    let (lo, hi) = dynamics_range(l)?;
+    let mut f = |w: f64| -> [f64; 2] {
+        match ls.at(w) {
+            Ok(v) => {
+                let s = 1.0 / (1.0 + v);
+                [s.norm(), (v * s).norm()]
+            }
+            // A grid point on an integrator's pole: |S| = 0 and |T| = 1 there.
+            Err(_) => [0.0, 1.0],
+        }
+    };
+    let (a, b) = ((lo * 1e-3).log10(), (hi * 1e3).log10());
+    let grid = logspace(a, b, ((b - a) * 80.0).ceil().max(50.0) as usize);
+    let vals: Vec<[f64; 2]> = grid.iter().map(|&w| f(w)).collect();
+    let mut out = [(0.0, 0.0); 2];
+    for (j, o) in out.iter_mut().enumerate() {
+        let (k, best) = vals
+            .iter()
+            .enumerate()
+            .map(|(k, v)| (k, v[j]))
+            .max_by(|x, y| x.1.total_cmp(&y.1))
+            .ok_or_else(|| LtiError::Numerical("empty frequency grid".into()))?;
+        let a = grid[k.saturating_sub(1)].ln();
+        let b = grid[(k + 1).min(grid.len() - 1)].ln();
+        let (x, refined) = golden_max(|x| f(x.exp())[j], a, b, 1e-10);
+        *o = if refined > best { (refined, x.exp()) } else { (best, grid[k]) };
+    }
+    Ok(out)
 }
 
 /// True when the negative-feedback loop of the rational `p` and `c` is internally stable (every
@@ -292,4 +350,32 @@ pub fn crossover_limits(p: &StateSpace, crossover_hz: f64) -> Result<CrossoverLi
         crossover_hz,
         within_limits,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// L = 1/(s(s+1)): T = 1/(s²+s+1) peaks at 1/(2ζ√(1−ζ²)) = 2/√3 at ω = 1/√2 (ζ = 1/2), and
+    /// |S|² = x(x+1)/(x²−x+1) with x = ω² peaks at x = (1+√3)/2.
+    #[test]
+    fn peaks_match_closed_forms() {
+        let l = skyloop_lti::expr::parse_model("1/(s*(s+1))").unwrap();
+        let [(ms, wms), (mt, wmt)] = sensitivity_peaks(&l).unwrap();
+        assert!((mt - 2.0 / 3f64.sqrt()).abs() < 1e-9, "Mt {mt}");
+        assert!((wmt - 0.5f64.sqrt()).abs() < 1e-4, "ω {wmt}");
+        let x: f64 = (1.0 + 3f64.sqrt()) / 2.0;
+        let ms_exact = (x * (x + 1.0) / (x * x - x + 1.0)).sqrt();
+        assert!((ms - ms_exact).abs() < 1e-9, "Ms {ms} vs {ms_exact}");
+        assert!((wms - x.sqrt()).abs() < 1e-4);
+    }
+
+    /// A delay leaves |L| alone but moves the phase: the peaks follow the exact delayed loop.
+    #[test]
+    fn delay_raises_ms() {
+        let a = skyloop_lti::expr::parse_model("1/(s*(s+1))").unwrap();
+        let b = skyloop_lti::expr::parse_model("exp(-0.3*s)/(s*(s+1))").unwrap();
+        let (ma, mb) = (sensitivity_peaks(&a).unwrap()[0].0, sensitivity_peaks(&b).unwrap()[0].0);
+        assert!(mb > ma + 0.3, "{ma} {mb}");
+    }
 }

@@ -80,6 +80,9 @@ pub struct DesignSummary {
     pub discrete: Option<DiscreteSummary>,
     /// Crossover of the final loop against the RHP-zero and delay limits.
     pub limits: CrossoverLimits,
+    /// What the pipeline changed in the problem on its own (e.g. a roll-off added to an improper
+    /// weight), one sentence each.
+    pub notes: Vec<String>,
 }
 
 /// The controllers and models of a design, with its summary.
@@ -210,6 +213,7 @@ pub fn design(spec: &DesignSpec) -> crate::error::Result<DesignResult> {
     };
 
     // Step 1: synthesis.
+    let mut notes: Vec<String> = Vec::new();
     let mut gamma_min = None;
     let mut factor = None;
     let (mut w1, mut w2) = (None, None);
@@ -229,9 +233,30 @@ pub fn design(spec: &DesignSpec) -> crate::error::Result<DesignResult> {
             (sol.controller, Some(sol.gamma))
         }
         SynthesisMethod::Mixsyn => {
-            let ws = load("synthesis.ws", &syn.ws)?;
-            let wks = load("synthesis.wks", &syn.wks)?;
-            let wt = load("synthesis.wt", &syn.wt)?;
+            // An improper weight (W_T = s/ω_T is the textbook one) gets the roll-off MATLAB's
+            // users add by hand, two decades above the plant's fastest dynamics, and a note says so.
+            let roll_w = 100.0 * skyloop_lti::freqresp::dynamics_range(&plant_rational)?.1;
+            let mut proper = |key: &str, text: &Option<String>| -> Result<Option<StateSpace>> {
+                let Some(t) = text.as_deref() else { return Ok(None) };
+                match spec.load_model(key, t) {
+                    Err(e) if e.to_string().contains("improper") => {
+                        for k in 1..=4 {
+                            let rolled = format!("({t})/(s/{roll_w:.6e}+1)^{k}");
+                            if let Ok(m) = spec.load_model(key, &rolled) {
+                                notes.push(format!(
+                                    "{key} = \"{t}\" is improper; synthesized with {key} = \"{rolled}\" (a roll-off of order {k} at {roll_w:.4e} rad/s, two decades above the plant's fastest dynamics; give a proper weight to choose it yourself)"
+                                ));
+                                return Ok(Some(m));
+                            }
+                        }
+                        Err(e)
+                    }
+                    r => r.map(Some),
+                }
+            };
+            let ws = proper("synthesis.ws", &syn.ws)?;
+            let wks = proper("synthesis.wks", &syn.wks)?;
+            let wt = proper("synthesis.wt", &syn.wt)?;
             let sol = mixsyn(
                 &plant_rational,
                 ws.as_ref(),
@@ -401,6 +426,7 @@ pub fn design(spec: &DesignSpec) -> crate::error::Result<DesignResult> {
         factor,
         boost_gain,
         fast_modes_removed,
+        notes,
         stages,
         hsv,
         reduction_error_bound,

@@ -5,11 +5,10 @@
 use super::{DesignResult, StageSummary};
 use crate::error::{Error, Result};
 use skyloop_lti::freqresp::{logspace, unwrap_rad, FreqEvaluator};
-use skyloop_lti::interconnect::{feedback, series};
+use skyloop_lti::interconnect::series;
 use skyloop_lti::json::LtiJson;
-use skyloop_lti::{c64, Mat, StateSpace};
+use skyloop_lti::{c64, StateSpace};
 use skyloop_plot::bode::{bode_figure, BodeData, BodeMarks};
-use skyloop_plot::traces::{traces_figure, Trace, TracePanel};
 use skyloop_plot::{Figure, Marker, Panel, Report, Series};
 use std::f64::consts::PI;
 use std::path::Path;
@@ -134,28 +133,81 @@ pub fn figures(r: &DesignResult) -> Result<Vec<(String, Figure, String)>> {
         "P(1+Δ)·C stays stable for any |Δ(jω)| below this curve (paper eq. (13)).".to_string(),
     ));
 
-    // Closed-loop step of T with the Padé plant (a delay inside a loop has no state-space form).
-    let l = series(final_c, &r.plant_rational)?;
-    let one = StateSpace::gain(Mat::identity(1, 1), 0.0)?;
-    let cl = feedback(&l, &one, -1.0)?;
-    let grid = skyloop_lti::timeresp::auto_grid(&cl, None)?;
-    let st = skyloop_lti::timeresp::step(&cl, Some(&grid))?;
-    let panel = TracePanel {
-        y_label: "output y".into(),
-        traces: vec![Trace {
-            label: "y for r = 1 (final controller)".into(),
-            t: st.t_s.clone(),
-            y: st.y[0][0].clone(),
-        }],
-        references: vec![(1.0, "r".into())],
-    };
+    // Closed-loop step of T = L/(1+L) with the exact plant delay (a delay-line simulation), with
+    // its stepinfo marks, on a window fitted to the dominant dynamics.
+    let l = crate::figures::Labeled::new("y for r = 1 (final controller)", series(final_c, &r.plant)?);
+    let (mut fig, runs) = crate::figures::step(std::slice::from_ref(&l), true, None)?;
+    fig.title = "Closed-loop step response T = PC/(1+PC)".into();
+    let info = &runs[0].info[0][0];
     out.push((
         "step".to_string(),
-        traces_figure("Closed-loop step response T = PC/(1+PC)", &[panel]),
-        "Unit reference step through the final continuous controller (plant delay as its Padé approximant)."
-            .to_string(),
+        fig,
+        format!(
+            "Unit reference step through the final continuous controller, exact plant delay: rise {} s, 2 % settling {} s, overshoot {} %.",
+            fmt_opt(info.rise_time_s, 3),
+            fmt_opt(info.settling_time_s, 3),
+            fmt_opt(info.overshoot_pct, 1)
+        ),
     ));
     Ok(out)
+}
+
+/// One row of the per-step table: every number in the unit its header names.
+fn stage_row(st: &StageSummary) -> Vec<String> {
+    let m = &st.margins;
+    let crossings = if m.gain_crossovers_hz.is_empty() {
+        "none".to_string()
+    } else {
+        m.gain_crossovers_hz
+            .iter()
+            .zip(&m.phase_margins_deg)
+            .map(|(f, pm)| format!("{f:.3} ({pm:.1})"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let at = |v: f64, f: f64, p: usize| {
+        if v.is_finite() {
+            format!("{v:.p$} at {f:.3}")
+        } else {
+            "∞".to_string()
+        }
+    };
+    let inf_or = |v: f64, p: usize| if v.is_finite() { format!("{v:.p$}") } else { "∞".into() };
+    vec![
+        st.stage.clone(),
+        st.order.to_string(),
+        fmt_opt(st.gamma, 4),
+        format!("{:.4}", st.ncf_margin),
+        at(m.phase_margin_deg, m.crossover_hz, 2),
+        crossings,
+        at(m.gain_margin_db, m.gain_margin_freq_hz, 2),
+        inf_or(1e3 * m.delay_margin_s, 1),
+        format!("{:.3}", m.disk_alpha),
+        format!("{} / +{}", inf_or(m.disk_gain_db[0], 2), inf_or(m.disk_gain_db[1], 2)),
+        format!("±{}", inf_or(m.disk_phase_deg, 1)),
+        format!("{:.3}", m.ms),
+        format!("{:.3}", m.mt),
+        if m.stable { "yes".into() } else { "NO".into() },
+    ]
+}
+
+/// What the report's quantities mean, for a reviewer who does not use them every day.
+fn glossary() -> Vec<(&'static str, String)> {
+    [
+        ("L, S, T", "loop transfer L = P·C; sensitivity S = 1/(1+L) (disturbance → output); complementary sensitivity T = L/(1+L) (reference → output, and the noise path)"),
+        ("γ", "the H∞ norm the synthesis reached: for loop shaping the 4-block norm of the shaped loop, for mixed sensitivity the weighted closed-loop norm; smaller is better, 1/γ is a robustness margin"),
+        ("b(P,C)", "the normalized-coprime-factor stability margin (MATLAB ncfmargin), 0 to 1: the loop stays stable for every plant within this ν-gap distance of P; above about 0.25 (γ below 4) is a good robust design"),
+        ("PM, GM", "classic phase and gain margins (MATLAB margin), read at the gain and phase crossovers with the exact delay"),
+        ("gain crossovers", "every frequency where |L| = 1; a loop that crosses 0 dB again above the first crossover has the delay margin set by the highest one"),
+        ("delay margin", "the extra loop delay that makes the loop unstable: the smallest PM/ω over all gain crossovers"),
+        ("disk α", "the symmetric disk margin (MATLAB diskmargin): the loop tolerates simultaneous gain and phase changes inside a disk of size α; it is shown as the equivalent gain range (dB) and phase (±deg)"),
+        ("Ms, Mt", "the peaks of |S| and |T|; 1/Ms is the shortest distance of L to −1; Ms ≤ 2 (6 dB) guarantees GM ≥ 6 dB and PM ≥ 29°, Ms ≤ 1.4 is a robust tune"),
+        ("reduced vs full", "the largest relative difference of the reduced controller from the full one over the band around crossover"),
+        ("Tustin error", "the discrete controller C(e^{jωT}) against C(jω); the prewarped comparison isolates rounding from Tustin's frequency warping"),
+    ]
+    .into_iter()
+    .map(|(k, v)| (k, v.to_string()))
+    .collect()
 }
 
 /// Writes the controllers, SOS coefficients, summary.json, one SVG per figure and report.html to `dir`.
@@ -203,43 +255,86 @@ pub fn write_outputs(r: &DesignResult, dir: &Path) -> Result<()> {
         ));
     }
     sec.key_values(&rows);
+    for n in &s.notes {
+        sec.text(format!("Note: {n}"));
+    }
+    sec.text(
+        "Margins after each design step, read on the loop L = P·C with the exact plant delay. \
+         Frequencies in Hz, times in ms, gains in dB, phases in degrees; Ms and Mt absolute (see the glossary).",
+    );
     sec.blocks.push(skyloop_plot::report::Block::Table {
         header: [
             "step",
             "order",
             "γ",
             "b(P,C)",
-            "PM [deg]",
-            "crossover [Hz]",
-            "GM [dB]",
+            "PM [deg] at [Hz]",
+            "all gain crossovers [Hz] (PM [deg])",
+            "GM [dB] at [Hz]",
+            "delay margin [ms]",
             "disk α",
+            "disk gain [dB]",
+            "disk phase [deg]",
+            "Ms",
+            "Mt",
+            "stable",
         ]
         .iter()
         .map(|h| h.to_string())
         .collect(),
-        rows: s
-            .stages
-            .iter()
-            .map(|st| {
-                vec![
-                    st.stage.clone(),
-                    st.order.to_string(),
-                    fmt_opt(st.gamma, 4),
-                    format!("{:.4}", st.ncf_margin),
-                    format!("{:.2}", st.margins.phase_margin_deg),
-                    format!("{:.4}", st.margins.crossover_hz),
-                    format!("{:.3}", st.margins.gain_margin_db),
-                    format!("{:.4}", st.margins.disk_alpha),
-                ]
-            })
-            .collect(),
+        rows: s.stages.iter().map(stage_row).collect(),
     });
+    let sec = rep.section("Controller");
+    let fc = r.final_continuous();
+    let zpk = crate::model::expressions(fc, crate::model::Form::Zpk)?;
+    sec.text(format!(
+        "Final continuous controller C(s), {} states, as zeros, poles and gain (parseable by every skyloop command):",
+        fc.nx()
+    ));
+    sec.blocks.push(skyloop_plot::report::Block::Pre(
+        zpk.iter().map(|row| row.join("    ")).collect::<Vec<_>>().join("\n"),
+    ));
+    let mut errs: Vec<(&str, String)> = Vec::new();
+    if let Some(c) = &s.reduced_vs_full {
+        errs.push((
+            "reduced vs full controller",
+            format!(
+                "max {:.1} % ({:.3} dB, {:.2}°) over {:.3}–{:.3} Hz; balanced-truncation bound {}",
+                100.0 * c.max_rel_error,
+                c.max_mag_error_db,
+                c.max_phase_error_deg,
+                c.from_hz,
+                c.to_hz,
+                fmt_opt(s.reduction_error_bound, 4)
+            ),
+        ));
+    }
+    if let Some(d) = &s.discrete {
+        let c = &d.vs_continuous;
+        errs.push((
+            "Tustin vs continuous controller",
+            format!(
+                "max {:.1} % ({:.3} dB, {:.2}°) up to {} Hz at {} Hz sampling; against the prewarped map {:.1e} (rounding only)",
+                100.0 * c.max_rel_error,
+                c.max_mag_error_db,
+                c.max_phase_error_deg,
+                c.to_hz,
+                d.rate_hz,
+                d.vs_warped.max_rel_error
+            ),
+        ));
+    }
+    if !errs.is_empty() {
+        sec.key_values(&errs);
+    }
     let sec = rep.section("Frequency and time responses");
     for (name, fig, caption) in figs {
         let path = dir.join(format!("{name}.svg"));
         fig.save(&path)?;
         sec.figure(fig, caption);
     }
+    let sec = rep.section("Glossary");
+    sec.key_values(&glossary());
     let path = dir.join("report.html");
     rep.save(&path)?;
     Ok(())

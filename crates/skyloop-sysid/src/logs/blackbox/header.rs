@@ -74,6 +74,9 @@ pub struct Header {
     pub defs: FrameDefs,
     /// Offset of the first byte after the header, from the session start.
     pub data_start: usize,
+    /// Every `H name:value` line in file order (value as written, untrimmed): the settings the
+    /// decoder does not need, such as the PID gains and filters [`crate::logs::tuning`] reads.
+    pub lines: Vec<(String, String)>,
 }
 
 /// Firmware family and version, from the `Firmware revision` (or `Firmware type`) header.
@@ -377,6 +380,7 @@ pub fn parse(session: &[u8]) -> Result<Header, HeaderError> {
             .map(|v| v as f64),
         defs,
         data_start: pos,
+        lines: raw,
     })
 }
 

@@ -1,0 +1,56 @@
+//! Best-of thread CPU times of `real_schur` on random matrices, with the backward error
+//! ‖A − QTQᵀ‖_F/‖A‖_F and the orthogonality ‖QᵀQ − I‖_F (for profiling and crossover checks;
+//! the comparison with LAPACK is `bench/compare.py`).
+//! Run: `cargo run --release -p skyloop-linalg --example time_schur -- [n...]`.
+#![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
+
+use faer::Mat;
+use skyloop_linalg::schur::real_schur;
+
+/// Seconds of CPU time consumed by this thread (wall time where that clock is unavailable).
+#[allow(unsafe_code)] // one libc call; std has no per-thread CPU clock
+fn now() -> f64 {
+    #[cfg(unix)]
+    {
+        let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+        // SAFETY: clock_gettime only writes the timespec it is given.
+        if unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) } == 0 {
+            return ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9;
+        }
+    }
+    use std::sync::OnceLock;
+    static T0: OnceLock<std::time::Instant> = OnceLock::new();
+    T0.get_or_init(std::time::Instant::now).elapsed().as_secs_f64()
+}
+
+/// Same deterministic matrix as `benches/riccati.rs`.
+fn random(n: usize, seed: u64) -> Mat<f64> {
+    let mut state = seed;
+    Mat::from_fn(n, n, |_, _| {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+    })
+}
+
+fn main() {
+    let sizes: Vec<usize> = std::env::args().skip(1).filter_map(|s| s.parse().ok()).collect();
+    let sizes = if sizes.is_empty() { vec![100, 400] } else { sizes };
+    for n in sizes {
+        let a = random(n, 7);
+        let reps = (4_000_000 / (n * n * n).max(1)).clamp(1, 50);
+        let mut best = f64::INFINITY;
+        let mut s = None;
+        for _ in 0..reps {
+            let t = now();
+            s = Some(real_schur(a.as_ref()).unwrap());
+            best = best.min(now() - t);
+        }
+        let s = s.unwrap();
+        let recon = &s.q * &s.t * s.q.transpose();
+        let berr = (&recon - &a).norm_l2() / a.norm_l2();
+        let orth = (s.q.transpose() * &s.q - Mat::<f64>::identity(n, n)).norm_l2();
+        println!("n={n} best={:.3} ms (of {reps}) backward={berr:.2e} orth={orth:.2e}", best * 1e3);
+    }
+}

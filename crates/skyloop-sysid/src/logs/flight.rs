@@ -1,0 +1,486 @@
+//! What a flight log holds for rate-loop identification: which firmware wrote it, which channels are
+//! the rate loop's input (the controller's output), output (the gyro) and instrument (the rate
+//! setpoint) on each axis, and the airborne segments in which the loop is flying and linear enough to
+//! identify (no idle throttle, no motor or gyro saturation, no crash tail).
+
+use std::ops::Range;
+
+use crate::error::{invalid, Result, SysidError};
+use crate::logs::{uniform, Log, LogFormat};
+
+/// A rate-loop axis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Axis {
+    /// Roll (body x), index 0.
+    Roll,
+    /// Pitch (body y), index 1.
+    Pitch,
+    /// Yaw (body z), index 2.
+    Yaw,
+}
+
+impl Axis {
+    /// 0, 1, 2 for roll, pitch, yaw: the index firmware uses in `gyroADC[i]`, `xyz[i]`.
+    pub fn index(self) -> usize {
+        match self {
+            Axis::Roll => 0,
+            Axis::Pitch => 1,
+            Axis::Yaw => 2,
+        }
+    }
+
+    /// "roll", "pitch" or "yaw".
+    pub fn name(self) -> &'static str {
+        ["roll", "pitch", "yaw"][self.index()]
+    }
+}
+
+impl std::str::FromStr for Axis {
+    type Err = SysidError;
+    fn from_str(s: &str) -> Result<Axis> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "roll" | "x" | "0" => Ok(Axis::Roll),
+            "pitch" | "y" | "1" => Ok(Axis::Pitch),
+            "yaw" | "z" | "2" => Ok(Axis::Yaw),
+            _ => Err(invalid(format!("unknown axis '{s}' (roll, pitch or yaw)"))),
+        }
+    }
+}
+
+/// The firmware family a log comes from, as far as its channel names and units go.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FlightFirmware {
+    /// Betaflight, and the forks that log its layout (INAV, EmuFlight): blackbox logs.
+    Betaflight,
+    /// PX4: ULog logs.
+    Px4,
+}
+
+impl FlightFirmware {
+    /// Recognises the firmware from the log's format; CSV logs carry no firmware and are refused.
+    pub fn of(log: &Log) -> Result<FlightFirmware> {
+        match log.format {
+            LogFormat::Blackbox => Ok(FlightFirmware::Betaflight),
+            LogFormat::Ulog => Ok(FlightFirmware::Px4),
+            LogFormat::Csv => Err(invalid(format!(
+                "{}: a CSV log names no firmware, so --axis cannot choose its channels; give --input, --output and --excitation",
+                log.source
+            ))),
+        }
+    }
+
+    /// "Betaflight" or "PX4".
+    pub fn name(self) -> &'static str {
+        match self {
+            FlightFirmware::Betaflight => "Betaflight",
+            FlightFirmware::Px4 => "PX4",
+        }
+    }
+}
+
+/// The channels of one axis' rate loop, as column specs [`Log::series`] accepts, with their units.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RateLoopChannels {
+    /// Which firmware wrote the log.
+    pub firmware: FlightFirmware,
+    /// Which axis.
+    pub axis: Axis,
+    /// Plant input: the rate controller's output (Betaflight's PID sum `axisP[i]+axisI[i]+axisD[i]+axisF[i]`
+    /// of the terms the log holds; PX4's `vehicle_torque_setpoint.xyz[i]` or, on older logs,
+    /// `actuator_controls_0.control[i]`).
+    pub input: String,
+    /// Plant output: the gyro (`gyroADC[i]`; `vehicle_angular_velocity.xyz[i]` or, on older logs,
+    /// `sensor_combined.gyro_rad[i]`).
+    pub output: String,
+    /// Instrument: the rate setpoint (`setpoint[i]`, or `rcCommand[i]` on logs without it;
+    /// `vehicle_rates_setpoint.roll|pitch|yaw`).
+    pub instrument: String,
+    /// Unit of the input ("PID unit" for Betaflight, "normalized torque" for PX4).
+    pub input_unit: &'static str,
+    /// Unit of the output ("deg/s" for Betaflight, "rad/s" for PX4).
+    pub output_unit: &'static str,
+}
+
+impl RateLoopChannels {
+    /// Unit of a rate-loop model's gain K in K·e^(−Td·s)/(s·(τs+1)): output acceleration per input
+    /// unit, e.g. "deg/s² per PID unit".
+    pub fn gain_unit(&self) -> String {
+        format!("{}² per {}", self.output_unit, self.input_unit)
+    }
+
+    /// Finds the channels of `axis` in `log`; errors name the channel the log lacks.
+    pub fn find(log: &Log, axis: Axis) -> Result<RateLoopChannels> {
+        let firmware = FlightFirmware::of(log)?;
+        let i = axis.index();
+        let has = |n: &str| log.channel(n).is_ok();
+        let first = |names: &[String], what: &str| -> Result<String> {
+            names.iter().find(|n| has(n)).cloned().ok_or_else(|| {
+                invalid(format!(
+                    "{}: no {what} channel for the {} axis (looked for {})",
+                    log.source,
+                    axis.name(),
+                    names.join(", ")
+                ))
+            })
+        };
+        match firmware {
+            FlightFirmware::Betaflight => {
+                // Betaflight does not log a term that is always zero (axisD[2] when yaw D is 0).
+                let terms: Vec<String> = ["axisP", "axisI", "axisD", "axisF"]
+                    .iter()
+                    .map(|t| format!("{t}[{i}]"))
+                    .filter(|n| has(n))
+                    .collect();
+                if terms.is_empty() {
+                    return Err(invalid(format!(
+                        "{}: no PID terms (axisP[{i}], axisI[{i}], ...) for the {} axis",
+                        log.source,
+                        axis.name()
+                    )));
+                }
+                Ok(RateLoopChannels {
+                    firmware,
+                    axis,
+                    input: terms.join("+"),
+                    output: first(&[format!("gyroADC[{i}]")], "gyro")?,
+                    instrument: first(&[format!("setpoint[{i}]"), format!("rcCommand[{i}]")], "setpoint")?,
+                    input_unit: "PID unit",
+                    output_unit: "deg/s",
+                })
+            }
+            FlightFirmware::Px4 => Ok(RateLoopChannels {
+                firmware,
+                axis,
+                input: first(
+                    &[
+                        format!("vehicle_torque_setpoint.xyz[{i}]"),
+                        format!("actuator_controls_0.control[{i}]"),
+                    ],
+                    "rate-controller output",
+                )?,
+                output: first(
+                    &[
+                        format!("vehicle_angular_velocity.xyz[{i}]"),
+                        format!("sensor_combined.gyro_rad[{i}]"),
+                    ],
+                    "gyro",
+                )?,
+                instrument: first(&[format!("vehicle_rates_setpoint.{}", axis.name())], "rate setpoint")?,
+                input_unit: "normalized torque",
+                output_unit: "rad/s",
+            }),
+        }
+    }
+}
+
+/// A stretch of a log, s (the log's own time axis).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Span {
+    /// Start, s.
+    pub from_s: f64,
+    /// End, s.
+    pub to_s: f64,
+}
+
+impl Span {
+    /// to_s − from_s, s.
+    pub fn len_s(&self) -> f64 {
+        self.to_s - self.from_s
+    }
+}
+
+/// A usable-range test on one channel: a sample is usable when `lo < value < hi`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Limit {
+    /// Channel (full name).
+    pub channel: String,
+    /// Exclusive lower limit (−∞ for none).
+    pub lo: f64,
+    /// Exclusive upper limit (+∞ for none).
+    pub hi: f64,
+    /// Why a sample outside is excluded, e.g. "idle throttle", "motor saturation".
+    pub reason: &'static str,
+}
+
+/// How airborne segments are found.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AirborneCriteria {
+    /// Every test a usable sample passes.
+    pub limits: Vec<Limit>,
+    /// Shortest segment kept, s (shorter ones carry too little low-frequency information).
+    pub min_len_s: f64,
+    /// Trimmed from both ends of every segment, s: take-off, landing and the entry into and exit from
+    /// saturation are transients the linear model does not describe.
+    pub margin_s: f64,
+    /// Trimmed from a segment that runs to the end of the log, s: a log that stops while flying
+    /// usually ends in a crash or a power loss, whose last moments are not flight.
+    pub crash_tail_s: f64,
+}
+
+/// Fraction of a motor output's range taken as "at the limit": mixer clipping makes the commanded
+/// torque differ from the one applied.
+const MOTOR_EDGE: f64 = 0.01;
+/// Betaflight's and PX4's usual gyro full scale is ±2000 deg/s; the last 2.5 % of it counts as saturated.
+const GYRO_FULL_SCALE_DEG_S: f64 = 2000.0;
+const GYRO_SATURATED: f64 = 0.975;
+
+impl AirborneCriteria {
+    /// The firmware's default tests for `log` (only channels the log holds are tested):
+    /// - Betaflight: throttle `rcCommand[3]` above 1050 (5 % of its 1000–2000 range), every `motor[k]`
+    ///   inside the `motorOutput` range less 1 % at either end, every |`gyroADC[i]`| below 1950 deg/s;
+    /// - PX4: `vehicle_land_detected.landed` false, collective thrust above 5 %
+    ///   (`vehicle_rates_setpoint.thrust_body[2]` or `actuator_controls_0.control[3]`),
+    ///   `actuator_motors.control[k]` inside (0.01, 0.99), |gyro| below 34 rad/s;
+    /// - 2 s shortest segment, 0.2 s margins, 1 s crash tail.
+    pub fn for_log(log: &Log) -> Result<AirborneCriteria> {
+        let firmware = FlightFirmware::of(log)?;
+        let has = |n: &str| log.channel(n).is_ok();
+        let mut limits = Vec::new();
+        let mut push = |channel: String, lo: f64, hi: f64, reason: &'static str| {
+            if has(&channel) {
+                limits.push(Limit { channel, lo, hi, reason });
+            }
+        };
+        match firmware {
+            FlightFirmware::Betaflight => {
+                push("rcCommand[3]".into(), 1050.0, f64::INFINITY, "idle throttle");
+                let (lo, hi) = log
+                    .setting("motorOutput")
+                    .and_then(|v| {
+                        let mut it = v.split(',').map(|x| x.trim().parse::<f64>().ok());
+                        Some((it.next()??, it.next()??))
+                    })
+                    .filter(|(a, b)| b > a)
+                    .unwrap_or((1000.0, 2000.0));
+                let edge = MOTOR_EDGE * (hi - lo);
+                for k in 0..8 {
+                    push(format!("motor[{k}]"), lo + edge, hi - edge, "motor saturation");
+                }
+                let g = GYRO_SATURATED * GYRO_FULL_SCALE_DEG_S;
+                for i in 0..3 {
+                    push(format!("gyroADC[{i}]"), -g, g, "gyro saturation");
+                }
+            }
+            FlightFirmware::Px4 => {
+                push("vehicle_land_detected.landed".into(), f64::NEG_INFINITY, 0.5, "landed");
+                if has("vehicle_rates_setpoint.thrust_body[2]") {
+                    // NED: upward thrust is negative z.
+                    push(
+                        "vehicle_rates_setpoint.thrust_body[2]".into(),
+                        f64::NEG_INFINITY,
+                        -0.05,
+                        "idle throttle",
+                    );
+                } else {
+                    push("actuator_controls_0.control[3]".into(), 0.05, f64::INFINITY, "idle throttle");
+                }
+                for k in 0..8 {
+                    push(
+                        format!("actuator_motors.control[{k}]"),
+                        MOTOR_EDGE,
+                        1.0 - MOTOR_EDGE,
+                        "motor saturation",
+                    );
+                }
+                let g = GYRO_SATURATED * GYRO_FULL_SCALE_DEG_S.to_radians();
+                for i in 0..3 {
+                    for n in [
+                        format!("vehicle_angular_velocity.xyz[{i}]"),
+                        format!("sensor_combined.gyro_rad[{i}]"),
+                    ] {
+                        push(n, -g, g, "gyro saturation");
+                    }
+                }
+            }
+        }
+        Ok(AirborneCriteria {
+            limits,
+            min_len_s: 2.0,
+            margin_s: 0.2,
+            crash_tail_s: 1.0,
+        })
+    }
+}
+
+/// The airborne segments and what was excluded.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Airborne {
+    /// The usable segments, in time order.
+    pub segments: Vec<Span>,
+    /// Seconds of the searched span excluded by each reason (a sample failing several tests counts
+    /// for each), in the order of the criteria.
+    pub excluded_s: Vec<(&'static str, f64)>,
+    /// The searched span, s.
+    pub searched: Span,
+}
+
+/// Finds the airborne segments of `log` within [from_s, to_s] on the time base of channel `base` (the
+/// identification's output channel; other channels are held at their last sample, so a slow flag
+/// such as PX4's 1 Hz `landed` applies until it changes).
+///
+/// # Errors
+/// A base channel the log lacks, or no segment of at least `min_len_s` (the message says how much
+/// each reason excluded).
+pub fn airborne_segments(
+    log: &Log,
+    base: &str,
+    c: &AirborneCriteria,
+    from_s: Option<f64>,
+    to_s: Option<f64>,
+) -> Result<Airborne> {
+    let (t_all, _) = log.series(base)?;
+    let lo = from_s.unwrap_or(f64::NEG_INFINITY);
+    let hi = to_s.unwrap_or(f64::INFINITY);
+    let t: Vec<f64> = t_all.iter().copied().filter(|&x| x >= lo && x <= hi).collect();
+    if t.len() < 2 {
+        return Err(SysidError::NotEnoughData(format!(
+            "{}: '{base}' has fewer than 2 samples in the selected span",
+            log.source
+        )));
+    }
+    let (t_first, t_last) = (t[0], t[t.len() - 1]);
+    let log_end = t_all.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let mut ok = vec![true; t.len()];
+    let mut excluded: Vec<(&'static str, f64)> = Vec::new();
+    let dt = (t_last - t_first) / (t.len() - 1) as f64;
+    for l in &c.limits {
+        let (tc, vc) = log.channel(&l.channel)?;
+        let (tc, vc) = uniform::sorted(tc, vc);
+        let held = hold_last(&tc, &vc, &t);
+        let mut bad = 0usize;
+        for (k, v) in held.iter().enumerate() {
+            if !(*v > l.lo && *v < l.hi) {
+                ok[k] = false;
+                bad += 1;
+            }
+        }
+        match excluded.iter_mut().find(|(r, _)| *r == l.reason) {
+            Some(e) => e.1 = e.1.max(bad as f64 * dt),
+            None => excluded.push((l.reason, bad as f64 * dt)),
+        }
+    }
+    let mut segments = Vec::new();
+    for r in runs(&ok) {
+        let mut a = t[r.start] + c.margin_s;
+        let mut b = t[r.end - 1] - c.margin_s;
+        // The run reaches the last sample of the log: it stopped in flight.
+        if r.end == t.len() && log_end - t_last <= 1.5 * dt {
+            b -= c.crash_tail_s;
+        }
+        a = a.max(t_first);
+        b = b.min(t_last);
+        if b - a >= c.min_len_s {
+            segments.push(Span { from_s: a, to_s: b });
+        }
+    }
+    let searched = Span {
+        from_s: t_first,
+        to_s: t_last,
+    };
+    if segments.is_empty() {
+        let why: Vec<String> = excluded
+            .iter()
+            .filter(|(_, s)| *s > 0.0)
+            .map(|(r, s)| format!("{r} {s:.1} s"))
+            .collect();
+        return Err(SysidError::NotEnoughData(format!(
+            "{}: no airborne segment of {} s or more between {:.2} s and {:.2} s (excluded: {})",
+            log.source,
+            c.min_len_s,
+            t_first,
+            t_last,
+            if why.is_empty() { "nothing; the span is too short".to_string() } else { why.join(", ") }
+        )));
+    }
+    Ok(Airborne {
+        segments,
+        excluded_s: excluded,
+        searched,
+    })
+}
+
+/// Maximal runs of `true`.
+fn runs(mask: &[bool]) -> Vec<Range<usize>> {
+    super::segments_where(mask, 1)
+}
+
+/// The value of (t, v) (t increasing) last sampled at or before each time of `at`; the first value
+/// before the first sample.
+fn hold_last(t: &[f64], v: &[f64], at: &[f64]) -> Vec<f64> {
+    at.iter()
+        .map(|&x| {
+            let k = t.partition_point(|&s| s <= x);
+            v[k.saturating_sub(1).min(v.len().saturating_sub(1))]
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::logs::{Channel, Group};
+
+    fn log(format: LogFormat, channels: Vec<(&str, Vec<f64>)>, dt: f64) -> Log {
+        let n = channels[0].1.len();
+        Log {
+            source: "test".into(),
+            format,
+            groups: vec![Group {
+                name: "main".into(),
+                prefix: None,
+                time_s: (0..n).map(|i| i as f64 * dt).collect(),
+                channels: channels
+                    .into_iter()
+                    .map(|(name, values)| Channel {
+                        name: name.into(),
+                        values,
+                    })
+                    .collect(),
+            }],
+            notes: vec![],
+            settings: vec![("motorOutput".into(), "158,2047".into())],
+            clock_origin_s: 0.0,
+        }
+    }
+
+    /// A 20 s synthetic Betaflight session at 100 Hz: idle until 2 s, flying with a motor pinned at its
+    /// maximum from 8 to 9 s and the gyro saturated from 12 to 12.5 s, log ending in flight (crash).
+    #[test]
+    fn segments_exclude_idle_saturation_and_crash_tail() {
+        let n = 2000;
+        let t = |i: usize| i as f64 * 0.01;
+        let thr: Vec<f64> = (0..n).map(|i| if t(i) < 2.0 { 1000.0 } else { 1400.0 }).collect();
+        let m0: Vec<f64> = (0..n).map(|i| if (8.0..9.0).contains(&t(i)) { 2047.0 } else { 900.0 }).collect();
+        let g0: Vec<f64> = (0..n).map(|i| if (12.0..12.5).contains(&t(i)) { 1999.0 } else { 100.0 }).collect();
+        let l = log(
+            LogFormat::Blackbox,
+            vec![
+                ("rcCommand[3]", thr),
+                ("motor[0]", m0),
+                ("gyroADC[0]", g0),
+                ("axisP[0]", vec![0.0; n]),
+                ("setpoint[0]", vec![0.0; n]),
+            ],
+            0.01,
+        );
+        let c = AirborneCriteria::for_log(&l).unwrap();
+        let a = airborne_segments(&l, "gyroADC[0]", &c, None, None).unwrap();
+        let got: Vec<(f64, f64)> = a.segments.iter().map(|s| (s.from_s, s.to_s)).collect();
+        let want = [(2.2, 7.79), (9.2, 11.79), (12.7, 19.99 - 0.2 - 1.0)];
+        assert_eq!(got.len(), want.len(), "{got:?}");
+        for (g, w) in got.iter().zip(want) {
+            assert!((g.0 - w.0).abs() < 1e-9 && (g.1 - w.1).abs() < 1e-9, "{got:?}");
+        }
+        let idle = a.excluded_s.iter().find(|(r, _)| *r == "idle throttle").unwrap().1;
+        assert!((idle - 2.0).abs() < 0.02, "{idle}");
+        // A span with no flight names what excluded it.
+        let e = airborne_segments(&l, "gyroADC[0]", &c, Some(0.0), Some(1.9)).unwrap_err().to_string();
+        assert!(e.contains("idle throttle"), "{e}");
+        // Channels: the PID sum of the terms logged, setpoint as instrument.
+        let ch = RateLoopChannels::find(&l, Axis::Roll).unwrap();
+        assert_eq!(ch.input, "axisP[0]");
+        assert_eq!(ch.instrument, "setpoint[0]");
+        assert_eq!(ch.gain_unit(), "deg/s² per PID unit");
+        assert!(RateLoopChannels::find(&l, Axis::Pitch).is_err());
+    }
+}

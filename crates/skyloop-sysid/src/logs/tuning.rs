@@ -1,0 +1,248 @@
+//! The flight controller's tuning as the log records it: Betaflight's header settings (PIDF gains,
+//! filters, loop rate, TPA, d_min) and PX4's rate-controller and IMU-filter parameters.
+//!
+//! Values are in the firmware's own units, as a pilot types them into the configurator or QGC; the
+//! field docs name each unit. A setting the log does not carry (older firmware, a filter switched
+//! off) is `None`, never a guessed default.
+
+use serde::Serialize;
+
+use super::flight::FlightFirmware;
+use super::Log;
+
+/// One axis of Betaflight's PIDF controller, in Betaflight's integer gain units (the numbers of the
+/// configurator's PID tab; the firmware multiplies them by PTERM_SCALE, ITERM_SCALE, DTERM_SCALE and
+/// FTERM_SCALE).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct BetaflightPidf {
+    /// P gain.
+    pub p: f64,
+    /// I gain.
+    pub i: f64,
+    /// D gain (the maximum when d_min is active).
+    pub d: f64,
+    /// Feedforward gain (`feedforward_weight`/`ff_weight`, Betaflight 4.x); `None` on 3.x.
+    pub f: Option<f64>,
+    /// d_min: the D gain away from fast stick moves and prop wash (Betaflight 4.x); `None` when absent.
+    pub d_min: Option<f64>,
+}
+
+/// A lowpass filter stage.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Lowpass {
+    /// Filter type: "PT1", "BIQUAD", "PT2", "PT3", or the firmware's number when unknown.
+    pub kind: String,
+    /// Static cutoff, Hz.
+    pub cutoff_hz: f64,
+    /// Dynamic cutoff range (min, max), Hz, when the cutoff follows throttle.
+    pub dynamic_hz: Option<(f64, f64)>,
+}
+
+/// Betaflight's dynamic notch (gyro FFT tracking).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct DynamicNotch {
+    /// Lowest notch centre, Hz.
+    pub min_hz: f64,
+    /// Highest notch centre, Hz.
+    pub max_hz: f64,
+    /// Quality factor Q (the header's `dyn_notch_q` / 100).
+    pub q: Option<f64>,
+    /// Number of notches (`dyn_notch_count`, 4.3+).
+    pub count: Option<f64>,
+}
+
+/// Betaflight's RPM filter (bidirectional DShot motor telemetry).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RpmFilter {
+    /// Harmonics notched per motor.
+    pub harmonics: f64,
+    /// Quality factor Q (the header's `gyro_rpm_notch_q` / 100).
+    pub q: Option<f64>,
+    /// Lowest notch frequency, Hz.
+    pub min_hz: Option<f64>,
+}
+
+/// Betaflight's (and its forks') tuning from the blackbox header.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BetaflightTuning {
+    /// `Firmware revision`, e.g. "Betaflight 4.2.8 (101738d8e) STM32F7X2".
+    pub firmware_revision: String,
+    /// Roll, pitch, yaw.
+    pub pidf: Vec<BetaflightPidf>,
+    /// `d_min_gain` (how strongly D rises towards its maximum), Betaflight units.
+    pub d_min_gain: Option<f64>,
+    /// `d_min_advance`, Betaflight units.
+    pub d_min_advance: Option<f64>,
+    /// Gyro lowpass 1.
+    pub gyro_lowpass: Option<Lowpass>,
+    /// Gyro lowpass 2.
+    pub gyro_lowpass2: Option<Lowpass>,
+    /// D-term lowpass 1.
+    pub dterm_lowpass: Option<Lowpass>,
+    /// D-term lowpass 2.
+    pub dterm_lowpass2: Option<Lowpass>,
+    /// Dynamic notch; `None` when absent or off.
+    pub dynamic_notch: Option<DynamicNotch>,
+    /// RPM filter; `None` when absent or off (0 harmonics).
+    pub rpm_filter: Option<RpmFilter>,
+    /// Gyro loop rate, Hz (1e6 / `looptime` µs).
+    pub gyro_rate_hz: Option<f64>,
+    /// PID loop rate, Hz (gyro rate / `pid_process_denom`).
+    pub pid_rate_hz: Option<f64>,
+    /// TPA: PID attenuation at full throttle, percent (`tpa_rate`).
+    pub tpa_rate_percent: Option<f64>,
+    /// TPA breakpoint: throttle above which the attenuation starts, µs (1000–2000).
+    pub tpa_breakpoint_us: Option<f64>,
+}
+
+/// One axis of PX4's rate controller, parallel form with the overall gain K
+/// (MC_{ROLL,PITCH,YAW}RATE_{K,P,I,D,FF}): torque = K·(P·e + I·∫e + D·ė_meas) + FF·setpoint, with
+/// rates in rad/s and torque normalized to [−1, 1].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Px4RatePid {
+    /// MC_*RATE_K (dimensionless; `None` on firmware before it existed).
+    pub k: Option<f64>,
+    /// MC_*RATE_P, per rad/s.
+    pub p: Option<f64>,
+    /// MC_*RATE_I, per rad.
+    pub i: Option<f64>,
+    /// MC_*RATE_D, per rad/s².
+    pub d: Option<f64>,
+    /// MC_*RATE_FF, per rad/s.
+    pub ff: Option<f64>,
+}
+
+/// PX4's rate-loop tuning from the ULog parameters.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Px4Tuning {
+    /// Roll, pitch, yaw.
+    pub rate: Vec<Px4RatePid>,
+    /// IMU_GYRO_CUTOFF: gyro lowpass cutoff, Hz.
+    pub gyro_cutoff_hz: Option<f64>,
+    /// IMU_DGYRO_CUTOFF: cutoff of the lowpass on the gyro derivative (the D term), Hz.
+    pub dgyro_cutoff_hz: Option<f64>,
+    /// IMU_GYRO_RATEMAX: the rate loop's maximum rate, Hz.
+    pub gyro_rate_max_hz: Option<f64>,
+}
+
+/// The firmware's tuning recorded in a log.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "firmware", rename_all = "lowercase")]
+pub enum FirmwareTuning {
+    /// A Betaflight (INAV, EmuFlight) blackbox header.
+    Betaflight(Box<BetaflightTuning>),
+    /// PX4 ULog parameters.
+    Px4(Px4Tuning),
+}
+
+fn numbers(v: &str) -> Vec<f64> {
+    v.split(',').filter_map(|x| x.trim().parse::<f64>().ok()).collect()
+}
+
+impl FirmwareTuning {
+    /// Reads the tuning from a blackbox or ULog log; `None` for CSV.
+    pub fn from_log(log: &Log) -> Option<FirmwareTuning> {
+        match FlightFirmware::of(log).ok()? {
+            FlightFirmware::Betaflight => Some(FirmwareTuning::Betaflight(Box::new(betaflight(log)))),
+            FlightFirmware::Px4 => Some(FirmwareTuning::Px4(px4(log))),
+        }
+    }
+}
+
+fn betaflight(log: &Log) -> BetaflightTuning {
+    let list = |k: &str| log.setting(k).map(numbers).unwrap_or_default();
+    let one = |k: &str| list(k).first().copied();
+    let ff = log
+        .setting("feedforward_weight")
+        .or_else(|| log.setting("ff_weight"))
+        .map(numbers)
+        .unwrap_or_default();
+    let d_min = list("d_min");
+    let pidf = ["rollPID", "pitchPID", "yawPID"]
+        .iter()
+        .enumerate()
+        .filter_map(|(i, k)| {
+            let g = list(k);
+            (g.len() >= 3).then(|| BetaflightPidf {
+                p: g[0],
+                i: g[1],
+                d: g[2],
+                f: ff.get(i).copied(),
+                d_min: d_min.get(i).copied(),
+            })
+        })
+        .collect();
+    let kind = |t: Option<f64>| match t.map(|t| t as i64) {
+        Some(0) | None => "PT1".to_string(),
+        Some(1) => "BIQUAD".to_string(),
+        Some(2) => "PT2".to_string(),
+        Some(3) => "PT3".to_string(),
+        Some(n) => n.to_string(),
+    };
+    // A stage is on when its static or its dynamic cutoff is non-zero.
+    let lowpass = |ty: &str, hz: &str, dyn_hz: Option<&str>| -> Option<Lowpass> {
+        let cutoff = one(hz)?;
+        let dynamic = dyn_hz
+            .map(list)
+            .filter(|d| d.len() >= 2 && d[0] > 0.0 && d[1] > 0.0)
+            .map(|d| (d[0], d[1]));
+        (cutoff > 0.0 || dynamic.is_some()).then(|| Lowpass {
+            kind: kind(one(ty)),
+            cutoff_hz: cutoff,
+            dynamic_hz: dynamic,
+        })
+    };
+    let gyro_rate_hz = one("looptime").filter(|&l| l > 0.0).map(|l| 1e6 / l);
+    let dynamic_notch = match (one("dyn_notch_min_hz"), one("dyn_notch_max_hz")) {
+        (Some(lo), Some(hi)) if hi > 0.0 && one("dyn_notch_count") != Some(0.0) => Some(DynamicNotch {
+            min_hz: lo,
+            max_hz: hi,
+            q: one("dyn_notch_q").map(|q| q / 100.0),
+            count: one("dyn_notch_count"),
+        }),
+        _ => None,
+    };
+    let rpm_filter = one("gyro_rpm_notch_harmonics")
+        .filter(|&h| h > 0.0 && one("dshot_bidir") != Some(0.0))
+        .map(|h| RpmFilter {
+            harmonics: h,
+            q: one("gyro_rpm_notch_q").map(|q| q / 100.0),
+            min_hz: one("gyro_rpm_notch_min"),
+        });
+    BetaflightTuning {
+        firmware_revision: log.setting("Firmware revision").unwrap_or_default().to_string(),
+        pidf,
+        d_min_gain: one("d_min_gain"),
+        d_min_advance: one("d_min_advance"),
+        gyro_lowpass: lowpass("gyro_lowpass_type", "gyro_lowpass_hz", Some("gyro_lowpass_dyn_hz")),
+        gyro_lowpass2: lowpass("gyro_lowpass2_type", "gyro_lowpass2_hz", None),
+        dterm_lowpass: lowpass("dterm_filter_type", "dterm_lowpass_hz", Some("dterm_lowpass_dyn_hz")),
+        dterm_lowpass2: lowpass("dterm_filter2_type", "dterm_lowpass2_hz", None),
+        dynamic_notch,
+        rpm_filter,
+        gyro_rate_hz,
+        pid_rate_hz: gyro_rate_hz.map(|g| g / one("pid_process_denom").filter(|&d| d >= 1.0).unwrap_or(1.0)),
+        tpa_rate_percent: one("tpa_rate"),
+        tpa_breakpoint_us: one("tpa_breakpoint"),
+    }
+}
+
+fn px4(log: &Log) -> Px4Tuning {
+    let p = |k: &str| log.setting(k).and_then(|v| v.trim().parse::<f64>().ok());
+    let rate = ["ROLL", "PITCH", "YAW"]
+        .iter()
+        .map(|a| Px4RatePid {
+            k: p(&format!("MC_{a}RATE_K")),
+            p: p(&format!("MC_{a}RATE_P")),
+            i: p(&format!("MC_{a}RATE_I")),
+            d: p(&format!("MC_{a}RATE_D")),
+            ff: p(&format!("MC_{a}RATE_FF")),
+        })
+        .collect();
+    Px4Tuning {
+        rate,
+        gyro_cutoff_hz: p("IMU_GYRO_CUTOFF"),
+        dgyro_cutoff_hz: p("IMU_DGYRO_CUTOFF"),
+        gyro_rate_max_hz: p("IMU_GYRO_RATEMAX"),
+    }
+}
