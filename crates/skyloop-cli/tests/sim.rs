@@ -213,3 +213,58 @@ fn reproduce_bad_invocations_exit_2() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("cannot create"));
 }
+
+#[test]
+fn monte_carlo_seed_ranges_write_csv_that_splits_a_campaign() {
+    let dir = tmp("mc-seeds");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let text = std::fs::read_to_string(example("quadrotor-ssi.toml")).expect("example");
+    let short = text
+        .lines()
+        .map(|l| {
+            if l.starts_with("duration_s") {
+                "duration_s = 1.5"
+            } else {
+                l
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let spec = dir.join("mc.toml");
+    std::fs::write(&spec, short).expect("spec");
+    let run = |seeds: &str, out: &str| {
+        let path = dir.join(out);
+        let o = skyloop()
+            .arg("simulate")
+            .arg(&spec)
+            .args(["--monte-carlo", "--json", "--seeds", seeds, "--out"])
+            .arg(&path)
+            .output()
+            .expect("runs");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("summary JSON");
+        (std::fs::read_to_string(&path).expect("csv"), v)
+    };
+    let (whole, summary) = run("0..4", "whole.csv");
+    let (tail, _) = run("2..4", "tail.csv");
+    let lines: Vec<&str> = whole.lines().collect();
+    assert_eq!(
+        lines[0],
+        "run,seed,max_abs_error,rms_error,settling_time_s,saturated_fraction,crashed"
+    );
+    assert_eq!(lines.len(), 5);
+    assert_eq!(summary["runs"], 4);
+    assert!(lines[1].starts_with("0,") && lines[4].starts_with("3,"));
+    // The runs 2..4 of the campaign are the same flights however the campaign is split.
+    assert_eq!(tail.lines().skip(1).collect::<Vec<_>>(), lines[3..].to_vec());
+    // Different seeds fly differently (the noise and parameters are per run).
+    assert_ne!(lines[1].split(',').nth(3), lines[2].split(',').nth(3));
+    let bad = skyloop()
+        .arg("simulate")
+        .arg(&spec)
+        .args(["--monte-carlo", "--seeds", "5..2", "--out"])
+        .arg(dir.join("bad.csv"))
+        .output()
+        .expect("runs");
+    assert_eq!(bad.status.code(), Some(2));
+}

@@ -124,21 +124,48 @@ pub fn run(
     if mc.runs == 0 {
         return Err(SimError::Param("monte_carlo.runs must be at least 1".into()));
     }
+    let indices: Vec<usize> = (0..mc.runs).collect();
+    let all = run_indices(scn, mc, &indices, progress)?;
+    let summary = summarize(&all);
+    Ok((all, summary))
+}
+
+/// Runs the study's runs with the given indices (run i uses noise seed `mc.seed + i` and its own
+/// sampled parameters, so any split of a campaign into index ranges gives the same runs as the
+/// whole), in parallel on the current rayon pool; the metrics come back in the order of `indices`.
+/// `mc.runs` is not consulted: indices beyond it are valid runs of a larger study.
+///
+/// # Errors
+/// No index, a negative standard deviation, an invalid scenario, or a failed run.
+pub fn run_indices(
+    scn: &Scenario,
+    mc: &MonteCarloSpec,
+    indices: &[usize],
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Vec<Metrics>> {
+    if indices.is_empty() {
+        return Err(SimError::Param("a Monte Carlo study needs at least one run".into()));
+    }
     check_min(mc.mass_sd, 0.0, "monte_carlo.mass_sd")?;
     check_min(mc.inertia_sd, 0.0, "monte_carlo.inertia_sd")?;
     check_min(mc.disturbance_sd, 0.0, "monte_carlo.disturbance_sd")?;
     // Fail fast on a bad scenario before spawning work.
     Simulation::new(scn, mc.seed)?;
     let done = std::sync::atomic::AtomicUsize::new(0);
-    let all: Result<Vec<Metrics>> = (0..mc.runs)
-        .into_par_iter()
-        .map(|i| {
+    let total = indices.len();
+    indices
+        .par_iter()
+        .map(|&i| {
             let r = run_one(scn, mc, i);
-            progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1, mc.runs);
+            progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1, total);
             r
         })
-        .collect();
-    let all = all?;
+        .collect()
+}
+
+/// Summary statistics of a set of runs (in the order given; a merged campaign summarized in the
+/// order of its indices equals the summary of one run over the same indices).
+pub fn summarize(all: &[Metrics]) -> Summary {
     let col = |f: &dyn Fn(&Metrics) -> f64| all.iter().map(f).collect::<Vec<f64>>();
     let settled: Vec<f64> = all.iter().filter_map(|m| m.settling_time_s).collect();
     let empty = Stat {
@@ -148,7 +175,7 @@ pub fn run(
         p95: 0.0,
         max: 0.0,
     };
-    let summary = Summary {
+    Summary {
         runs: all.len(),
         crashed: all.iter().filter(|m| m.crashed).count(),
         unsettled: all.len() - settled.len(),
@@ -156,6 +183,5 @@ pub fn run(
         rms_error: stat(&col(&|m| m.rms_error)).unwrap_or(empty),
         settling_time_s: stat(&settled),
         saturated_fraction: stat(&col(&|m| m.saturated_fraction)).unwrap_or(empty),
-    };
-    Ok((all, summary))
+    }
 }

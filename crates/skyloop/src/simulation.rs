@@ -100,3 +100,99 @@ pub fn monte_carlo_to(
     std::fs::write(&path, body.to_string()).map_err(|e| Error::write(&path, e))?;
     Ok((summary, path))
 }
+
+/// Parses a run range `A..B` (runs A, A+1, .., B−1 of a scenario's Monte Carlo study; run i uses
+/// noise seed `monte_carlo.seed + i`), or a single run `A`.
+///
+/// # Errors
+/// Text that is not `A..B` with integers A < B (or one integer).
+pub fn parse_seed_range(text: &str) -> Result<Vec<usize>> {
+    let bad = || Error::Input(format!("--seeds: expected A..B with integers 0 <= A < B, got '{text}'"));
+    let t = text.trim();
+    let (a, b) = match t.split_once("..") {
+        Some((a, b)) => (
+            a.trim().parse::<usize>().map_err(|_| bad())?,
+            b.trim().parse::<usize>().map_err(|_| bad())?,
+        ),
+        None => {
+            let a = t.parse::<usize>().map_err(|_| bad())?;
+            (a, a + 1)
+        }
+    };
+    if a >= b {
+        return Err(bad());
+    }
+    Ok((a..b).collect())
+}
+
+/// Runs the runs `seeds` (indices into the scenario's `[monte_carlo]` study, see
+/// [`parse_seed_range`]) in parallel on `threads` threads (`None`: all cores) and summarizes them;
+/// the metrics come back in the order of `seeds`, so splitting a campaign into ranges and
+/// concatenating the parts gives the same runs and summary as one call.
+///
+/// # Errors
+/// A scenario without `[monte_carlo]`, no seed, zero threads, or a failed run.
+pub fn monte_carlo_runs(
+    scn: &Scenario,
+    seeds: &[usize],
+    threads: Option<usize>,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<(Vec<Metrics>, Summary)> {
+    let mc = scn
+        .monte_carlo
+        .as_ref()
+        .ok_or_else(|| Error::Spec(format!("scenario '{}' has no [monte_carlo] section", scn.name)))?;
+    let go = || skyloop_sim::montecarlo::run_indices(scn, mc, seeds, progress);
+    let runs = match threads {
+        None => go()?,
+        Some(0) => return Err(Error::Input("threads must be at least 1".into())),
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .map_err(|e| Error::Failed(format!("cannot start {n} threads: {e}")))?
+            .install(go)?,
+    };
+    let summary = skyloop_sim::montecarlo::summarize(&runs);
+    Ok((runs, summary))
+}
+
+/// Writes one CSV line per run: `run,seed,max_abs_error,rms_error,settling_time_s,saturated_fraction,crashed`
+/// (seed = `monte_carlo.seed + run`; settling_time_s empty when the run never settled; floats in
+/// shortest round-trip form, so the file reads back bit for bit).
+///
+/// # Errors
+/// A file that cannot be written.
+pub fn write_runs_csv(path: &Path, base_seed: u64, seeds: &[usize], runs: &[Metrics]) -> Result<()> {
+    use std::io::Write;
+    let mut text = String::from("run,seed,max_abs_error,rms_error,settling_time_s,saturated_fraction,crashed\n");
+    for (i, m) in seeds.iter().zip(runs) {
+        let settle = m.settling_time_s.map(|t| format!("{t:?}")).unwrap_or_default();
+        text.push_str(&format!(
+            "{i},{},{:?},{:?},{settle},{:?},{}\n",
+            base_seed.wrapping_add(*i as u64),
+            m.max_abs_error,
+            m.rms_error,
+            m.saturated_fraction,
+            m.crashed
+        ));
+    }
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| Error::create(dir, e))?;
+    }
+    let mut f = std::fs::File::create(path).map_err(|e| Error::write(path, e))?;
+    f.write_all(text.as_bytes()).map_err(|e| Error::write(path, e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn seed_ranges() {
+        assert_eq!(parse_seed_range("3..6").unwrap(), vec![3, 4, 5]);
+        assert_eq!(parse_seed_range("7").unwrap(), vec![7]);
+        assert!(parse_seed_range("6..3").is_err());
+        assert!(parse_seed_range("a..b").is_err());
+        assert!(parse_seed_range("5..5").is_err());
+    }
+}

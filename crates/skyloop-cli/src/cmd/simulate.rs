@@ -1,8 +1,11 @@
 //! `skyloop simulate SCENARIO.toml`: nonlinear closed-loop simulation → trajectory CSV, metrics JSON,
-//! a trace plot; with --monte-carlo the scenario's [monte_carlo] study instead.
+//! a trace plot; with --monte-carlo the scenario's [monte_carlo] study instead (optionally only the
+//! runs `--seeds A..B`, written as CSV with `--out FILE.csv`, so job arrays can split a campaign).
 
 use crate::output;
-use skyloop::simulation::{load_scenario, monte_carlo_to, simulate_to};
+use skyloop::simulation::{
+    load_scenario, monte_carlo_runs, monte_carlo_to, parse_seed_range, simulate_to, write_runs_csv,
+};
 use std::path::PathBuf;
 
 /// Arguments of `skyloop simulate`.
@@ -10,7 +13,8 @@ use std::path::PathBuf;
 pub struct Args {
     /// Scenario file (TOML; see examples/*.toml).
     scenario: PathBuf,
-    /// Output directory for trajectory.csv, metrics.json and traces.svg.
+    /// Output directory for trajectory.csv, metrics.json and traces.svg (monte_carlo.json with
+    /// --monte-carlo); with --monte-carlo, a path ending in .csv gets one line of metrics per run instead.
     #[arg(long, default_value = "skyloop-sim-out")]
     out: PathBuf,
     /// Print the metrics as one JSON object on stdout.
@@ -19,6 +23,9 @@ pub struct Args {
     /// Run the scenario's [monte_carlo] study (parallel, progress bar on stderr).
     #[arg(long)]
     monte_carlo: bool,
+    /// With --monte-carlo: only runs A..B−1 of the study (run i uses noise seed monte_carlo.seed + i).
+    #[arg(long, value_name = "A..B", requires = "monte_carlo")]
+    seeds: Option<String>,
 }
 
 /// Runs the scenario (or its Monte Carlo study) and writes the results.
@@ -36,10 +43,28 @@ pub fn run(a: Args) -> skyloop::Result<()> {
         } else {
             indicatif::ProgressBar::new(0)
         };
-        let (summary, path) = monte_carlo_to(&scn, &a.out, &|done, total| {
+        let progress = |done: usize, total: usize| {
             bar.set_length(total as u64);
             bar.set_position(done as u64);
-        })?;
+        };
+        let csv = a.out.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv"));
+        let (summary, path) = if csv || a.seeds.is_some() {
+            let seeds = match &a.seeds {
+                Some(t) => parse_seed_range(t)?,
+                None => (0..scn.monte_carlo.as_ref().map_or(0, |m| m.runs)).collect(),
+            };
+            let (runs, summary) = monte_carlo_runs(&scn, &seeds, None, &progress)?;
+            let path = if csv {
+                a.out.clone()
+            } else {
+                a.out.join("monte_carlo.csv")
+            };
+            let base = scn.monte_carlo.as_ref().map_or(0, |m| m.seed);
+            write_runs_csv(&path, base, &seeds, &runs)?;
+            (summary, path)
+        } else {
+            monte_carlo_to(&scn, &a.out, &progress)?
+        };
         bar.finish_and_clear();
         if a.json {
             return output::print_json(&summary);
