@@ -7,7 +7,10 @@
 use super::blocks::{Block, Structure};
 use super::closed_loop::GenPlant;
 use super::nonsmooth::{bfgs, BfgsOptions};
-use super::systune::random_ss;
+use super::systune::{normal, random_ss};
+use faer::Mat;
+use rand::SeedableRng;
+use skyloop_linalg::riccati::care;
 use crate::error::{Result, RobustError};
 use rayon::prelude::*;
 use skyloop_lti::freqresp::dynamics_range;
@@ -27,9 +30,9 @@ pub struct HinfstructOptions {
 impl Default for HinfstructOptions {
     fn default() -> Self {
         HinfstructOptions {
-            starts: 6,
+            starts: 8,
             seed: 1,
-            max_iter: 400,
+            max_iter: 1500,
         }
     }
 }
@@ -78,9 +81,28 @@ pub fn hinfstruct(p: &StateSpace, nmeas: usize, ncon: usize, order: usize, opts:
     });
     let (lo, hi) = dynamics_range(p)?;
     let w0 = (lo * hi).sqrt();
+    // At full order observer-based controllers stabilize: start 0 is the H2-optimal one for the
+    // plant's channels, start 1 the unit-weight LQG one, starts 2 and 3 perturb them; the others
+    // (and every start below full order) are random, and the stabilization phase repairs them.
+    let seeds: Vec<Vec<f64>> = if order == p.nx() {
+        [true, false].iter().filter_map(|&w| lqg_start(p, nmeas, ncon, w).ok()).collect()
+    } else {
+        Vec::new()
+    };
     let runs: Vec<Option<(f64, Vec<f64>)>> = (0..opts.starts)
         .into_par_iter()
-        .map(|k| run(&gp, &s, random_ss(order, ncon, nmeas, w0, 1.0, opts.seed + k as u64), w0, opts.max_iter))
+        .map(|k| {
+            let seed = opts.seed + k as u64;
+            let x0 = if k < seeds.len() {
+                seeds[k].clone()
+            } else if k < 2 * seeds.len() {
+                let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+                seeds[k - seeds.len()].iter().map(|v| v * (1.0 + 0.3 * normal(&mut rng))).collect()
+            } else {
+                random_ss(order, ncon, nmeas, w0, 1.0, seed)
+            };
+            run(&gp, &s, x0, w0, opts.max_iter)
+        })
         .collect();
     let stabilized_starts = runs.iter().filter(|r| r.is_some()).count();
     let best = runs
@@ -108,35 +130,122 @@ pub fn hinfstruct(p: &StateSpace, nmeas: usize, ncon: usize, order: usize, opts:
     })
 }
 
-/// One start: stabilize (spectral abscissa below −1e-3·w0), then minimize the H∞ norm.
-fn run(gp: &GenPlant, s: &Structure, x0: Vec<f64>, w0: f64, max_iter: usize) -> Option<(f64, Vec<f64>)> {
+/// One start: stabilize (spectral abscissa below −1e-3·w0), then minimize the H∞ norm in rounds
+/// of BFGS. Each round's variables are the parameters divided by their current magnitudes
+/// (systune's diagonal scaling) and starts from a fresh inverse Hessian: the minimizer is a kink,
+/// where the inverse Hessian of a long run becomes too ill conditioned to make progress.
+fn run(gp: &GenPlant, s: &Structure, th0: Vec<f64>, w0: f64, max_iter: usize) -> Option<(f64, Vec<f64>)> {
     let opts = BfgsOptions {
-        max_iter,
+        max_iter: max_iter.min(300).max(1),
         ..Default::default()
     };
-    let target = -1e-3 * w0;
-    let absc = |x: &[f64]| match (s.realize(x), s.realize_grad(x)) {
+    let scaled = |th: &[f64]| -> Vec<f64> {
+        let big = th.iter().map(|v| v.abs()).fold(0.0, f64::max).max(1e-12);
+        th.iter().map(|v| v.abs().max(1e-3 * big)).collect()
+    };
+    let absc = |th: &[f64]| match (s.realize(th), s.realize_grad(th)) {
         (Ok(k), Ok(dk)) => match gp.spectral_abscissa(&k, &dk) {
             Ok((v, g)) if v.is_finite() => (v, g),
             _ => (f64::INFINITY, Vec::new()),
         },
         _ => (f64::INFINITY, Vec::new()),
     };
-    let mut x = x0;
-    if !(absc(&x).0 < target) {
-        let r = bfgs(absc, &x, &BfgsOptions { target, ..opts });
-        if !(r.f < 0.0) {
-            return None;
-        }
-        x = r.x;
-    }
-    let norm = |x: &[f64]| match (s.realize(x), s.realize_grad(x)) {
+    let norm = |th: &[f64]| match (s.realize(th), s.realize_grad(th)) {
         (Ok(k), Ok(dk)) => match gp.hinf(&k, &dk) {
-            Ok((v, _, g)) if v.is_finite() && g.len() == x.len() => (v, g),
+            Ok((v, _, g)) if v.is_finite() && g.len() == th.len() => (v, g),
             _ => (f64::INFINITY, Vec::new()),
         },
         _ => (f64::INFINITY, Vec::new()),
     };
-    let r = bfgs(norm, &x, &BfgsOptions { ftol: 1e-9, stall: 20, ..opts });
-    r.f.is_finite().then_some((r.f, r.x))
+    // BFGS on x = θ/scale.
+    let round = |f: &dyn Fn(&[f64]) -> (f64, Vec<f64>), th: &[f64], o: &BfgsOptions| -> (f64, Vec<f64>) {
+        let sc = scaled(th);
+        let x0: Vec<f64> = th.iter().zip(&sc).map(|(a, b)| a / b).collect();
+        let r = bfgs(
+            |x| {
+                let t: Vec<f64> = x.iter().zip(&sc).map(|(a, b)| a * b).collect();
+                let (v, g) = f(&t);
+                (v, g.iter().zip(&sc).map(|(a, b)| a * b).collect())
+            },
+            &x0,
+            o,
+        );
+        (r.f, r.x.iter().zip(&sc).map(|(a, b)| a * b).collect())
+    };
+    let target = -1e-3 * w0;
+    let mut th = th0;
+    if !(absc(&th).0 < target) {
+        let (f, t) = round(&absc, &th, &BfgsOptions { target, ..opts });
+        if !(f < 0.0) {
+            return None;
+        }
+        th = t;
+    }
+    let mut best = norm(&th).0;
+    if !best.is_finite() {
+        return None;
+    }
+    let rounds = max_iter.div_ceil(opts.max_iter).max(1);
+    for _ in 0..rounds {
+        let (f, t) = round(&norm, &th, &BfgsOptions { ftol: 1e-9, stall: 20, ..opts });
+        let gain = (best - f) / best;
+        if f < best {
+            best = f;
+            th = t;
+        }
+        if gain < 1e-5 {
+            break;
+        }
+    }
+    Some((best, th))
+}
+
+/// The H2-optimal (LQG) observer-based controller u = −F·x̂ for the plant's own performance and
+/// noise channels: F from the CARE with (C1ᵀC1, D12ᵀD12, C1ᵀD12), L from the filter CARE with
+/// (B1B1ᵀ, D21D21ᵀ, B1D21ᵀ), regularized by 1e-8·I so a singular D12/D21 still gives a start.
+/// As the parameter vector of a full-order state-space block: A_K = A − B2·F − L·C2 + L·D22·F,
+/// B_K = L, C_K = −F, D_K = 0.
+fn lqg_start(p: &StateSpace, nmeas: usize, ncon: usize, weighted: bool) -> Result<Vec<f64>> {
+    let n = p.nx();
+    let (p1, m1) = (p.ny() - nmeas, p.nu() - ncon);
+    let b1 = p.b.get(.., ..m1).to_owned();
+    let b2 = p.b.get(.., m1..).to_owned();
+    let c1 = p.c.get(..p1, ..).to_owned();
+    let c2 = p.c.get(p1.., ..).to_owned();
+    let d12 = p.d.get(..p1, m1..).to_owned();
+    let d21 = p.d.get(p1.., ..m1).to_owned();
+    let d22 = p.d.get(p1.., m1..).to_owned();
+    let reg = |m: Mat<f64>| {
+        let k = m.nrows();
+        if !weighted {
+            return Mat::<f64>::identity(k, k);
+        }
+        let sc = m.norm_max().max(1.0);
+        &m + Mat::<f64>::identity(k, k) * (1e-8 * sc)
+    };
+    let q = reg(c1.transpose() * &c1);
+    let r = reg(d12.transpose() * &d12);
+    let sx = c1.transpose() * &d12 * if weighted { 1.0 } else { 0.0 };
+    let f = care(p.a.as_ref(), b2.as_ref(), q.as_ref(), r.as_ref(), Some(sx.as_ref()))?.k;
+    let at = p.a.transpose().to_owned();
+    let c2t = c2.transpose().to_owned();
+    let qy = reg(&b1 * b1.transpose());
+    let ry = reg(&d21 * d21.transpose());
+    let sy = &b1 * d21.transpose() * if weighted { 1.0 } else { 0.0 };
+    let l = care(at.as_ref(), c2t.as_ref(), qy.as_ref(), ry.as_ref(), Some(sy.as_ref()))?
+        .k
+        .transpose()
+        .to_owned();
+    let ak = &p.a - &b2 * &f - &l * &c2 + &l * &d22 * &f;
+    let ck = -&f;
+    let mut th = Vec::new();
+    for (m, r, c) in [(&ak, n, n), (&l, n, nmeas), (&ck, ncon, n)] {
+        for i in 0..r {
+            for j in 0..c {
+                th.push(m[(i, j)]);
+            }
+        }
+    }
+    th.extend(std::iter::repeat_n(0.0, ncon * nmeas));
+    Ok(th)
 }
