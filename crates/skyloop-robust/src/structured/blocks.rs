@@ -56,6 +56,16 @@ pub enum Block {
     Pid(DerivativeFilter),
     /// K = k·(s + z)/(s + p), z, p > 0 in rad/s (lead when z < p). θ = [k, ln z, ln p].
     LeadLag,
+    /// A PID whose P+I path and D path see different fixed filters (firmware rate loops: PX4
+    /// differentiates the gyro through its own lowpass, Betaflight filters the D term further):
+    /// K = (kp + ki/s)·F_pi(s) + kd·s·F_d(s). θ = [kp, ki (1/s), kd (s)]. F_pi proper (None: 1),
+    /// F_d strictly proper.
+    PidFiltered {
+        /// Filter on the P and I paths (None: none).
+        pi_filter: Option<StateSpace>,
+        /// Filter on the D path (strictly proper).
+        d_filter: StateSpace,
+    },
     /// A full state-space block of `order` states with `ny` outputs and `nu` inputs; θ = A, B, C, D
     /// entries row-major, in that order.
     StateSpace {
@@ -76,6 +86,18 @@ impl Block {
     /// [`RobustError::InvalidArgument`] naming the problem.
     pub fn validate(&self) -> Result<()> {
         match self {
+            Block::PidFiltered { pi_filter, d_filter } => {
+                Block::Pid(DerivativeFilter::Fixed(d_filter.clone())).validate()?;
+                if let Some(f) = pi_filter {
+                    f.validate()?;
+                    if f.ny() != 1 || f.nu() != 1 || f.dt != 0.0 || f.has_delay() {
+                        return Err(RobustError::InvalidArgument(
+                            "the P/I-path filter must be a continuous, delay-free SISO model".into(),
+                        ));
+                    }
+                }
+                Ok(())
+            }
             Block::Pid(DerivativeFilter::Fixed(f)) => {
                 f.validate()?;
                 if f.ny() != 1 || f.nu() != 1 || f.dt != 0.0 || f.has_delay() {
@@ -104,7 +126,7 @@ impl Block {
             Block::Gain => 1,
             Block::Pi => 2,
             Block::Pid(DerivativeFilter::Tuned) => 4,
-            Block::Pid(DerivativeFilter::Fixed(_)) => 3,
+            Block::Pid(DerivativeFilter::Fixed(_)) | Block::PidFiltered { .. } => 3,
             Block::LeadLag => 3,
             Block::StateSpace { order, ny, nu } => (order + ny) * (order + nu),
         }
@@ -125,7 +147,7 @@ impl Block {
             Block::Gain => v(&["k"]),
             Block::Pi => v(&["kp", "ki"]),
             Block::Pid(DerivativeFilter::Tuned) => v(&["kp", "ki", "kd", "ln_tf"]),
-            Block::Pid(DerivativeFilter::Fixed(_)) => v(&["kp", "ki", "kd"]),
+            Block::Pid(DerivativeFilter::Fixed(_)) | Block::PidFiltered { .. } => v(&["kp", "ki", "kd"]),
             Block::LeadLag => v(&["k", "ln_z", "ln_p"]),
             Block::StateSpace { order, ny, nu } => {
                 let mut n = Vec::new();
@@ -144,7 +166,7 @@ impl Block {
     /// Index of the integral gain ki in θ, for the blocks that have one.
     pub fn integral_gain_index(&self) -> Option<usize> {
         match self {
-            Block::Pi | Block::Pid(_) => Some(1),
+            Block::Pi | Block::Pid(_) | Block::PidFiltered { .. } => Some(1),
             _ => None,
         }
     }
@@ -184,6 +206,7 @@ impl Block {
                 let c = Mat::from_fn(1, nf + 1, |_, j| if j == 0 { ki } else { kd * caf[(0, j - 1)] });
                 StateSpace::new(a, b, c, m(1, 1, &[kp + kd * cbf]), 0.0)?
             }
+            Block::PidFiltered { pi_filter, d_filter } => pid_filtered(pi_filter.as_ref(), d_filter, th)?,
             Block::LeadLag => {
                 let (k, z, p) = (th[0], th[1].exp(), th[2].exp());
                 StateSpace::new(m(1, 1, &[-p]), m(1, 1, &[1.0]), m(1, 1, &[k * (z - p)]), m(1, 1, &[k]), 0.0)?
@@ -237,6 +260,17 @@ impl Block {
                 }
                 g[2].d[(0, 0)] = (&f.c * &f.b)[(0, 0)];
             }
+            Block::PidFiltered { pi_filter, d_filter } => {
+                // Affine in θ: the derivative of each gain is the realization at that gain = 1.
+                let base = pid_filtered(pi_filter.as_ref(), d_filter, &[0.0, 0.0, 0.0])?;
+                for (i, gi) in g.iter_mut().enumerate() {
+                    let mut e = [0.0; 3];
+                    e[i] = 1.0;
+                    let k1 = pid_filtered(pi_filter.as_ref(), d_filter, &e)?;
+                    gi.c = &k1.c - &base.c;
+                    gi.d = &k1.d - &base.d;
+                }
+            }
             Block::LeadLag => {
                 let (k, z, p) = (th[0], th[1].exp(), th[2].exp());
                 g[0].c[(0, 0)] = z - p;
@@ -280,6 +314,41 @@ impl Block {
         }
         Ok(())
     }
+}
+
+/// (kp + ki/s)·F_pi + kd·s·F_d with states [x_pi-filter; x_integrator; x_d-filter]; only C and D
+/// depend on the gains (linearly), which [`Block::realize_grad`] relies on.
+fn pid_filtered(fpi: Option<&StateSpace>, fd: &StateSpace, th: &[f64]) -> Result<StateSpace> {
+    let (kp, ki, kd) = (th[0], th[1], th[2]);
+    let unit;
+    let f1 = match fpi {
+        Some(f) => f,
+        None => {
+            unit = StateSpace::gain(Mat::from_fn(1, 1, |_, _| 1.0), 0.0)?;
+            &unit
+        }
+    };
+    let (n1, n2) = (f1.nx(), fd.nx());
+    let n = n1 + 1 + n2;
+    let mut a = Mat::zeros(n, n);
+    a.get_mut(..n1, ..n1).copy_from(&f1.a);
+    a.get_mut(n1..n1 + 1, ..n1).copy_from(&f1.c);
+    a.get_mut(n1 + 1.., n1 + 1..).copy_from(&fd.a);
+    let mut b = Mat::zeros(n, 1);
+    b.get_mut(..n1, ..).copy_from(&f1.b);
+    b[(n1, 0)] = f1.d[(0, 0)];
+    b.get_mut(n1 + 1.., ..).copy_from(&fd.b);
+    let caf = &fd.c * &fd.a;
+    let mut c = Mat::zeros(1, n);
+    for j in 0..n1 {
+        c[(0, j)] = kp * f1.c[(0, j)];
+    }
+    c[(0, n1)] = ki;
+    for j in 0..n2 {
+        c[(0, n1 + 1 + j)] = kd * caf[(0, j)];
+    }
+    let d = Mat::from_fn(1, 1, |_, _| kp * f1.d[(0, 0)] + kd * (&fd.c * &fd.b)[(0, 0)]);
+    Ok(StateSpace::new(a, b, c, d, 0.0)?)
 }
 
 /// A tunable block followed by nothing and preceded by a fixed SISO/MIMO filter F on its input:
@@ -405,6 +474,13 @@ mod tests {
             (Structure::new(Block::Pid(DerivativeFilter::Fixed(dfilt))), vec![1.0, 0.5, 0.2]),
             (Structure::new(Block::LeadLag), vec![2.0, 1.0f64.ln(), 10.0f64.ln()]),
             (
+                Structure::new(Block::PidFiltered {
+                    pi_filter: Some(skyloop_lti::expr::parse_model("300/(s+300)").unwrap()),
+                    d_filter: skyloop_lti::expr::parse_model("2500/(s^2+70*s+2500)").unwrap(),
+                }),
+                vec![1.0, 0.5, 0.2],
+            ),
+            (
                 Structure::new(Block::StateSpace { order: 2, ny: 1, nu: 2 }),
                 (0..12).map(|i| 0.1 * i as f64 - 0.4).collect(),
             ),
@@ -431,6 +507,17 @@ mod tests {
         let want = kp + ki / s + kd * s / (tf * s + 1.0);
         let got = skyloop_lti::freqresp::evalfr(&k, s).unwrap()[(0, 0)];
         assert!((got - want).norm() < 1e-12);
+    }
+
+    #[test]
+    fn two_path_pid_is_the_sum_of_its_paths() {
+        let fpi = skyloop_lti::expr::parse_model("300/(s+300)").unwrap();
+        let fd = skyloop_lti::expr::parse_model("2500/(s^2+70*s+2500)").unwrap();
+        let k = Block::PidFiltered { pi_filter: Some(fpi.clone()), d_filter: fd.clone() }.realize(&[2.0, 3.0, 0.5]).unwrap();
+        let s = faer::c64::new(0.0, 7.0);
+        let ev = |m: &StateSpace| skyloop_lti::freqresp::evalfr(m, s).unwrap()[(0, 0)];
+        let want = (2.0 + 3.0 / s) * ev(&fpi) + 0.5 * s * ev(&fd);
+        assert!((ev(&k) - want).norm() < 1e-12 * want.norm());
     }
 
     #[test]

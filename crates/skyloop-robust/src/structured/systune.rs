@@ -494,7 +494,7 @@ fn heuristic(block: &Block, ku: f64, wu: f64, sign: f64, seed: u64) -> Vec<f64> 
         Block::Gain => vec![0.3 * k],
         Block::Pi => vec![0.2 * k, 0.1 * k * wu],
         Block::Pid(super::blocks::DerivativeFilter::Tuned) => vec![0.3 * k, 0.1 * k * wu, 0.05 * k / wu, (0.1 / wu).ln()],
-        Block::Pid(_) => vec![0.3 * k, 0.1 * k * wu, 0.05 * k / wu],
+        Block::Pid(_) | Block::PidFiltered { .. } => vec![0.3 * k, 0.1 * k * wu, 0.05 * k / wu],
         Block::LeadLag => vec![0.3 * k, (wu / 3.0).ln(), (3.0 * wu).ln()],
         Block::StateSpace { order, ny, nu } => random_ss(*order, *ny, *nu, wu, 0.3 * k, seed),
     }
