@@ -76,6 +76,7 @@
 pub mod design;
 pub mod error;
 pub mod export;
+pub mod firmware;
 pub mod identify;
 pub mod model;
 pub mod papers;
@@ -83,6 +84,7 @@ pub mod prelude;
 pub mod simulation;
 pub mod spec;
 pub mod synthesis;
+pub mod tune;
 
 pub use error::{Error, Result};
 

@@ -769,6 +769,32 @@ pub fn tune_loop(prob: &LoopTuning) -> Result<TunedLoop> {
     })
 }
 
+/// Re-verifies the goals of `prob` at parameters `th` (e.g. gains rounded to what a firmware
+/// accepts) with the exact plants: each goal's value, met and active, and each loop's check.
+///
+/// # Errors
+/// As [`tune_loop`]'s validation, or a parameter vector of the wrong length.
+pub fn evaluate(prob: &LoopTuning, th: &[f64]) -> Result<(Vec<GoalReport>, Vec<LoopCheck>)> {
+    let c = Compiled::new(prob)?;
+    let k = prob.structure.realize(th)?;
+    verify(&c, th, &k)
+}
+
+/// The ultimate point of a SISO plant: the first frequency (rad/s) where its phase crosses −180°
+/// and the gain 1/|G| there (the Ziegler–Nichols ultimate gain Ku); without a phase crossover,
+/// the geometric middle of its dynamics and 1/|G| there. Delays are replaced by an order-6 Padé
+/// approximant.
+///
+/// # Errors
+/// A model that is not SISO or whose response cannot be evaluated.
+pub fn ultimate_point(g: &StateSpace) -> Result<(f64, f64)> {
+    if g.ny() != 1 || g.nu() != 1 {
+        return Err(RobustError::Dimension("the ultimate point needs a SISO plant".into()));
+    }
+    let r = g.try_pade(6)?;
+    ultimate(&FreqEvaluator::new(&r)?, &r)
+}
+
 /// The exact re-verification of every goal (worst over plants).
 fn verify(c: &Compiled, th: &[f64], k: &StateSpace) -> Result<(Vec<GoalReport>, Vec<LoopCheck>)> {
     let loops: Vec<LoopCheck> = c.plants.iter().map(|p| check_loop(&p.exact, k)).collect::<Result<_>>()?;
