@@ -303,7 +303,33 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
             ..Default::default()
         },
     };
-    let tuned = tune_loop(&prob)?;
+    let mut tuned = tune_loop(&prob)?;
+    // Firmware gains are rounded; when no rounding of the optimum meets the hard goals, re-tune
+    // with the violated bounds tightened by twice the violation (at most three times).
+    if req.firmware == Firmware::Betaflight {
+        for _ in 0..3 {
+            let (_, theta) = betaflight_rounding(&prob, &tuned.params, req)?;
+            let (goals, loops) = evaluate(&prob, &theta)?;
+            let worst = goals.iter().filter(|g| g.hard).map(|g| g.normalized).fold(f64::NEG_INFINITY, f64::max);
+            if worst <= 1.0 + 1e-6 && loops.iter().all(|l| l.stable) {
+                break;
+            }
+            let d = 2.0 * (worst - 1.0).max(1e-3);
+            let mut tight = prob.clone();
+            for (g, r) in tight.goals.iter_mut().zip(&goals) {
+                if r.hard && r.normalized > 1.0 - d {
+                    g.bound = match g.bound {
+                        Bound::AtMost(b) => Bound::AtMost(b / (1.0 + d)),
+                        Bound::AtLeast(b) => Bound::AtLeast(b * (1.0 + d)),
+                    };
+                }
+            }
+            match tune_loop(&tight) {
+                Ok(t) => tuned = t,
+                Err(_) => break,
+            }
+        }
+    }
     let th = &tuned.params;
     let mut notes = Vec::new();
     // Map to the firmware's gains, round as the firmware stores them, and re-verify those.
@@ -321,8 +347,7 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
         }
         Firmware::Betaflight => {
             let f = 120;
-            let bg = betaflight::from_continuous(th[0], th[1], th[2], f, req.axis)?;
-            let (kp, ki, kd, _) = betaflight::continuous(&bg, req.axis);
+            let (bg, theta) = betaflight_rounding(&prob, th, req)?;
             notes.push(format!(
                 "f_{} = {f} is not tuned (feedforward acts on the setpoint only, not on the margins); Betaflight 4.4's default, keep yours",
                 req.axis.name()
@@ -331,13 +356,21 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
             let c = betaflight::feedback_controller(&bg, req.axis, &req.betaflight)?;
             (
                 serde_json::to_value(bg)?,
-                vec![kp, ki, kd],
+                theta,
                 betaflight::cli_lines(&bg, req.axis),
                 Some(firmware::discrete(&c, req.betaflight.loop_hz)?),
             )
         }
         Firmware::Px4 => {
-            let round = |x: f64| (x * 1e4).round() / 1e4;
+            // Six significant digits: PX4 stores floats, and D ~ 0.003 at four decimals would move
+            // by 3 %.
+            let round = |x: f64| {
+                if x == 0.0 {
+                    return 0.0;
+                }
+                let e = 10f64.powi(5 - x.abs().log10().floor() as i32);
+                (x * e).round() / e
+            };
             let pg = px4::Gains {
                 k: 1.0,
                 p: round(th[0]),
@@ -375,6 +408,55 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
         notes,
         loop_plant: plants[0].clone(),
     })
+}
+
+/// Betaflight stores integers: of the 8 floor/ceil roundings of (P, I, D), the one that meets
+/// every hard goal with the best objective (rounding can cost a margin).
+fn betaflight_rounding(prob: &LoopTuning, th: &[f64], req: &TuneRequest) -> Result<(betaflight::Gains, Vec<f64>)> {
+    let yaw = if req.axis == Axis::Yaw { 2.5 } else { 1.0 };
+    let mut cands = Vec::new();
+    for mask in 0..8u32 {
+        let pick = |k: f64, scale: f64, bit: u32| {
+            let v = k / scale;
+            (if mask & (1 << bit) == 0 { v.floor() } else { v.ceil() }).max(0.0) * scale
+        };
+        let bg = betaflight::from_continuous(
+            pick(th[0], betaflight::PTERM_SCALE, 0),
+            pick(th[1], betaflight::ITERM_SCALE * yaw, 1),
+            pick(th[2], betaflight::DTERM_SCALE, 2),
+            120,
+            req.axis,
+        )?;
+        let (kp, ki, kd, _) = betaflight::continuous(&bg, req.axis);
+        cands.push((bg, vec![kp, ki, kd]));
+    }
+    best_rounding(prob, cands, req.maximize)
+}
+
+/// The candidate gain set that meets every hard goal (exact check) with the best objective, or
+/// the one that violates the worst goal least.
+fn best_rounding<G: Copy>(prob: &LoopTuning, cands: Vec<(G, Vec<f64>)>, maximize: Maximize) -> Result<(G, Vec<f64>)> {
+    let mut best: Option<(bool, f64, G, Vec<f64>)> = None;
+    for (g, th) in cands {
+        let (goals, loops) = evaluate(prob, &th)?;
+        let ok = loops.iter().all(|l| l.stable) && goals.iter().all(|r| !r.hard || r.met);
+        let score = if ok {
+            match maximize {
+                Maximize::IntegralGain => -th[1],
+                Maximize::Crossover => -loops.iter().map(|l| l.crossover_hz).fold(f64::INFINITY, f64::min),
+            }
+        } else {
+            goals.iter().filter(|r| r.hard).map(|r| r.normalized).fold(f64::NEG_INFINITY, f64::max)
+        };
+        let better = match &best {
+            None => true,
+            Some((bok, bs, _, _)) => (ok && !bok) || (ok == *bok && score < *bs),
+        };
+        if better {
+            best = Some((ok, score, g, th));
+        }
+    }
+    best.map(|(_, _, g, th)| (g, th)).ok_or_else(|| Error::Failed("no rounded gains to check".into()))
 }
 
 impl TuneOutcome {
