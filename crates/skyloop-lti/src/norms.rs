@@ -218,6 +218,18 @@ fn linf_scaled(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
         let w = if p.im > 0.0 { p.im } else { p.norm() };
         try_w(w, &mut gamma, &mut w_peak)?;
     }
+    if !w_peak.is_finite() {
+        // When no candidate beats D, the first level (1 + 2ε)·σ(D) makes R = DᵀD − γ²I nearly
+        // singular and the Hamiltonian's imaginary eigenvalues unreliable, so a peak well above D
+        // could be missed (seen on a closed loop with a near-double pole): sample a coarse grid
+        // over the poles' frequencies first, which lifts γ off σ(D) whenever the peak is not tiny.
+        let big = eig.iter().map(|p| p.norm()).fold(0.0, f64::max).max(1.0);
+        let small = eig.iter().map(|p| p.norm()).filter(|&m| m > 0.0).fold(big, f64::min);
+        let grid = crate::freqresp::logspace((small * 1e-2).log10(), (big * 1e2).log10(), 64);
+        for w in grid {
+            try_w(w, &mut gamma, &mut w_peak)?;
+        }
+    }
     if gamma == 0.0 {
         return Ok((0.0, 0.0));
     }
@@ -357,6 +369,38 @@ mod tests {
 
     fn ss(a: &[Vec<f64>], b: &[Vec<f64>], c: &[Vec<f64>], d: &[Vec<f64>], dt: f64) -> StateSpace {
         StateSpace::from_rows(a, b, c, d, dt).unwrap()
+    }
+
+    /// A closed loop whose peak (1.52 at 2.1 rad/s) exceeds its D (1.3365) while no pole
+    /// frequency does: the norm must not stop at σ(D) (hinfstruct's random plant rand0_n2 with
+    /// a second-order controller).
+    #[test]
+    fn peak_above_d_is_found_when_no_pole_frequency_shows_it() {
+        let p = StateSpace::from_rows(
+            &[vec![0.2482651606326243, 2.471780398761827], vec![0.419623992764556, -0.4370077137553499]],
+            &[vec![1.2644806755107534, 0.09067523059039588], vec![-0.4873204539203142, 1.8364815700219077]],
+            &[vec![1.1639449164194604, 0.09654635839363132], vec![-1.2760803527645934, 0.10379924259378633]],
+            &[vec![0.0, 0.08192773922868643], vec![1.4858945714635965, 0.0]],
+            0.0,
+        )
+        .unwrap();
+        let k = StateSpace::from_rows(
+            &[vec![-1.3830591498904379, -8.300457557643695], vec![-0.7295515587345913, -8.212752248331912]],
+            &[vec![8.384168403000945], vec![7.662189483489303]],
+            &[vec![0.16597401724937522, -11.570322598275794]],
+            &[vec![10.978805833691055]],
+            0.0,
+        )
+        .unwrap();
+        let cl = crate::interconnect::lft_lower(&p, &k).unwrap();
+        let (g, w) = hinf_norm(&cl).unwrap();
+        let grid = crate::freqresp::logspace(-3.0, 3.0, 20000);
+        let sampled = crate::freqresp::freqresp(&cl, &grid)
+            .unwrap()
+            .iter()
+            .map(|m| sigma_max_of(m).unwrap())
+            .fold(0.0, f64::max);
+        assert!(g >= sampled * (1.0 - 1e-9) && g > 1.5, "norm {g} at {w} vs sampled {sampled}");
     }
 
     #[test]

@@ -6,6 +6,7 @@ pub mod mixsyn;
 pub mod mu;
 pub mod musyn;
 pub mod ncfsyn;
+pub mod structured;
 pub mod uncertainty;
 
 pub use error::{Result, RobustError};

@@ -78,6 +78,7 @@ pub mod error;
 pub mod export;
 pub mod figures;
 pub mod flightlog;
+pub mod firmware;
 pub mod identify;
 pub mod model;
 pub mod papers;
@@ -85,6 +86,7 @@ pub mod prelude;
 pub mod simulation;
 pub mod spec;
 pub mod synthesis;
+pub mod tune;
 
 pub use error::{Error, Result};
 

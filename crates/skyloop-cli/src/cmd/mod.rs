@@ -5,6 +5,7 @@ mod c2d;
 mod design;
 mod export;
 mod freqresp;
+mod hinfstruct;
 mod hinfsyn;
 mod identify;
 mod log;
@@ -28,6 +29,7 @@ mod sigma;
 mod signal;
 mod simulate;
 mod step;
+mod tune;
 mod zeros;
 
 use clap::Subcommand;
@@ -87,6 +89,10 @@ pub enum Command {
     Export(export::Args),
     /// H∞ output-feedback synthesis (u = K·y, closed loop lft(P,K)): γ and controller.
     Hinfsyn(hinfsyn::Args),
+    /// Fixed-order H∞ synthesis by nonsmooth optimization (u = K·y): γ and a controller of the given order.
+    Hinfstruct(hinfstruct::Args),
+    /// Tune a PID/PIDF of a firmware's structure against margin goals: gains, CLI lines, verified margins.
+    Tune(tune::Args),
     /// Glover–McFarlane H∞ loop shaping: γ_min, γ and the controller for u = C·(r − y).
     Ncfsyn(ncfsyn::Args),
     /// Controller design from a TOML spec: synthesis, gain boost, reduction, Tustin; summary, plots, report.
@@ -123,6 +129,8 @@ pub fn run(cmd: Command) -> skyloop::Result<()> {
         Command::Zeros(a) => zeros::run(a),
         Command::Export(a) => export::run(a),
         Command::Hinfsyn(a) => hinfsyn::run(a),
+        Command::Hinfstruct(a) => hinfstruct::run(a),
+        Command::Tune(a) => tune::run(a),
         Command::Ncfsyn(a) => ncfsyn::run(a),
         Command::Design(a) => design::run(a),
         Command::Musyn(a) => musyn::run(a),

@@ -18,24 +18,24 @@ pub fn fmt_opt(x: Option<f64>, prec: usize) -> String {
     x.map_or("-".into(), |v| format!("{v:.prec$}"))
 }
 
-fn write_json<T: serde::Serialize>(path: &Path, v: &T) -> Result<()> {
+pub(crate) fn write_json<T: serde::Serialize>(path: &Path, v: &T) -> Result<()> {
     let s = serde_json::to_string_pretty(v)?;
     std::fs::write(path, s).map_err(|e| Error::write(path, e))
 }
 
 /// Frequency responses of SISO models on a grid (Hz).
-fn response(sys: &StateSpace, f_hz: &[f64]) -> Result<Vec<c64>> {
+pub(crate) fn response(sys: &StateSpace, f_hz: &[f64]) -> Result<Vec<c64>> {
     let ev = FreqEvaluator::new(sys)?;
     f_hz.iter()
         .map(|f| Ok(ev.eval(c64::new(0.0, 2.0 * PI * f))?[(0, 0)]))
         .collect()
 }
 
-fn db(v: &[c64]) -> Vec<f64> {
+pub(crate) fn db(v: &[c64]) -> Vec<f64> {
     v.iter().map(|z| 20.0 * z.norm().log10()).collect()
 }
 
-fn bode_data(label: &str, f_hz: &[f64], v: &[c64]) -> BodeData {
+pub(crate) fn bode_data(label: &str, f_hz: &[f64], v: &[c64]) -> BodeData {
     let ph: Vec<f64> = v.iter().map(|z| z.arg()).collect();
     BodeData {
         label: label.into(),

@@ -1,0 +1,245 @@
+//! Betaflight's rate PIDF and its scale factors.
+//!
+//! Source: Betaflight `src/main/flight/pid.h` (`PTERM_SCALE 0.032029f`, `ITERM_SCALE 0.244381f`,
+//! `DTERM_SCALE 0.000529f`, `FEEDFORWARD_SCALE 0.013754f`) and `pid_init.c`
+//! (`Kp = PTERM_SCALE·P`, `Ki = ITERM_SCALE·I`, `Kd = DTERM_SCALE·D`,
+//! `Kf = FEEDFORWARD_SCALE·F/100`, yaw `Ki ×2.5` unless integrated yaw); `pid.c` computes, per loop
+//! at `pidFrequency`, P = Kp·e and I += Ki·e·dT on the error e = setpoint − gyro (deg/s, after the
+//! gyro lowpass chain), D = −Kd·Δgyro_dterm·pidFrequency on the measurement after the D-term
+//! lowpass chain, F = Kf·Δsetpoint·pidFrequency.
+//!
+//! In the plant's units (input: Betaflight's PID sum P + I + D + F; output: gyro rate in deg/s)
+//! the feedback controller y → u is therefore
+//! C_fb(s) = (Kp + Ki/s)·F_gyro(s) + Kd·s·F_gyro(s)·F_dterm(s), and the reference path
+//! C_r(s) = Kp + Ki/s + Kf·s/(T·s + 1) with T the loop period (the backward difference's roll-off).
+//! Not modelled: TPA, anti-gravity, I-term relax, d_min's dynamic D, feedforward smoothing.
+
+use super::{chain, derivative_rolloff, Lowpass};
+use crate::error::{Error, Result};
+use serde::Serialize;
+use skyloop_lti::StateSpace;
+use skyloop_robust::structured::blocks::Block;
+
+/// `PTERM_SCALE` of Betaflight's pid.h.
+pub const PTERM_SCALE: f64 = 0.032029;
+/// `ITERM_SCALE` of Betaflight's pid.h.
+pub const ITERM_SCALE: f64 = 0.244381;
+/// `DTERM_SCALE` of Betaflight's pid.h.
+pub const DTERM_SCALE: f64 = 0.000529;
+/// `FEEDFORWARD_SCALE` of Betaflight's pid.h (applied to F/100 since Betaflight 4.3).
+pub const FTERM_SCALE: f64 = 0.013754;
+/// Largest P, I, D Betaflight accepts (`PID_GAIN_MAX`).
+pub const PID_GAIN_MAX: u32 = 250;
+/// Largest F (`F_GAIN_MAX`).
+pub const F_GAIN_MAX: u32 = 1000;
+
+/// The axis a gain set belongs to (the CLI names and the yaw I factor depend on it).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Axis {
+    /// Roll.
+    Roll,
+    /// Pitch.
+    Pitch,
+    /// Yaw (Ki ×2.5 in the firmware).
+    Yaw,
+}
+
+impl Axis {
+    /// "roll", "pitch" or "yaw".
+    pub fn name(&self) -> &'static str {
+        match self {
+            Axis::Roll => "roll",
+            Axis::Pitch => "pitch",
+            Axis::Yaw => "yaw",
+        }
+    }
+
+    /// Parses "roll", "pitch" or "yaw".
+    ///
+    /// # Errors
+    /// Any other text.
+    pub fn parse(s: &str) -> Result<Self> {
+        match s {
+            "roll" => Ok(Axis::Roll),
+            "pitch" => Ok(Axis::Pitch),
+            "yaw" => Ok(Axis::Yaw),
+            _ => Err(Error::Input(format!("axis must be roll, pitch or yaw, got `{s}`"))),
+        }
+    }
+
+    fn i_factor(&self) -> f64 {
+        if *self == Axis::Yaw {
+            2.5
+        } else {
+            1.0
+        }
+    }
+}
+
+/// Betaflight's integer gains of one axis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct Gains {
+    /// `p_<axis>`.
+    pub p: u32,
+    /// `i_<axis>`.
+    pub i: u32,
+    /// `d_<axis>`.
+    pub d: u32,
+    /// `f_<axis>`.
+    pub f: u32,
+}
+
+/// The filters and loop rate around the PID.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Filters {
+    /// Gyro lowpass chain (`gyro_lpf1`, `gyro_lpf2`), on every term.
+    pub gyro: Vec<Lowpass>,
+    /// D-term lowpass chain (`dterm_lpf1`, `dterm_lpf2`), on D after the gyro chain.
+    pub dterm: Vec<Lowpass>,
+    /// PID loop rate, Hz.
+    pub loop_hz: f64,
+}
+
+impl Default for Filters {
+    /// Betaflight 4.4's defaults at a mid-throttle operating point: gyro PT1 at 250 Hz
+    /// (dynamic 250–500 Hz) and PT1 at 500 Hz; D-term PT1 at 100 Hz (dynamic 75–150 Hz) and PT1 at
+    /// 150 Hz; 4 kHz loop (8 kHz gyro, pid_process_denom 2).
+    fn default() -> Self {
+        Filters {
+            gyro: vec![Lowpass::Pt1(250.0), Lowpass::Pt1(500.0)],
+            dterm: vec![Lowpass::Pt1(100.0), Lowpass::Pt1(150.0)],
+            loop_hz: 4000.0,
+        }
+    }
+}
+
+/// Continuous gains in the plant's units: (Kp, Ki, Kd, Kf).
+pub fn continuous(g: &Gains, axis: Axis) -> (f64, f64, f64, f64) {
+    (
+        PTERM_SCALE * g.p as f64,
+        ITERM_SCALE * g.i as f64 * axis.i_factor(),
+        DTERM_SCALE * g.d as f64,
+        FTERM_SCALE * g.f as f64 / 100.0,
+    )
+}
+
+/// The nearest integer gains for continuous (Kp, Ki, Kd) and a given F.
+///
+/// # Errors
+/// A negative gain or one above Betaflight's `PID_GAIN_MAX` (250) once scaled, named.
+pub fn from_continuous(kp: f64, ki: f64, kd: f64, f: u32, axis: Axis) -> Result<Gains> {
+    let conv = |name: &str, k: f64, scale: f64| -> Result<u32> {
+        let v = (k / scale).round();
+        if !(v >= 0.0 && v <= PID_GAIN_MAX as f64) {
+            return Err(Error::Input(format!(
+                "Betaflight {name}_{} = {v} is outside 0..={PID_GAIN_MAX} (continuous gain {k:.6e}); the plant's units may not be PID sum per deg/s",
+                axis.name()
+            )));
+        }
+        Ok(v as u32)
+    };
+    if f > F_GAIN_MAX {
+        return Err(Error::Input(format!("Betaflight f_{} = {f} is outside 0..={F_GAIN_MAX}", axis.name())));
+    }
+    Ok(Gains {
+        p: conv("p", kp, PTERM_SCALE)?,
+        i: conv("i", ki, ITERM_SCALE * axis.i_factor())?,
+        d: conv("d", kd, DTERM_SCALE)?,
+        f,
+    })
+}
+
+/// The tunable structure: the two-path PID with the gyro chain on P and I, gyro and D-term
+/// chains on D (a PT1 at a quarter of the loop rate when no filter is configured on D).
+///
+/// # Errors
+/// Invalid filter cutoffs.
+pub fn block(filters: &Filters) -> Result<Block> {
+    let gyro = chain(&filters.gyro)?;
+    let mut d_stages = filters.gyro.clone();
+    d_stages.extend(filters.dterm.iter().copied());
+    if d_stages.is_empty() {
+        d_stages.push(derivative_rolloff(filters.loop_hz));
+    }
+    let d_filter = chain(&d_stages)?.ok_or("empty D filter chain")?;
+    Ok(Block::PidFiltered {
+        pi_filter: gyro,
+        d_filter,
+    })
+}
+
+/// C_fb(s) (y → u, plant units) of the gains with these filters.
+///
+/// # Errors
+/// Invalid filter cutoffs.
+pub fn feedback_controller(g: &Gains, axis: Axis, filters: &Filters) -> Result<StateSpace> {
+    let (kp, ki, kd, _) = continuous(g, axis);
+    Ok(block(filters)?.realize(&[kp, ki, kd])?)
+}
+
+/// C_r(s) = Kp + Ki/s + Kf·s/(T·s + 1), T the loop period: the path from the setpoint to u.
+///
+/// # Errors
+/// A loop rate that is not positive.
+pub fn reference_path(g: &Gains, axis: Axis, loop_hz: f64) -> Result<StateSpace> {
+    let t = 1.0 / loop_hz;
+    super::hold_delay_s(loop_hz)?;
+    let (kp, ki, _, kf) = continuous(g, axis);
+    // States: integrator, derivative filter; kf·s/(T s + 1) = kf/T − (kf/T²)/(s + 1/T).
+    Ok(StateSpace::from_rows(
+        &[vec![0.0, 0.0], vec![0.0, -1.0 / t]],
+        &[vec![1.0], vec![1.0]],
+        &[vec![ki, -kf / (t * t)]],
+        &[vec![kp + kf / t]],
+        0.0,
+    )?)
+}
+
+/// Betaflight CLI lines that load the gains.
+pub fn cli_lines(g: &Gains, axis: Axis) -> Vec<String> {
+    let a = axis.name();
+    vec![
+        format!("set p_{a} = {}", g.p),
+        format!("set i_{a} = {}", g.i),
+        format!("set d_{a} = {}", g.d),
+        format!("set f_{a} = {}", g.f),
+        "save".to_string(),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+    use skyloop_lti::c64;
+
+    /// Well below every filter, C_fb(jω) = Kp + Ki/(jω) + Kd·jω with the printed integers times
+    /// pid.h's scale factors.
+    #[test]
+    fn low_frequency_part_is_the_scaled_pid() {
+        let g = Gains { p: 45, i: 80, d: 40, f: 120 };
+        let c = feedback_controller(&g, Axis::Roll, &Filters::default()).unwrap();
+        for w in [0.05, 0.5, 2.0] {
+            let s = c64::new(0.0, w);
+            let got = skyloop_lti::freqresp::evalfr(&c, s).unwrap()[(0, 0)];
+            let want = 0.032029 * 45.0 + 0.244381 * 80.0 / s + 0.000529 * 40.0 * s;
+            // The filters' first-order lag at ω: relative error ~ ω·Σ 1/ω_c.
+            assert!((got - want).norm() < 2e-3 * want.norm(), "w {w}: {got} vs {want}");
+        }
+        let yaw = feedback_controller(&g, Axis::Yaw, &Filters::default()).unwrap();
+        let s = c64::new(0.0, 0.01);
+        let ki_yaw = (skyloop_lti::freqresp::evalfr(&yaw, s).unwrap()[(0, 0)] * s).re;
+        assert!((ki_yaw - 2.5 * 0.244381 * 80.0).abs() < 1e-3 * ki_yaw);
+    }
+
+    #[test]
+    fn gains_round_trip_and_out_of_range_is_named() {
+        let g = Gains { p: 45, i: 80, d: 40, f: 120 };
+        let (kp, ki, kd, _) = continuous(&g, Axis::Pitch);
+        assert_eq!(from_continuous(kp, ki, kd, 120, Axis::Pitch).unwrap(), g);
+        let e = from_continuous(100.0, ki, kd, 0, Axis::Roll).unwrap_err();
+        assert!(e.to_string().contains("p_roll") && e.to_string().contains("0..=250"), "{e}");
+        assert_eq!(cli_lines(&g, Axis::Roll)[0], "set p_roll = 45");
+    }
+}

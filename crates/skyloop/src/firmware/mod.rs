@@ -1,0 +1,140 @@
+//! Firmware rate-controller structures and their gain mappings: the gains a pilot types into the
+//! flight controller ↔ the loop's feedback controller C_fb(s) (y → u, what margins use) and the
+//! reference path, in the plant's units.
+//!
+//! - [`betaflight`]: Betaflight's PIDF (P and I on the error, D on the measurement, F on the
+//!   setpoint derivative) with its scale factors from `pid.h` and the gyro / D-term lowpass chain.
+//! - [`px4`]: PX4's multicopter rate PID `MC_{ROLL,PITCH,YAW}RATE_{K,P,I,D,FF}` (parallel form,
+//!   K scales P, I and D), D on the measurement through `IMU_DGYRO_CUTOFF`, P and I through
+//!   `IMU_GYRO_CUTOFF`.
+//!
+//! Both are continuous models of discrete firmware: the filters are their continuous prototypes at
+//! the configured (for dynamic filters: the given operating-point) cutoff, and the loop's sample
+//! and hold is a delay of half a loop period added to the plant (`hold_delay_s`); the discrete
+//! controller at the loop rate is C_fb mapped by Tustin ([`discrete`]).
+
+pub mod betaflight;
+pub mod px4;
+
+use crate::error::{Error, Result};
+use skyloop_lti::discretize::{c2d, Method};
+use skyloop_lti::interconnect::series;
+use skyloop_lti::{Mat, StateSpace};
+use std::f64::consts::PI;
+
+/// A lowpass stage, cutoff in Hz, as the firmware defines it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Lowpass {
+    /// First order ω/(s + ω).
+    Pt1(f64),
+    /// Two PT1 stages, each at f/√(2^{1/2} − 1) so the pair is −3 dB at f (Betaflight `pt2FilterGain`).
+    Pt2(f64),
+    /// Three PT1 stages, each at f/√(2^{1/3} − 1) (Betaflight `pt3FilterGain`).
+    Pt3(f64),
+    /// Second-order Butterworth ω²/(s² + √2·ω·s + ω²) (Betaflight BIQUAD, PX4's LowPassFilter2p).
+    Biquad(f64),
+}
+
+impl Lowpass {
+    /// The cutoff in Hz.
+    pub fn cutoff_hz(&self) -> f64 {
+        match *self {
+            Lowpass::Pt1(f) | Lowpass::Pt2(f) | Lowpass::Pt3(f) | Lowpass::Biquad(f) => f,
+        }
+    }
+
+    /// The continuous filter.
+    ///
+    /// # Errors
+    /// A cutoff that is not a finite positive number.
+    pub fn model(&self) -> Result<StateSpace> {
+        let f = self.cutoff_hz();
+        if !(f.is_finite() && f > 0.0) {
+            return Err(Error::Input(format!("lowpass cutoff must be a positive number of Hz, got {f}")));
+        }
+        let w = 2.0 * PI * f;
+        let pt = |n: i32| -> Result<StateSpace> {
+            let ws = w / (2f64.powf(1.0 / n as f64) - 1.0).sqrt();
+            let one = StateSpace::new(m1(-ws), m1(ws), m1(1.0), m1(0.0), 0.0)?;
+            let mut acc = one.clone();
+            for _ in 1..n {
+                acc = series(&acc, &one)?;
+            }
+            Ok(acc)
+        };
+        Ok(match self {
+            Lowpass::Pt1(_) => StateSpace::new(m1(-w), m1(w), m1(1.0), m1(0.0), 0.0)?,
+            Lowpass::Pt2(_) => pt(2)?,
+            Lowpass::Pt3(_) => pt(3)?,
+            Lowpass::Biquad(_) => StateSpace::from_rows(
+                &[vec![0.0, 1.0], vec![-w * w, -std::f64::consts::SQRT_2 * w]],
+                &[vec![0.0], vec![w * w]],
+                &[vec![1.0, 0.0]],
+                &[vec![0.0]],
+                0.0,
+            )?,
+        })
+    }
+}
+
+fn m1(v: f64) -> Mat<f64> {
+    Mat::from_fn(1, 1, |_, _| v)
+}
+
+/// The series connection of `stages` (None when empty: no filter).
+///
+/// # Errors
+/// As [`Lowpass::model`].
+pub fn chain(stages: &[Lowpass]) -> Result<Option<StateSpace>> {
+    let mut acc: Option<StateSpace> = None;
+    for s in stages {
+        let m = s.model()?;
+        acc = Some(match acc {
+            None => m,
+            Some(a) => series(&a, &m)?,
+        });
+    }
+    Ok(acc)
+}
+
+/// The loop rate's sample and hold as a delay: half a period (the zero-order hold's average lag).
+///
+/// # Errors
+/// A loop rate that is not a finite positive number.
+pub fn hold_delay_s(loop_hz: f64) -> Result<f64> {
+    if !(loop_hz.is_finite() && loop_hz > 0.0) {
+        return Err(Error::Input(format!("the loop rate must be a positive number of Hz, got {loop_hz}")));
+    }
+    Ok(0.5 / loop_hz)
+}
+
+/// C_fb at the loop rate (Tustin), the discrete form the firmware runs to first order.
+///
+/// # Errors
+/// As [`hold_delay_s`], or a discretization failure.
+pub fn discrete(c_fb: &StateSpace, loop_hz: f64) -> Result<StateSpace> {
+    hold_delay_s(loop_hz)?;
+    Ok(c2d(c_fb, 1.0 / loop_hz, Method::Tustin { prewarp_rad_s: None })?)
+}
+
+/// The D-path filter of a PID with no D filter configured: a lowpass at half the loop's Nyquist
+/// rate stands in for the discrete derivative's own roll-off (a continuous kd·s is improper).
+pub(crate) fn derivative_rolloff(loop_hz: f64) -> Lowpass {
+    Lowpass::Pt1(loop_hz / 4.0)
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+    use skyloop_lti::c64;
+
+    #[test]
+    fn every_lowpass_is_minus_3_db_at_its_cutoff() {
+        for lp in [Lowpass::Pt1(100.0), Lowpass::Pt2(100.0), Lowpass::Pt3(100.0), Lowpass::Biquad(100.0)] {
+            let g = skyloop_lti::freqresp::evalfr(&lp.model().unwrap(), c64::new(0.0, 2.0 * PI * 100.0)).unwrap()[(0, 0)];
+            assert!((g.norm() - 0.5f64.sqrt()).abs() < 1e-9, "{lp:?}: {}", g.norm());
+        }
+        assert!(Lowpass::Pt1(-1.0).model().is_err());
+    }
+}

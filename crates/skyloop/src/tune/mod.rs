@@ -1,0 +1,488 @@
+//! `skyloop tune`: gains a flight controller can load, tuned against margin goals with the
+//! fixed-structure optimizer of skyloop-robust ([`skyloop_robust::structured::systune`]), mapped
+//! to the firmware's own gains ([`crate::firmware`]), rounded as the firmware stores them, and
+//! re-verified with the exact plant (delay and the loop's sample and hold kept) after rounding.
+//!
+//! Defaults a pilot can trust, added unless the user gives a goal of the same kind: a disk-margin
+//! floor α ≥ 0.5 (±5.6 dB and ±28° simultaneously), and a noise limit: |C_fb(jω)| ≤ 10·Ku for
+//! ω ≥ 3·ω_u, with Ku, ω_u the plant's ultimate gain and frequency (so gyro noise above the loop's
+//! bandwidth is amplified at most ten times the gain that would make the loop oscillate).
+
+use crate::error::{Error, Result};
+use crate::firmware::betaflight::{self, Axis};
+use crate::firmware::{self, px4};
+use serde_json::{json, Value};
+use skyloop_lti::json::LtiJson;
+use skyloop_lti::StateSpace;
+use skyloop_robust::structured::blocks::{Block, DerivativeFilter, Structure};
+use skyloop_robust::structured::goals::{Bound, Goal, Requirement};
+use skyloop_robust::structured::systune::{evaluate, tune_loop, ultimate_point, GoalReport, LoopTuning, Objective, TuneOptions};
+use skyloop_robust::structured::verify::LoopCheck;
+use std::f64::consts::PI;
+
+pub mod report;
+
+/// Which firmware's controller structure and gains.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Firmware {
+    /// Betaflight PIDF (integers p, i, d, f).
+    Betaflight,
+    /// PX4 multicopter rate PID (MC_*RATE_*).
+    Px4,
+    /// C = kp + ki/s + kd·s/(tf·s + 1) in the plant's units.
+    Generic,
+}
+
+impl Firmware {
+    /// Parses "betaflight", "px4" or "generic".
+    ///
+    /// # Errors
+    /// Any other text.
+    pub fn parse(s: &str) -> Result<Self> {
+        match s {
+            "betaflight" => Ok(Firmware::Betaflight),
+            "px4" => Ok(Firmware::Px4),
+            "generic" => Ok(Firmware::Generic),
+            _ => Err(Error::Input(format!("--firmware must be betaflight, px4 or generic, got `{s}`"))),
+        }
+    }
+}
+
+/// The generic controller's structure.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GenericStructure {
+    /// kp + ki/s.
+    Pi,
+    /// kp + ki/s + kd·s/(tf·s + 1) (tf tuned unless fixed).
+    Pid,
+}
+
+impl GenericStructure {
+    /// Parses "pi", "pid" or "pidf" (pidf is MATLAB's name for the same filtered PID).
+    ///
+    /// # Errors
+    /// Any other text.
+    pub fn parse(s: &str) -> Result<Self> {
+        match s {
+            "pi" => Ok(GenericStructure::Pi),
+            "pid" | "pidf" => Ok(GenericStructure::Pid),
+            _ => Err(Error::Input(format!("--structure must be pi, pid or pidf, got `{s}`"))),
+        }
+    }
+}
+
+/// What to maximize once the goals hold.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Maximize {
+    /// The integral gain ki (MIGO: best load-disturbance rejection).
+    IntegralGain,
+    /// The gain-crossover frequency.
+    Crossover,
+}
+
+impl Maximize {
+    /// Parses "integral_gain" or "crossover".
+    ///
+    /// # Errors
+    /// Any other text.
+    pub fn parse(s: &str) -> Result<Self> {
+        match s {
+            "integral_gain" => Ok(Maximize::IntegralGain),
+            "crossover" => Ok(Maximize::Crossover),
+            _ => Err(Error::Input(format!("--maximize must be crossover or integral_gain, got `{s}`"))),
+        }
+    }
+}
+
+/// A tuning request.
+#[derive(Debug, Clone)]
+pub struct TuneRequest {
+    /// The plant, continuous SISO, in the firmware's units (Betaflight: PID sum → gyro deg/s;
+    /// PX4: normalized torque → rad/s; generic: any), exact delays allowed.
+    pub plant: StateSpace,
+    /// Further plants the goals must hold for (e.g. the identified ±2σ models).
+    pub extra_plants: Vec<StateSpace>,
+    /// Firmware.
+    pub firmware: Firmware,
+    /// Axis (names of the gains).
+    pub axis: Axis,
+    /// Generic structure.
+    pub structure: GenericStructure,
+    /// Generic PID: a fixed derivative filter time constant, s (None: tuned).
+    pub d_filter_tau_s: Option<f64>,
+    /// Goals as the user wrote them (`ms<=1.4`, ...).
+    pub goals: Vec<String>,
+    /// What to maximize.
+    pub maximize: Maximize,
+    /// Betaflight filters and loop rate.
+    pub betaflight: betaflight::Filters,
+    /// PX4 filters and loop rate.
+    pub px4: px4::Filters,
+    /// Optimizer starts.
+    pub starts: usize,
+}
+
+impl TuneRequest {
+    /// A request with the defaults (generic PID, maximize ki, firmware default filters, 8 starts).
+    pub fn new(plant: StateSpace, firmware: Firmware) -> Self {
+        TuneRequest {
+            plant,
+            extra_plants: Vec::new(),
+            firmware,
+            axis: Axis::Roll,
+            structure: GenericStructure::Pid,
+            d_filter_tau_s: None,
+            goals: Vec::new(),
+            maximize: Maximize::IntegralGain,
+            betaflight: betaflight::Filters::default(),
+            px4: px4::Filters::default(),
+            starts: 8,
+        }
+    }
+}
+
+/// The proposal.
+#[derive(Debug, Clone)]
+pub struct TuneOutcome {
+    /// The firmware's gains (JSON object with the firmware's keys).
+    pub gains: Value,
+    /// C_fb(s), continuous, plant units, of the gains as printed (after rounding).
+    pub feedback_controller: StateSpace,
+    /// C_fb at the loop rate (firmware only).
+    pub discrete_controller: Option<StateSpace>,
+    /// The exact check of the nominal loop (with the hold delay for firmware).
+    pub margins: LoopCheck,
+    /// Every goal (user's and defaults), re-verified with the printed gains.
+    pub goals: Vec<GoalReport>,
+    /// CLI lines for the firmware (empty for generic).
+    pub cli: Vec<String>,
+    /// The defaults that were added, stated.
+    pub defaults: Vec<String>,
+    /// Notes (what is not tuned, units).
+    pub notes: Vec<String>,
+    /// The plant the loop was checked with (hold delay included).
+    pub loop_plant: StateSpace,
+}
+
+/// Parses one goal: `ms<=1.4`, `mt<=1.3`, `disk_margin>=0.6`, `gain_margin_db>=6`,
+/// `phase_margin_deg>=45`, `crossover_hz>=20` (or `<=`).
+///
+/// # Errors
+/// Unknown quantity, missing operator, a bound that is not a number or lies outside the
+/// quantity's range (named).
+pub fn parse_goal(text: &str) -> Result<Goal> {
+    let t: String = text.chars().filter(|c| !c.is_whitespace()).collect();
+    let (name, op, val) = if let Some((a, b)) = t.split_once("<=") {
+        (a, "<=", b)
+    } else if let Some((a, b)) = t.split_once(">=") {
+        (a, ">=", b)
+    } else {
+        return Err(Error::Input(format!(
+            "goal `{text}`: expected QUANTITY<=VALUE or QUANTITY>=VALUE (e.g. ms<=1.4, disk_margin>=0.6)"
+        )));
+    };
+    let v: f64 = val
+        .parse()
+        .map_err(|_| Error::Input(format!("goal `{text}`: `{val}` is not a number")))?;
+    let req = match name {
+        "ms" => Requirement::Ms,
+        "mt" => Requirement::Mt,
+        "disk_margin" => Requirement::DiskMargin,
+        "gain_margin_db" => Requirement::GainMarginDb,
+        "phase_margin_deg" => Requirement::PhaseMarginDeg,
+        "crossover_hz" => Requirement::CrossoverHz,
+        _ => {
+            return Err(Error::Input(format!(
+                "goal `{text}`: unknown quantity `{name}`; allowed: ms, mt, disk_margin, gain_margin_db, phase_margin_deg, crossover_hz"
+            )))
+        }
+    };
+    let bound = if op == "<=" { Bound::AtMost(v) } else { Bound::AtLeast(v) };
+    let g = Goal::hard(req, bound, text.trim());
+    g.validate()?;
+    Ok(g)
+}
+
+fn with_hold(g: &StateSpace, loop_hz: Option<f64>) -> Result<StateSpace> {
+    let Some(hz) = loop_hz else { return Ok(g.clone()) };
+    let t = firmware::hold_delay_s(hz)?;
+    let mut out = g.clone();
+    out.input_delay[0] += t;
+    Ok(out)
+}
+
+/// Tunes (see the module documentation).
+///
+/// # Errors
+/// Bad plants or goals (named), gains outside the firmware's range, or no stabilizing gains.
+///
+/// # Examples
+/// ```
+/// use skyloop::tune::{tune, Firmware, TuneRequest};
+/// let plant = skyloop::lti::expr::parse_model("exp(-0.1*s)/(s+1)^2")?;
+/// let mut req = TuneRequest::new(plant, Firmware::Generic);
+/// req.goals = vec!["ms<=1.6".into()];
+/// req.starts = 2;
+/// let out = tune(&req)?;
+/// assert!(out.goals.iter().all(|g| g.met));
+/// assert!(out.gains["ki"].as_f64().unwrap() > 0.0);
+/// # Ok::<(), skyloop::Error>(())
+/// ```
+pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
+    for (i, p) in std::iter::once(&req.plant).chain(&req.extra_plants).enumerate() {
+        p.validate()?;
+        if p.ny() != 1 || p.nu() != 1 || p.dt != 0.0 {
+            return Err(Error::Input(format!(
+                "plant {i}: tune needs a continuous SISO model, got {}x{} with dt = {}",
+                p.ny(),
+                p.nu(),
+                p.dt
+            )));
+        }
+    }
+    if !(1..=64).contains(&req.starts) {
+        return Err(Error::Input(format!("--starts must be in 1..=64, got {}", req.starts)));
+    }
+    let loop_hz = match req.firmware {
+        Firmware::Betaflight => Some(req.betaflight.loop_hz),
+        Firmware::Px4 => Some(req.px4.loop_hz),
+        Firmware::Generic => None,
+    };
+    let plants: Vec<StateSpace> = std::iter::once(&req.plant)
+        .chain(&req.extra_plants)
+        .map(|p| with_hold(p, loop_hz))
+        .collect::<Result<_>>()?;
+    let block = match req.firmware {
+        Firmware::Betaflight => betaflight::block(&req.betaflight)?,
+        Firmware::Px4 => px4::block(&req.px4)?,
+        Firmware::Generic => match (req.structure, req.d_filter_tau_s) {
+            (GenericStructure::Pi, _) => Block::Pi,
+            (GenericStructure::Pid, None) => Block::Pid(DerivativeFilter::Tuned),
+            (GenericStructure::Pid, Some(tau)) => {
+                if !(tau.is_finite() && tau > 0.0) {
+                    return Err(Error::Input(format!("--d-filter-tau must be a positive number of seconds, got {tau}")));
+                }
+                Block::Pid(DerivativeFilter::Fixed(StateSpace::from_rows(
+                    &[vec![-1.0 / tau]],
+                    &[vec![1.0 / tau]],
+                    &[vec![1.0]],
+                    &[vec![0.0]],
+                    0.0,
+                )?))
+            }
+        },
+    };
+    let mut goals: Vec<Goal> = req.goals.iter().map(|g| parse_goal(g)).collect::<Result<_>>()?;
+    let mut defaults = Vec::new();
+    if !goals.iter().any(|g| g.req == Requirement::DiskMargin) {
+        goals.push(Goal::hard(Requirement::DiskMargin, Bound::AtLeast(0.5), "disk_margin>=0.5 (default floor)"));
+        defaults.push("disk_margin>=0.5: the loop tolerates ±5.6 dB and ±28° at once".to_string());
+    }
+    let (wu, ku) = ultimate_point(&plants[0])?;
+    let wn = 3.0 * wu;
+    let nmax = 10.0 * ku;
+    goals.push(Goal::hard(
+        Requirement::ControllerGainAbove { w_rad_s: wn },
+        Bound::AtMost(nmax),
+        format!("noise_gain<={nmax:.4e} above {:.4} Hz (default limit)", wn / (2.0 * PI)),
+    ));
+    defaults.push(format!(
+        "noise limit: |C_fb| <= 10*Ku = {nmax:.4e} above 3*f_u = {:.4} Hz (Ku, f_u: the plant's ultimate gain and frequency)",
+        wn / (2.0 * PI)
+    ));
+    let prob = LoopTuning {
+        plants: plants.clone(),
+        structure: Structure::new(block),
+        goals,
+        objective: match req.maximize {
+            Maximize::IntegralGain => Objective::MaximizeIntegralGain,
+            Maximize::Crossover => Objective::MaximizeCrossover,
+        },
+        options: TuneOptions {
+            starts: req.starts,
+            ..Default::default()
+        },
+    };
+    let mut tuned = tune_loop(&prob)?;
+    // Firmware gains are rounded; when no rounding of the optimum meets the hard goals, re-tune
+    // with the violated bounds tightened by twice the violation (at most three times).
+    if req.firmware == Firmware::Betaflight {
+        for _ in 0..3 {
+            let (_, theta) = betaflight_rounding(&prob, &tuned.params, req)?;
+            let (goals, loops) = evaluate(&prob, &theta)?;
+            let worst = goals.iter().filter(|g| g.hard).map(|g| g.normalized).fold(f64::NEG_INFINITY, f64::max);
+            if worst <= 1.0 + 1e-6 && loops.iter().all(|l| l.stable) {
+                break;
+            }
+            let d = 2.0 * (worst - 1.0).max(1e-3);
+            let mut tight = prob.clone();
+            for (g, r) in tight.goals.iter_mut().zip(&goals) {
+                if r.hard && r.normalized > 1.0 - d {
+                    g.bound = match g.bound {
+                        Bound::AtMost(b) => Bound::AtMost(b / (1.0 + d)),
+                        Bound::AtLeast(b) => Bound::AtLeast(b * (1.0 + d)),
+                    };
+                }
+            }
+            match tune_loop(&tight) {
+                Ok(t) => tuned = t,
+                Err(_) => break,
+            }
+        }
+    }
+    let th = &tuned.params;
+    let mut notes = Vec::new();
+    // Map to the firmware's gains, round as the firmware stores them, and re-verify those.
+    let (gains, theta, cli, discrete) = match req.firmware {
+        Firmware::Generic => {
+            let mut g = json!({"kp": th[0], "ki": th[1]});
+            if th.len() > 2 {
+                g["kd"] = json!(th[2]);
+                g["tf"] = json!(if th.len() > 3 { th[3].exp() } else { req.d_filter_tau_s.unwrap_or(0.0) });
+            } else {
+                g["kd"] = json!(0.0);
+                g["tf"] = json!(0.0);
+            }
+            (g, th.clone(), Vec::new(), None)
+        }
+        Firmware::Betaflight => {
+            let f = 120;
+            let (bg, theta) = betaflight_rounding(&prob, th, req)?;
+            notes.push(format!(
+                "f_{} = {f} is not tuned (feedforward acts on the setpoint only, not on the margins); Betaflight 4.4's default, keep yours",
+                req.axis.name()
+            ));
+            notes.push("plant units: input Betaflight's PID sum, output gyro deg/s".into());
+            let c = betaflight::feedback_controller(&bg, req.axis, &req.betaflight)?;
+            (
+                serde_json::to_value(bg)?,
+                theta,
+                betaflight::cli_lines(&bg, req.axis),
+                Some(firmware::discrete(&c, req.betaflight.loop_hz)?),
+            )
+        }
+        Firmware::Px4 => {
+            // Six significant digits: PX4 stores floats, and D ~ 0.003 at four decimals would move
+            // by 3 %.
+            let round = |x: f64| {
+                if x == 0.0 {
+                    return 0.0;
+                }
+                let e = 10f64.powi(5 - x.abs().log10().floor() as i32);
+                (x * e).round() / e
+            };
+            let pg = px4::Gains {
+                k: 1.0,
+                p: round(th[0]),
+                i: round(th[1]),
+                d: round(th[2]),
+                ff: 0.0,
+            };
+            notes.push("MC_*RATE_K = 1 (parallel form); FF = 0 is not tuned (setpoint path only)".into());
+            notes.push("plant units: input normalized torque, output rad/s".into());
+            let (kp, ki, kd) = px4::continuous(&pg);
+            let names = px4::param_names(req.axis);
+            let mut g = serde_json::Map::new();
+            for (n, v) in names.iter().zip([pg.k, pg.p, pg.i, pg.d, pg.ff]) {
+                g.insert(n.clone(), json!(v));
+            }
+            let c = px4::feedback_controller(&pg, &req.px4)?;
+            (
+                Value::Object(g),
+                vec![kp, ki, kd],
+                px4::cli_lines(&pg, req.axis),
+                Some(firmware::discrete(&c, req.px4.loop_hz)?),
+            )
+        }
+    };
+    let (goal_reports, loops) = evaluate(&prob, &theta)?;
+    let feedback_controller = prob.structure.realize(&theta)?;
+    Ok(TuneOutcome {
+        gains,
+        feedback_controller,
+        discrete_controller: discrete,
+        margins: loops[0],
+        goals: goal_reports,
+        cli,
+        defaults,
+        notes,
+        loop_plant: plants[0].clone(),
+    })
+}
+
+/// Betaflight stores integers: of the 8 floor/ceil roundings of (P, I, D), the one that meets
+/// every hard goal with the best objective (rounding can cost a margin).
+fn betaflight_rounding(prob: &LoopTuning, th: &[f64], req: &TuneRequest) -> Result<(betaflight::Gains, Vec<f64>)> {
+    let yaw = if req.axis == Axis::Yaw { 2.5 } else { 1.0 };
+    let mut cands = Vec::new();
+    for mask in 0..8u32 {
+        let pick = |k: f64, scale: f64, bit: u32| {
+            let v = k / scale;
+            (if mask & (1 << bit) == 0 { v.floor() } else { v.ceil() }).max(0.0) * scale
+        };
+        let bg = betaflight::from_continuous(
+            pick(th[0], betaflight::PTERM_SCALE, 0),
+            pick(th[1], betaflight::ITERM_SCALE * yaw, 1),
+            pick(th[2], betaflight::DTERM_SCALE, 2),
+            120,
+            req.axis,
+        )?;
+        let (kp, ki, kd, _) = betaflight::continuous(&bg, req.axis);
+        cands.push((bg, vec![kp, ki, kd]));
+    }
+    best_rounding(prob, cands, req.maximize)
+}
+
+/// The candidate gain set that meets every hard goal (exact check) with the best objective, or
+/// the one that violates the worst goal least.
+fn best_rounding<G: Copy>(prob: &LoopTuning, cands: Vec<(G, Vec<f64>)>, maximize: Maximize) -> Result<(G, Vec<f64>)> {
+    let mut best: Option<(bool, f64, G, Vec<f64>)> = None;
+    for (g, th) in cands {
+        let (goals, loops) = evaluate(prob, &th)?;
+        let ok = loops.iter().all(|l| l.stable) && goals.iter().all(|r| !r.hard || r.met);
+        let score = if ok {
+            match maximize {
+                Maximize::IntegralGain => -th[1],
+                Maximize::Crossover => -loops.iter().map(|l| l.crossover_hz).fold(f64::INFINITY, f64::min),
+            }
+        } else {
+            goals.iter().filter(|r| r.hard).map(|r| r.normalized).fold(f64::NEG_INFINITY, f64::max)
+        };
+        let better = match &best {
+            None => true,
+            Some((bok, bs, _, _)) => (ok && !bok) || (ok == *bok && score < *bs),
+        };
+        if better {
+            best = Some((ok, score, g, th));
+        }
+    }
+    best.map(|(_, _, g, th)| (g, th)).ok_or_else(|| Error::Failed("no rounded gains to check".into()))
+}
+
+impl TuneOutcome {
+    /// The JSON a script reads: `gains`, `feedback_controller`, `margins`, `goals`, `cli`,
+    /// `defaults`, `notes`.
+    pub fn to_json(&self) -> Value {
+        let m = &self.margins;
+        json!({
+            "gains": self.gains,
+            "feedback_controller": LtiJson::from_ss(&self.feedback_controller),
+            "discrete_controller": self.discrete_controller.as_ref().map(LtiJson::from_ss),
+            "margins": {
+                "disk_alpha": m.disk_alpha,
+                "gain_margin_db": m.gain_margin_db,
+                "phase_margin_deg": m.phase_margin_deg,
+                "crossover_hz": m.crossover_hz,
+                "ms": m.ms,
+                "mt": m.mt,
+                "stable": m.stable,
+            },
+            "goals": self.goals.iter().map(|g| json!({
+                "goal": g.label, "value": g.value, "met": g.met, "active": g.active,
+            })).collect::<Vec<_>>(),
+            "cli": self.cli,
+            "defaults": self.defaults,
+            "notes": self.notes,
+        })
+    }
+}
