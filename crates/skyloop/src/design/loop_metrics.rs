@@ -91,7 +91,7 @@ pub fn loop_margins(p: &StateSpace, c: &StateSpace) -> Result<LoopMargins> {
 pub fn sensitivity_peaks(l: &StateSpace) -> Result<[(f64, f64); 2]> {
     let mut ls = Siso::new(l)?;
     let (lo, hi) = dynamics_range(l)?;
-    let mut f = |w: f64| -> [f64; 2] {
+    let f = |w: f64| -> [f64; 2] {
         match ls.at(w) {
             Ok(v) => {
                 let s = 1.0 / (1.0 + v);
@@ -101,23 +101,7 @@ pub fn sensitivity_peaks(l: &StateSpace) -> Result<[(f64, f64); 2]> {
             Err(_) => [0.0, 1.0],
         }
     };
-    let (a, b) = ((lo * 1e-3).log10(), (hi * 1e3).log10());
-    let grid = logspace(a, b, ((b - a) * 80.0).ceil().max(50.0) as usize);
-    let vals: Vec<[f64; 2]> = grid.iter().map(|&w| f(w)).collect();
-    let mut out = [(0.0, 0.0); 2];
-    for (j, o) in out.iter_mut().enumerate() {
-        let (k, best) = vals
-            .iter()
-            .enumerate()
-            .map(|(k, v)| (k, v[j]))
-            .max_by(|x, y| x.1.total_cmp(&y.1))
-            .ok_or_else(|| LtiError::Numerical("empty frequency grid".into()))?;
-        let a = grid[k.saturating_sub(1)].ln();
-        let b = grid[(k + 1).min(grid.len() - 1)].ln();
-        let (x, refined) = golden_max(|x| f(x.exp())[j], a, b, 1e-10);
-        *o = if refined > best { (refined, x.exp()) } else { (best, grid[k]) };
-    }
-    Ok(out)
+    grid_peaks(f, lo, hi)
 }
 
 /// True when the negative-feedback loop of the rational `p` and `c` is internally stable (every
@@ -197,7 +181,7 @@ pub fn four_block_norms(
         lo = lo.min(l);
         hi = hi.max(h);
     }
-    let mut f = |w: f64| -> [f64; 2] {
+    let f = |w: f64| -> [f64; 2] {
         let one = c64::new(1.0, 0.0);
         let v = (|| -> Result<[f64; 2]> {
             let pv = ps.at(w)?;
@@ -221,11 +205,18 @@ pub fn four_block_norms(
             .map(|x| x.map(|y| if y.is_finite() { y } else { 0.0 }))
             .unwrap_or([0.0, 0.0])
     };
-    // 80 points per decade; the peaks of these smooth norms are then bracketed and refined.
+    let [(g, _), (b, _)] = grid_peaks(f, lo, hi)?;
+    Ok((g, b))
+}
+
+/// The peaks of `N` smooth frequency functions `f(ω)` (rad/s): a grid of 80 points per decade over
+/// `lo`/1000 .. `hi`·1000, then golden-section refinement of each peak between its grid neighbours.
+/// Returns (peak value, ω) per function.
+fn grid_peaks<const N: usize>(mut f: impl FnMut(f64) -> [f64; N], lo: f64, hi: f64) -> Result<[(f64, f64); N]> {
     let (a, b) = ((lo * 1e-3).log10(), (hi * 1e3).log10());
     let grid = logspace(a, b, ((b - a) * 80.0).ceil().max(50.0) as usize);
-    let vals: Vec<[f64; 2]> = grid.iter().map(|&w| f(w)).collect();
-    let mut out = [0.0; 2];
+    let vals: Vec<[f64; N]> = grid.iter().map(|&w| f(w)).collect();
+    let mut out = [(0.0, 0.0); N];
     for (j, o) in out.iter_mut().enumerate() {
         let (k, best) = vals
             .iter()
@@ -235,10 +226,10 @@ pub fn four_block_norms(
             .ok_or_else(|| LtiError::Numerical("empty frequency grid".into()))?;
         let a = grid[k.saturating_sub(1)].ln();
         let b = grid[(k + 1).min(grid.len() - 1)].ln();
-        let (_, refined) = golden_max(|x| f(x.exp())[j], a, b, 1e-10);
-        *o = best.max(refined);
+        let (x, refined) = golden_max(|x| f(x.exp())[j], a, b, 1e-10);
+        *o = if refined > best { (refined, x.exp()) } else { (best, grid[k]) };
     }
-    Ok((out[0], out[1]))
+    Ok(out)
 }
 
 /// Closeness of a controller `c` to a reference `r` over [f_lo, f_hi] Hz (400 log-spaced points).
