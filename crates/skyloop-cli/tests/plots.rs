@@ -211,8 +211,18 @@ fn sigma_nichols_pzmap_rlocus_and_interactive_html() {
     let (siso, mimo) = (siso.to_str().unwrap_or_default(), mimo.to_str().unwrap_or_default());
     let cases: [(&str, &[&str], &str, &str); 5] = [
         ("sigma", &[mimo], "sigma.svg", "singular values [dB]"),
-        ("nichols", &["10*exp(-0.01*s)/(s*(0.1*s+1))"], "nichols.svg", "open-loop phase [deg]"),
-        ("pzmap", &["(s+2)/((s+1)*(s^2+0.4*s+4))", siso], "pz.svg", "imaginary axis"),
+        (
+            "nichols",
+            &["10*exp(-0.01*s)/(s*(0.1*s+1))"],
+            "nichols.svg",
+            "open-loop phase [deg]",
+        ),
+        (
+            "pzmap",
+            &["(s+2)/((s+1)*(s^2+0.4*s+4))", siso],
+            "pz.svg",
+            "imaginary axis",
+        ),
         ("rlocus", &["(s+2)/(s*(s+1)*(s+5))"], "rl.svg", "open-loop poles"),
         ("bode", &[siso], "bode.html", "skl-int"),
     ];
@@ -233,7 +243,12 @@ fn sigma_nichols_pzmap_rlocus_and_interactive_html() {
     let r = skyloop(&["rlocus", "exp(-0.1*s)/(s+1)", "--out", o]);
     assert_eq!(r.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&r.stderr).contains("pade"));
-    assert_eq!(skyloop(&["rlocus", "1/(s+1)", "--gains", "5,1", "--out", o]).status.code(), Some(2));
+    assert_eq!(
+        skyloop(&["rlocus", "1/(s+1)", "--gains", "5,1", "--out", o])
+            .status
+            .code(),
+        Some(2)
+    );
 }
 
 #[test]
@@ -245,14 +260,27 @@ fn step_reports_stepinfo() {
     let m = &v["models"][0];
     assert_eq!(m["label"], "T");
     let info = &m["info"][0][0];
-    assert!((info["overshoot_pct"].as_f64().expect("os") - 16.303).abs() < 0.05, "{info}");
+    assert!(
+        (info["overshoot_pct"].as_f64().expect("os") - 16.303).abs() < 0.05,
+        "{info}"
+    );
     assert!((info["final_value"].as_f64().expect("yf") - 1.0).abs() < 1e-9);
     assert!((info["peak"][1].as_f64().expect("tp") - 3.628).abs() < 0.05, "{info}");
     // A PI zero almost cancelling a slow pole: the window follows the fast settling (~0.16 s), not
     // seven time constants of the slow pole (70 s).
-    let r = skyloop(&["step", "50*(s+0.1001)/(s*(s+0.1)*(0.02*s+1))", "--closed-loop", "--json"]);
+    let r = skyloop(&[
+        "step",
+        "50*(s+0.1001)/(s*(s+0.1)*(0.02*s+1))",
+        "--closed-loop",
+        "--json",
+    ]);
     let v: serde_json::Value = serde_json::from_slice(&r.stdout).expect("json");
-    let t_end = v["models"][0]["t_s"].as_array().expect("t").last().and_then(|x| x.as_f64()).expect("t");
+    let t_end = v["models"][0]["t_s"]
+        .as_array()
+        .expect("t")
+        .last()
+        .and_then(|x| x.as_f64())
+        .expect("t");
     assert!(t_end < 1.0, "window {t_end} s");
     let r = skyloop(&["step", "1/(s+1)", "--tfinal", "nan", "--json"]);
     assert_eq!(r.status.code(), Some(2));

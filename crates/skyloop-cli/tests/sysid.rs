@@ -333,7 +333,17 @@ fn identify_betaflight_rate_loop() {
 fn identify_axis_preset_on_a_betaflight_acro_flight() {
     // btfl_all.bbl session 4, the ~130 s acro flight: the pilot's one command.
     let log = log_path("btfl_all.bbl");
-    let args = ["identify", &log, "--axis", "roll", "--fmin-hz", "1", "--fmax-hz", "40", "--json"];
+    let args = [
+        "identify",
+        &log,
+        "--axis",
+        "roll",
+        "--fmin-hz",
+        "1",
+        "--fmax-hz",
+        "40",
+        "--json",
+    ];
     let out = skyloop(&args);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
@@ -368,8 +378,20 @@ fn identify_axis_preset_on_a_betaflight_acro_flight() {
     assert!(v["fit"]["stderr"]["K"].as_f64().unwrap() >= jk);
     // An explicit flag overrides its part of the preset.
     let v2 = ok_json(&[
-        "identify", &log, "--axis", "roll", "--output", "gyroADC[1]", "--fmin-hz", "1", "--fmax-hz", "40",
-        "--blocks", "0", "--allow-poor-fit", "--json",
+        "identify",
+        &log,
+        "--axis",
+        "roll",
+        "--output",
+        "gyroADC[1]",
+        "--fmin-hz",
+        "1",
+        "--fmax-hz",
+        "40",
+        "--blocks",
+        "0",
+        "--allow-poor-fit",
+        "--json",
     ]);
     assert_eq!(v2["output"], "gyroADC[1]");
     assert!(v2.get("validation").is_none());
@@ -380,17 +402,41 @@ fn identify_axis_preset_on_a_betaflight_acro_flight() {
 fn open_loop_estimates_of_flight_logs_warn() {
     let log = log_path("btfl_all.bbl");
     let out = skyloop(&[
-        "identify", &log, "--input", "axisP[0]+axisI[0]+axisD[0]+axisF[0]", "--output", "gyroADC[0]", "--from", "10",
-        "--to", "40",
+        "identify",
+        &log,
+        "--input",
+        "axisP[0]+axisI[0]+axisD[0]+axisF[0]",
+        "--output",
+        "gyroADC[0]",
+        "--from",
+        "10",
+        "--to",
+        "40",
     ]);
     assert!(out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
-    let line = err.lines().find(|l| l.starts_with("warning:") && l.contains("closed loop")).unwrap_or_else(|| panic!("{err}"));
-    assert!(line.contains("--excitation setpoint[0]") && line.contains("--axis"), "{line}");
+    let line = err
+        .lines()
+        .find(|l| l.starts_with("warning:") && l.contains("closed loop"))
+        .unwrap_or_else(|| panic!("{err}"));
+    assert!(
+        line.contains("--excitation setpoint[0]") && line.contains("--axis"),
+        "{line}"
+    );
     // With the instrument, no such warning.
     let out = skyloop(&[
-        "identify", &log, "--input", "axisP[0]", "--output", "gyroADC[0]", "--excitation", "setpoint[0]", "--from",
-        "10", "--to", "40",
+        "identify",
+        &log,
+        "--input",
+        "axisP[0]",
+        "--output",
+        "gyroADC[0]",
+        "--excitation",
+        "setpoint[0]",
+        "--from",
+        "10",
+        "--to",
+        "40",
     ]);
     assert!(!String::from_utf8_lossy(&out.stderr).contains("closed loop"));
 }
@@ -402,13 +448,24 @@ fn slow_channels_refuse_or_limit_the_band() {
     let out = skyloop(&["identify", &log, "--axis", "roll", "--fmax-hz", "10"]);
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("sensor_combined.gyro_rad[0]") && err.contains("9.6 Hz") && err.contains("10 Hz"), "{err}");
+    assert!(
+        err.contains("sensor_combined.gyro_rad[0]") && err.contains("9.6 Hz") && err.contains("10 Hz"),
+        "{err}"
+    );
     let out = skyloop(&["identify", &log, "--axis", "roll", "--allow-poor-fit", "--json"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("warning: channel 'sensor_combined.gyro_rad[0]' is logged at only 9.6 Hz"), "{err}");
+    assert!(
+        err.contains("warning: channel 'sensor_combined.gyro_rad[0]' is logged at only 9.6 Hz"),
+        "{err}"
+    );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let fmax = v["frf"]["freq_hz"].as_array().unwrap().iter().map(|f| f.as_f64().unwrap()).fold(0.0, f64::max);
+    let fmax = v["frf"]["freq_hz"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f.as_f64().unwrap())
+        .fold(0.0, f64::max);
     // 1/2.5 of the channel's median rate (9.62 Hz), below its Nyquist frequency.
     assert!(fmax < 3.85, "{fmax}");
 }
@@ -419,8 +476,22 @@ fn diverged_or_poor_fits_are_flagged() {
     let ps = p.to_str().unwrap();
     // A pure delay cannot describe a lag: the fit is worse than the mean, which is an error …
     let args = [
-        "identify", ps, "--input", "u", "--output", "y", "--fmin-hz", "0.5", "--fmax-hz", "40", "--model",
-        "K*exp(-Td*s)", "--init", "K=0.005,Td=0.01", "--bounds", "K=0:0.01,Td=0:0.02",
+        "identify",
+        ps,
+        "--input",
+        "u",
+        "--output",
+        "y",
+        "--fmin-hz",
+        "0.5",
+        "--fmax-hz",
+        "40",
+        "--model",
+        "K*exp(-Td*s)",
+        "--init",
+        "K=0.005,Td=0.01",
+        "--bounds",
+        "K=0:0.01,Td=0:0.02",
     ];
     fails_with(&args, "--allow-poor-fit");
     // … unless asked for, and then flagged: at a bound, in the JSON and on stderr.
@@ -474,21 +545,36 @@ fn log_export_and_plot() {
         .collect();
     // One row per main frame, as `log info` counts them; times increase; raw integers.
     let info = ok_json(&["log", "info", &log, "--json"]);
-    let main = info["groups"].as_array().unwrap().iter().find(|g| g["name"] == "main").unwrap();
+    let main = info["groups"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|g| g["name"] == "main")
+        .unwrap();
     assert_eq!(rows.len() as u64, main["samples"].as_u64().unwrap());
     assert!(rows.windows(2).all(|w| w[1][0] > w[0][0]));
     assert!(rows.iter().all(|r| r[2].fract() == 0.0));
     // ULog: one topic at a time.
     fails_with(
         &[
-            "log", "export", &log_path("sample_px4_events.ulg"), "--fields",
-            "vehicle_angular_velocity.xyz[0],sensor_combined.gyro_rad[0]", "--out", o,
+            "log",
+            "export",
+            &log_path("sample_px4_events.ulg"),
+            "--fields",
+            "vehicle_angular_velocity.xyz[0],sensor_combined.gyro_rad[0]",
+            "--out",
+            o,
         ],
         "one group",
     );
     let png = tmp("log.png");
     let r = skyloop(&[
-        "log", "plot", &log_path("btfl_all.bbl"), "--fields", "gyroADC[0],setpoint[0],rcCommand[3]", "--out",
+        "log",
+        "plot",
+        &log_path("btfl_all.bbl"),
+        "--fields",
+        "gyroADC[0],setpoint[0],rcCommand[3]",
+        "--out",
         png.to_str().unwrap(),
     ]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));

@@ -29,10 +29,18 @@ fn check_claims(plant_with_hold: &str, v: &Value) {
     let alpha = claimed["disk_alpha"].as_f64().unwrap();
     assert!(s.contains("disk"), "{s}");
     let dm = skyloop::lti::margins::diskmargin(&l).unwrap();
-    assert!((dm.alpha - alpha).abs() < 1e-6 * alpha, "disk {} vs claimed {alpha}", dm.alpha);
+    assert!(
+        (dm.alpha - alpha).abs() < 1e-6 * alpha,
+        "disk {} vs claimed {alpha}",
+        dm.alpha
+    );
     let mm = skyloop::lti::margins::margin(&l).unwrap();
     let pm = claimed["phase_margin_deg"].as_f64().unwrap();
-    assert!((mm.pm_deg - pm).abs() < 1e-6 * pm.abs().max(1.0), "pm {} vs {pm}", mm.pm_deg);
+    assert!(
+        (mm.pm_deg - pm).abs() < 1e-6 * pm.abs().max(1.0),
+        "pm {} vs {pm}",
+        mm.pm_deg
+    );
     for g in v["goals"].as_array().unwrap() {
         assert!(g["met"].as_bool().unwrap(), "{g}");
     }
@@ -41,14 +49,32 @@ fn check_claims(plant_with_hold: &str, v: &Value) {
 #[test]
 fn generic_pid_meets_its_goals_and_the_claims_hold() {
     let plant = "exp(-0.02*s)*200/(s*(0.05*s+1))";
-    let v = json(&["tune", "--plant", plant, "--firmware", "generic", "--goal", "ms<=1.5", "--goal", "phase_margin_deg>=45", "--starts", "4", "--json"]);
+    let v = json(&[
+        "tune",
+        "--plant",
+        plant,
+        "--firmware",
+        "generic",
+        "--goal",
+        "ms<=1.5",
+        "--goal",
+        "phase_margin_deg>=45",
+        "--starts",
+        "4",
+        "--json",
+    ]);
     for k in ["kp", "ki", "kd", "tf"] {
         assert!(v["gains"][k].is_number(), "{k}: {v}");
     }
     assert!(v["margins"]["phase_margin_deg"].as_f64().unwrap() >= 45.0 - 1e-6);
     assert!(v["margins"]["ms"].as_f64().unwrap() <= 1.5 + 1e-6);
     check_claims(plant, &v);
-    let goals: Vec<&str> = v["goals"].as_array().unwrap().iter().map(|g| g["goal"].as_str().unwrap()).collect();
+    let goals: Vec<&str> = v["goals"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|g| g["goal"].as_str().unwrap())
+        .collect();
     assert_eq!(&goals[..2], &["ms<=1.5", "phase_margin_deg>=45"]);
     assert!(goals.iter().any(|g| g.contains("default")), "{goals:?}");
 }
@@ -58,11 +84,29 @@ fn betaflight_prints_integer_gains_and_cli_lines() {
     // A roll axis in Betaflight's units (PID sum → deg/s): gain 400, motor lag 25 ms, 3 ms delay.
     let plant = "exp(-0.003*s)*400/(s*(0.025*s+1))";
     let dir = std::env::temp_dir().join(format!("skyloop-tune-bf-{}", std::process::id()));
-    let v = json(&["tune", "--plant", plant, "--firmware", "betaflight", "--goal", "disk_margin>=0.6", "--starts", "4", "--out", dir.to_str().unwrap(), "--json"]);
+    let v = json(&[
+        "tune",
+        "--plant",
+        plant,
+        "--firmware",
+        "betaflight",
+        "--goal",
+        "disk_margin>=0.6",
+        "--starts",
+        "4",
+        "--out",
+        dir.to_str().unwrap(),
+        "--json",
+    ]);
     for k in ["p", "i", "d", "f"] {
         assert!(v["gains"][k].is_u64(), "{k}: {v}");
     }
-    let cli: Vec<&str> = v["cli"].as_array().unwrap().iter().map(|l| l.as_str().unwrap()).collect();
+    let cli: Vec<&str> = v["cli"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|l| l.as_str().unwrap())
+        .collect();
     assert_eq!(cli[0], format!("set p_roll = {}", v["gains"]["p"]));
     let file = std::fs::read_to_string(dir.join("cli.txt")).unwrap();
     assert!(file.starts_with(cli[0]));
@@ -74,8 +118,25 @@ fn betaflight_prints_integer_gains_and_cli_lines() {
 #[test]
 fn px4_prints_parameter_names() {
     let plant = "exp(-0.004*s)*60/(s*(0.03*s+1))";
-    let v = json(&["tune", "--plant", plant, "--firmware", "px4", "--axis", "pitch", "--starts", "3", "--json"]);
-    for k in ["MC_PITCHRATE_K", "MC_PITCHRATE_P", "MC_PITCHRATE_I", "MC_PITCHRATE_D", "MC_PITCHRATE_FF"] {
+    let v = json(&[
+        "tune",
+        "--plant",
+        plant,
+        "--firmware",
+        "px4",
+        "--axis",
+        "pitch",
+        "--starts",
+        "3",
+        "--json",
+    ]);
+    for k in [
+        "MC_PITCHRATE_K",
+        "MC_PITCHRATE_P",
+        "MC_PITCHRATE_I",
+        "MC_PITCHRATE_D",
+        "MC_PITCHRATE_FF",
+    ] {
         assert!(v["gains"][k].is_number(), "{k}: {v}");
     }
     assert!(v["cli"][1].as_str().unwrap().starts_with("param set MC_PITCHRATE_P "));
@@ -85,10 +146,38 @@ fn px4_prints_parameter_names() {
 #[test]
 fn bad_input_exits_2_with_the_allowed_range() {
     let cases: [(&[&str], &str); 4] = [
-        (&["tune", "--plant", "1/(s+1)", "--firmware", "inav"], "betaflight, px4 or generic"),
-        (&["tune", "--plant", "1/(s+1)", "--firmware", "generic", "--goal", "ms<=0.8"], "> 1"),
-        (&["tune", "--plant", "1/(s+1)", "--firmware", "generic", "--goal", "bandwidth>=3"], "allowed: ms, mt"),
-        (&["hinfstruct", "1/(s+1)", "--nmeas", "1", "--ncon", "1", "--order", "1"], "nmeas must be in"),
+        (
+            &["tune", "--plant", "1/(s+1)", "--firmware", "inav"],
+            "betaflight, px4 or generic",
+        ),
+        (
+            &[
+                "tune",
+                "--plant",
+                "1/(s+1)",
+                "--firmware",
+                "generic",
+                "--goal",
+                "ms<=0.8",
+            ],
+            "> 1",
+        ),
+        (
+            &[
+                "tune",
+                "--plant",
+                "1/(s+1)",
+                "--firmware",
+                "generic",
+                "--goal",
+                "bandwidth>=3",
+            ],
+            "allowed: ms, mt",
+        ),
+        (
+            &["hinfstruct", "1/(s+1)", "--nmeas", "1", "--ncon", "1", "--order", "1"],
+            "nmeas must be in",
+        ),
     ];
     for (args, want) in cases {
         let (code, _, err) = skyloop(args);
@@ -99,14 +188,29 @@ fn bad_input_exits_2_with_the_allowed_range() {
 
 #[test]
 fn hinfstruct_json_gamma_is_the_closed_loop_norm() {
-    let p = format!("{}/../skyloop-robust/tests/fixtures/hinf/hinfsyn_random.json", env!("CARGO_MANIFEST_DIR"));
+    let p = format!(
+        "{}/../skyloop-robust/tests/fixtures/hinf/hinfsyn_random.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
     let f: Value = serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap();
     let case = &f["cases"][0];
     let dir = std::env::temp_dir().join(format!("skyloop-hs-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let ppath = dir.join("p.json");
     std::fs::write(&ppath, case["plant"].to_string()).unwrap();
-    let v = json(&["hinfstruct", ppath.to_str().unwrap(), "--nmeas", "1", "--ncon", "1", "--order", "2", "--starts", "4", "--json"]);
+    let v = json(&[
+        "hinfstruct",
+        ppath.to_str().unwrap(),
+        "--nmeas",
+        "1",
+        "--ncon",
+        "1",
+        "--order",
+        "2",
+        "--starts",
+        "4",
+        "--json",
+    ]);
     let gamma = v["gamma"].as_f64().unwrap();
     let k = skyloop::lti::json::from_json_str(&v["controller"].to_string()).unwrap();
     let plant = skyloop::lti::json::from_json_str(&case["plant"].to_string()).unwrap();
@@ -114,5 +218,8 @@ fn hinfstruct_json_gamma_is_the_closed_loop_norm() {
     let (norm, _) = skyloop::lti::norms::hinf_norm(&cl).unwrap();
     assert!((norm - gamma).abs() < 1e-8 * norm);
     let opt = case["gamma_slicot"].as_f64().unwrap();
-    assert!(gamma >= opt * (1.0 - 1e-3) && gamma <= opt * 1.05, "{gamma} vs slicot {opt}");
+    assert!(
+        gamma >= opt * (1.0 - 1e-3) && gamma <= opt * 1.05,
+        "{gamma} vs slicot {opt}"
+    );
 }

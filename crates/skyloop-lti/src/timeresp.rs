@@ -454,8 +454,16 @@ pub fn stepinfo(t: &[f64], y: &[f64], final_value: Option<f64>) -> StepInfo {
             Some(t[k] + f.clamp(0.0, 1.0) * (t[k + 1] - t[k]))
         }
     };
-    let max_r = r.iter().copied().filter(|v| v.is_finite()).fold(f64::NEG_INFINITY, f64::max);
-    let min_r = r.iter().copied().filter(|v| v.is_finite()).fold(f64::INFINITY, f64::min);
+    let max_r = r
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite())
+        .fold(f64::NEG_INFINITY, f64::max);
+    let min_r = r
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite())
+        .fold(f64::INFINITY, f64::min);
     info.overshoot_pct = Some(100.0 * (max_r - 1.0).max(0.0));
     // `+ 0.0` turns a −0 (a response starting exactly at 0) into 0.
     info.undershoot_pct = Some(100.0 * (-min_r).max(0.0) + 0.0);

@@ -277,7 +277,11 @@ pub fn bode_mimo_figure(title: &str, systems: &[Vec<Vec<BodeData>>], names: &IoN
             if zero {
                 // An identically zero channel (e.g. off the diagonal): empty axes over the others'
                 // frequencies, as MATLAB draws it, instead of a curve at −∞.
-                let f = systems.iter().flatten().flatten().flat_map(|d| d.freq_hz.iter().copied());
+                let f = systems
+                    .iter()
+                    .flatten()
+                    .flatten()
+                    .flat_map(|d| d.freq_hz.iter().copied());
                 let (lo, hi) = f
                     .filter(|v| *v > 0.0 && v.is_finite())
                     .fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));

@@ -21,7 +21,10 @@ fn bench(c: &mut Criterion) {
             Goal::hard(Requirement::DiskMargin, Bound::AtLeast(0.6), "disk_margin>=0.6"),
         ],
         objective: Objective::MaximizeIntegralGain,
-        options: TuneOptions { starts: 8, ..Default::default() },
+        options: TuneOptions {
+            starts: 8,
+            ..Default::default()
+        },
     };
     let mut grp = c.benchmark_group("tune");
     grp.sample_size(10);
@@ -29,9 +32,23 @@ fn bench(c: &mut Criterion) {
     let f = skyloop_fixtures::load(env!("CARGO_MANIFEST_DIR"), "tests/fixtures/hinf/bench_plant12.json");
     if let Ok(j) = serde_json::from_value::<skyloop_lti::json::LtiJson>(f["plant"].clone()) {
         let p = j.to_ss().unwrap();
-        let (nmeas, ncon) = (f["nmeas"].as_u64().unwrap_or(1) as usize, f["ncon"].as_u64().unwrap_or(1) as usize);
+        let (nmeas, ncon) = (
+            f["nmeas"].as_u64().unwrap_or(1) as usize,
+            f["ncon"].as_u64().unwrap_or(1) as usize,
+        );
         grp.bench_function("hinfstruct_12_states_order2_4_starts", |b| {
-            b.iter(|| hinfstruct(&p, nmeas, ncon, 2, &HinfstructOptions { starts: 4, ..Default::default() }))
+            b.iter(|| {
+                hinfstruct(
+                    &p,
+                    nmeas,
+                    ncon,
+                    2,
+                    &HinfstructOptions {
+                        starts: 4,
+                        ..Default::default()
+                    },
+                )
+            })
         });
     }
     grp.finish();

@@ -21,18 +21,39 @@ fn plant(v: &serde_json::Value) -> StateSpace {
 /// (rand2_n4 is left out: from these starts hinfstruct reaches 50.6 against γ_opt 38.4 — a
 /// known shortfall of the optimizer, reported rather than hidden by a looser bound.)
 fn full_order_comes_within_five_percent_of_hinfsyn() {
-    for c in cases().iter().filter(|c| ["rand0_n2", "rand1_n3"].contains(&c["name"].as_str().unwrap())) {
+    for c in cases()
+        .iter()
+        .filter(|c| ["rand0_n2", "rand1_n3"].contains(&c["name"].as_str().unwrap()))
+    {
         let name = c["name"].as_str().unwrap();
         let p = plant(&c["plant"]);
-        let (nmeas, ncon) = (c["nmeas"].as_u64().unwrap() as usize, c["ncon"].as_u64().unwrap() as usize);
+        let (nmeas, ncon) = (
+            c["nmeas"].as_u64().unwrap() as usize,
+            c["ncon"].as_u64().unwrap() as usize,
+        );
         let opt = hinfsyn(&p, nmeas, ncon).unwrap();
         let sol = hinfstruct(&p, nmeas, ncon, p.nx(), &HinfstructOptions::default()).unwrap();
         let cl = skyloop_lti::interconnect::lft_lower(&p, &sol.controller).unwrap();
         let (norm, _) = skyloop_lti::norms::hinf_norm(&cl).unwrap();
-        eprintln!("{name}: hinfsyn {:.6} (lower {:.6}) hinfstruct {:.6}", opt.gamma, opt.gamma_lower, sol.gamma);
-        assert!((norm - sol.gamma).abs() <= 1e-8 * norm, "{name}: reported {} vs recomputed {norm}", sol.gamma);
-        assert!(sol.gamma >= opt.gamma_lower * (1.0 - 1e-6), "{name}: below the proven lower bound");
-        assert!(sol.gamma <= opt.gamma * 1.05, "{name}: {} vs hinfsyn {}", sol.gamma, opt.gamma);
+        eprintln!(
+            "{name}: hinfsyn {:.6} (lower {:.6}) hinfstruct {:.6}",
+            opt.gamma, opt.gamma_lower, sol.gamma
+        );
+        assert!(
+            (norm - sol.gamma).abs() <= 1e-8 * norm,
+            "{name}: reported {} vs recomputed {norm}",
+            sol.gamma
+        );
+        assert!(
+            sol.gamma >= opt.gamma_lower * (1.0 - 1e-6),
+            "{name}: below the proven lower bound"
+        );
+        assert!(
+            sol.gamma <= opt.gamma * 1.05,
+            "{name}: {} vs hinfsyn {}",
+            sol.gamma,
+            opt.gamma
+        );
     }
 }
 
@@ -41,7 +62,16 @@ fn bad_requests_are_named() {
     let p = plant(&cases()[0]["plant"]);
     let e = hinfstruct(&p, 5, 1, 1, &HinfstructOptions::default()).unwrap_err();
     assert!(e.to_string().contains("nmeas must be in"), "{e}");
-    let e = hinfstruct(&p, 1, 1, 1, &HinfstructOptions { starts: 0, ..Default::default() }).unwrap_err();
+    let e = hinfstruct(
+        &p,
+        1,
+        1,
+        1,
+        &HinfstructOptions {
+            starts: 0,
+            ..Default::default()
+        },
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("starts must be in 1..=1000"), "{e}");
 }
-

@@ -19,13 +19,31 @@ fn pi_integral_gain_matches_the_scipy_optimum() {
             structure: Structure::new(Block::Pi),
             goals: vec![Goal::hard(Requirement::Ms, Bound::AtMost(1.4), "ms<=1.4")],
             objective: Objective::MaximizeIntegralGain,
-            options: TuneOptions { starts: 4, ..Default::default() },
+            options: TuneOptions {
+                starts: 4,
+                ..Default::default()
+            },
         };
         let r = tune_loop(&prob).unwrap();
         let (kp_ref, ki_ref) = (c["kp"].as_f64().unwrap(), c["ki"].as_f64().unwrap());
-        eprintln!("{name}: ours kp {:.6} ki {:.6} Ms {:.6}; scipy kp {kp_ref:.6} ki {ki_ref:.6}", r.params[0], r.params[1], r.loops[0].ms);
-        assert!(r.feasible && r.loops[0].ms <= 1.4 * (1.0 + 1e-6), "{name}: {:?}", r.goals);
-        assert!(r.params[1] >= 0.99 * ki_ref, "{name}: ki {} vs reference {ki_ref}", r.params[1]);
-        assert!(r.params[1] <= 1.002 * ki_ref, "{name}: ki {} above the reference {ki_ref}", r.params[1]);
+        eprintln!(
+            "{name}: ours kp {:.6} ki {:.6} Ms {:.6}; scipy kp {kp_ref:.6} ki {ki_ref:.6}",
+            r.params[0], r.params[1], r.loops[0].ms
+        );
+        assert!(
+            r.feasible && r.loops[0].ms <= 1.4 * (1.0 + 1e-6),
+            "{name}: {:?}",
+            r.goals
+        );
+        assert!(
+            r.params[1] >= 0.99 * ki_ref,
+            "{name}: ki {} vs reference {ki_ref}",
+            r.params[1]
+        );
+        assert!(
+            r.params[1] <= 1.002 * ki_ref,
+            "{name}: ki {} above the reference {ki_ref}",
+            r.params[1]
+        );
     }
 }

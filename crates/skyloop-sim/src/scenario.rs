@@ -205,13 +205,21 @@ fn check_numbers(v: &toml::Value, path: &str) -> Result<()> {
         toml::Value::Array(items) => {
             for (i, item) in items.iter().enumerate() {
                 // Elements of a limit array are limits too: keep the key's name last.
-                let p = if matches!(item, toml::Value::Table(_)) { format!("{path}[{i}]") } else { path.to_string() };
+                let p = if matches!(item, toml::Value::Table(_)) {
+                    format!("{path}[{i}]")
+                } else {
+                    path.to_string()
+                };
                 check_numbers(item, &p)?;
             }
         }
         toml::Value::Table(t) => {
             for (k, item) in t {
-                let p = if path.is_empty() { k.clone() } else { format!("{path}.{k}") };
+                let p = if path.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{path}.{k}")
+                };
                 check_numbers(item, &p)?;
             }
         }
@@ -246,8 +254,11 @@ mod number_tests {
 
     #[test]
     fn nan_and_negative_limits_are_named() {
-        let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/bicopter-hinf.toml"))
-            .expect("example");
+        let text = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../examples/bicopter-hinf.toml"
+        ))
+        .expect("example");
         Scenario::from_toml(&text).expect("the example is valid");
         let bad = text.replacen("max_rate_rad_s = 4.0", "max_rate_rad_s = -4.0", 1);
         assert_ne!(bad, text);

@@ -22,7 +22,10 @@ fn truth(f_hz: f64) -> C64 {
 struct Lcg(u64);
 impl Lcg {
     fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         (self.0 >> 11) as f64 / (1u64 << 53) as f64
     }
     /// Standard normal (Box–Muller).
@@ -88,14 +91,32 @@ fn every_method_is_unbiased_in_closed_loop_with_the_instrument() {
             n_freq: 200,
             ..Options::default()
         };
-        let closed = estimate(&IoData { u: &u, y: &y, r: Some(&r), dt_s: T }, &o).unwrap();
+        let closed = estimate(
+            &IoData {
+                u: &u,
+                y: &y,
+                r: Some(&r),
+                dt_s: T,
+            },
+            &o,
+        )
+        .unwrap();
         let (mag, ph, med) = errors(&closed.freq_hz, &closed.response);
         assert!(
             mag.abs() < 0.04 && ph.abs() < 2.0 && med < 0.12,
             "{method:?} with the instrument: mean log-magnitude error {mag:.4}, mean phase error {ph:.2}°, median |error| {med:.3}"
         );
         // The same data estimated open loop: pulled towards −1/C where the fed-back noise dominates.
-        let open = estimate(&IoData { u: &u, y: &y, r: None, dt_s: T }, &o).unwrap();
+        let open = estimate(
+            &IoData {
+                u: &u,
+                y: &y,
+                r: None,
+                dt_s: T,
+            },
+            &o,
+        )
+        .unwrap();
         let (mag_o, ph_o, _) = errors(&open.freq_hz, &open.response);
         // Measured: 0.26 for ETFE, Welch and SPA, 0.08 for SPAFDR (its low-frequency points, where the
         // loop gain is high, dominate less), against ≤ 0.03 with the instrument.

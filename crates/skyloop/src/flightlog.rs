@@ -72,8 +72,12 @@ pub fn export_csv(log: &Log, fields: &[String], out: &Path) -> Result<usize> {
 /// The airborne segments `skyloop identify --axis` would search (on the roll gyro's time base);
 /// empty for a log without firmware (CSV) or without flight.
 pub fn airborne_spans(log: &Log) -> Vec<Span> {
-    let Ok(ch) = RateLoopChannels::find(log, Axis::Roll) else { return Vec::new() };
-    let Ok(c) = AirborneCriteria::for_log(log) else { return Vec::new() };
+    let Ok(ch) = RateLoopChannels::find(log, Axis::Roll) else {
+        return Vec::new();
+    };
+    let Ok(c) = AirborneCriteria::for_log(log) else {
+        return Vec::new();
+    };
     airborne_segments(log, &ch.output, &c, None, None)
         .map(|a| a.segments)
         .unwrap_or_default()
@@ -114,7 +118,11 @@ pub fn plot_fields(log: &Log, fields: &[String], out: &Path) -> Result<Vec<Span>
         }
         for (k, s) in spans.iter().enumerate() {
             p.bands.push(Band {
-                label: if k == 0 { "airborne (identified)".into() } else { String::new() },
+                label: if k == 0 {
+                    "airborne (identified)".into()
+                } else {
+                    String::new()
+                },
                 x: vec![s.from_s, s.to_s],
                 lower: vec![lo; 2],
                 upper: vec![hi; 2],

@@ -16,7 +16,10 @@ const D: usize = 2;
 struct Lcg(u64);
 impl Lcg {
     fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         (self.0 >> 11) as f64 / (1u64 << 53) as f64
     }
     fn normal(&mut self) -> f64 {
@@ -85,7 +88,11 @@ fn halves_of_one_flight_agree_within_their_reported_errors() {
     let first = identify(&request(&p, None, Some(120.0))).unwrap();
     let second = identify(&request(&p, Some(120.0), None)).unwrap();
     let whole = identify(&request(&p, None, None)).unwrap();
-    let (f1, f2, fw) = (&first.fit.as_ref().unwrap().1, &second.fit.as_ref().unwrap().1, &whole.fit.as_ref().unwrap().1);
+    let (f1, f2, fw) = (
+        &first.fit.as_ref().unwrap().1,
+        &second.fit.as_ref().unwrap().1,
+        &whole.fit.as_ref().unwrap().1,
+    );
     for k in ["K", "tau", "Td"] {
         eprintln!(
             "{k}: halves {:.5} ± {:.5}, {:.5} ± {:.5}; whole {:.5} ± {:.5}",
@@ -104,7 +111,10 @@ fn halves_of_one_flight_agree_within_their_reported_errors() {
         // The reported error is the larger of the model-based and the jackknife one.
         let u = whole.uncertainty.as_ref().unwrap();
         assert_eq!(u.blocks_used, 8);
-        assert!(fw.stderr[k] >= u.model_stderr[k] && fw.stderr[k] >= u.jackknife_stderr[k], "{k}");
+        assert!(
+            fw.stderr[k] >= u.model_stderr[k] && fw.stderr[k] >= u.jackknife_stderr[k],
+            "{k}"
+        );
     }
     // The plant is known: K exactly, τ exactly, the delay D·T plus a sample of the discrete
     // integrator and lag (half a sample each, from their zero-order holds).

@@ -94,7 +94,12 @@ fn print_table(r: &DesignResult) {
         let m = &st.margins;
         if m.gain_crossovers_hz.len() > 1 {
             let list: Vec<String> = m.gain_crossovers_hz.iter().map(|f| format!("{f:.3}")).collect();
-            println!("{}: the loop crosses 0 dB {} times, at {} Hz", st.stage, list.len(), list.join(", "));
+            println!(
+                "{}: the loop crosses 0 dB {} times, at {} Hz",
+                st.stage,
+                list.len(),
+                list.join(", ")
+            );
         }
     }
     if let Some(c) = &s.reduced_vs_full {

@@ -49,7 +49,10 @@ pub fn run(a: Args) -> skyloop::Result<()> {
             "stabilized_starts": sol.stabilized_starts,
         }));
     }
-    println!("gamma {:.6}  (closed loop re-verified; {} of {} starts stabilized)", sol.gamma, sol.stabilized_starts, a.starts);
+    println!(
+        "gamma {:.6}  (closed loop re-verified; {} of {} starts stabilized)",
+        sol.gamma, sol.stabilized_starts, a.starts
+    );
     let k = &sol.controller;
     for (name, m) in [("A", &k.a), ("B", &k.b), ("C", &k.c), ("D", &k.d)] {
         println!("{name} =\n{}", matrix_table(m));

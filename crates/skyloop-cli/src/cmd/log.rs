@@ -180,7 +180,9 @@ fn print_tuning(t: &FirmwareTuning) {
                     "  {name}: {} {} Hz{}",
                     l.kind,
                     l.cutoff_hz,
-                    l.dynamic_hz.map(|(a, b)| format!(" (dynamic {a}..{b} Hz)")).unwrap_or_default()
+                    l.dynamic_hz
+                        .map(|(a, b)| format!(" (dynamic {a}..{b} Hz)"))
+                        .unwrap_or_default()
                 ),
                 None => println!("  {name}: off"),
             };
@@ -193,7 +195,12 @@ fn print_tuning(t: &FirmwareTuning) {
                 None => println!("  dynamic notch: off"),
             }
             match &b.rpm_filter {
-                Some(r) => println!("  RPM filter: {} harmonics, Q {}, min {} Hz", r.harmonics, opt(r.q), opt(r.min_hz)),
+                Some(r) => println!(
+                    "  RPM filter: {} harmonics, Q {}, min {} Hz",
+                    r.harmonics,
+                    opt(r.q),
+                    opt(r.min_hz)
+                ),
                 None => println!("  RPM filter: off"),
             }
             println!(

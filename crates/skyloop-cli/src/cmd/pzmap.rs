@@ -48,7 +48,10 @@ pub struct RlocusArgs {
 
 /// Sweeps the gain, builds the root locus and writes it.
 pub fn run_rlocus(a: RlocusArgs) -> skyloop::Result<()> {
-    let label = a.label.clone().unwrap_or_else(|| skyloop::figures::short_label(&a.model));
+    let label = a
+        .label
+        .clone()
+        .unwrap_or_else(|| skyloop::figures::short_label(&a.model));
     let l = skyloop::figures::Labeled::new(label, skyloop::model::load_model(&a.model)?);
     let gains = a.gains.as_ref().map(|g| (g[0], g[1]));
     save(skyloop::figures::rlocus(&l, gains)?, a.title.as_deref(), &a.out)

@@ -63,7 +63,11 @@ pub fn run(a: Args) -> skyloop::Result<()> {
                 };
                 println!(
                     "{name:<40} {:>10} {:>12} {:>12} {:>11} {:>11}",
-                    if s.final_value.is_finite() { format!("{:.4}", s.final_value) } else { "none".into() },
+                    if s.final_value.is_finite() {
+                        format!("{:.4}", s.final_value)
+                    } else {
+                        "none".into()
+                    },
                     opt(s.rise_time_s, ""),
                     opt(s.settling_time_s, ""),
                     opt(s.overshoot_pct, "%"),
@@ -72,6 +76,9 @@ pub fn run(a: Args) -> skyloop::Result<()> {
             }
         }
     }
-    println!("(t = 0 .. {:.4} s; rise 10–90 %, settling within 2 %)", runs[0].t_s.last().copied().unwrap_or(0.0));
+    println!(
+        "(t = 0 .. {:.4} s; rise 10–90 %, settling within 2 %)",
+        runs[0].t_s.last().copied().unwrap_or(0.0)
+    );
     Ok(())
 }

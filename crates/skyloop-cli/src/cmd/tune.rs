@@ -66,7 +66,12 @@ pub fn run(a: Args) -> skyloop::Result<()> {
         m.disk_alpha, m.gain_margin_db, m.phase_margin_deg, m.crossover_hz, m.ms
     );
     for g in &out.goals {
-        println!("goal     {:<40} {:>12.5}  {}", g.label, g.value, if g.met { "met" } else { "NOT MET" });
+        println!(
+            "goal     {:<40} {:>12.5}  {}",
+            g.label,
+            g.value,
+            if g.met { "met" } else { "NOT MET" }
+        );
     }
     for d in &out.defaults {
         println!("default  {d}");

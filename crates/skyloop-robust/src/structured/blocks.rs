@@ -180,7 +180,13 @@ impl Block {
         let m = |r: usize, c: usize, v: &[f64]| Mat::from_fn(r, c, |i, j| v[i * c + j]);
         Ok(match self {
             Block::Gain => StateSpace::gain(m(1, 1, &[th[0]]), 0.0)?,
-            Block::Pi => StateSpace::new(m(1, 1, &[0.0]), m(1, 1, &[1.0]), m(1, 1, &[th[1]]), m(1, 1, &[th[0]]), 0.0)?,
+            Block::Pi => StateSpace::new(
+                m(1, 1, &[0.0]),
+                m(1, 1, &[1.0]),
+                m(1, 1, &[th[1]]),
+                m(1, 1, &[th[0]]),
+                0.0,
+            )?,
             Block::Pid(DerivativeFilter::Tuned) => {
                 let (kp, ki, kd, tf) = (th[0], th[1], th[2], th[3].exp());
                 // kd·s/(tf·s + 1) = kd/tf − (kd/tf²)/(s + 1/tf).
@@ -209,7 +215,13 @@ impl Block {
             Block::PidFiltered { pi_filter, d_filter } => pid_filtered(pi_filter.as_ref(), d_filter, th)?,
             Block::LeadLag => {
                 let (k, z, p) = (th[0], th[1].exp(), th[2].exp());
-                StateSpace::new(m(1, 1, &[-p]), m(1, 1, &[1.0]), m(1, 1, &[k * (z - p)]), m(1, 1, &[k]), 0.0)?
+                StateSpace::new(
+                    m(1, 1, &[-p]),
+                    m(1, 1, &[1.0]),
+                    m(1, 1, &[k * (z - p)]),
+                    m(1, 1, &[k]),
+                    0.0,
+                )?
             }
             Block::StateSpace { order, ny, nu } => {
                 let (n, p, q) = (*order, *ny, *nu);
@@ -310,7 +322,9 @@ impl Block {
             )));
         }
         if let Some(x) = th.iter().find(|x| !x.is_finite()) {
-            return Err(RobustError::InvalidArgument(format!("block parameter {x} is not finite")));
+            return Err(RobustError::InvalidArgument(format!(
+                "block parameter {x} is not finite"
+            )));
         }
         Ok(())
     }
@@ -452,11 +466,20 @@ mod tests {
             tp[i] += h;
             tm[i] -= h;
             let (kp, km) = (s.realize(&tp).unwrap(), s.realize(&tm).unwrap());
-            for (an, fd_p, fd_m) in [(&g[i].a, &kp.a, &km.a), (&g[i].b, &kp.b, &km.b), (&g[i].c, &kp.c, &km.c), (&g[i].d, &kp.d, &km.d)] {
+            for (an, fd_p, fd_m) in [
+                (&g[i].a, &kp.a, &km.a),
+                (&g[i].b, &kp.b, &km.b),
+                (&g[i].c, &kp.c, &km.c),
+                (&g[i].d, &kp.d, &km.d),
+            ] {
                 for r in 0..an.nrows() {
                     for c in 0..an.ncols() {
                         let fd = (fd_p[(r, c)] - fd_m[(r, c)]) / (2.0 * h);
-                        assert!((fd - an[(r, c)]).abs() < 1e-6 * (1.0 + fd.abs()), "param {i}: {fd} vs {}", an[(r, c)]);
+                        assert!(
+                            (fd - an[(r, c)]).abs() < 1e-6 * (1.0 + fd.abs()),
+                            "param {i}: {fd} vs {}",
+                            an[(r, c)]
+                        );
                     }
                 }
             }
@@ -470,8 +493,14 @@ mod tests {
         let cases = [
             (Structure::new(Block::Gain), vec![2.0]),
             (Structure::new(Block::Pi), vec![1.5, 0.3]),
-            (Structure::new(Block::Pid(DerivativeFilter::Tuned)), vec![1.0, 0.5, 0.2, (0.05f64).ln()]),
-            (Structure::new(Block::Pid(DerivativeFilter::Fixed(dfilt))), vec![1.0, 0.5, 0.2]),
+            (
+                Structure::new(Block::Pid(DerivativeFilter::Tuned)),
+                vec![1.0, 0.5, 0.2, (0.05f64).ln()],
+            ),
+            (
+                Structure::new(Block::Pid(DerivativeFilter::Fixed(dfilt))),
+                vec![1.0, 0.5, 0.2],
+            ),
             (Structure::new(Block::LeadLag), vec![2.0, 1.0f64.ln(), 10.0f64.ln()]),
             (
                 Structure::new(Block::PidFiltered {
@@ -502,7 +531,9 @@ mod tests {
     fn pid_realization_is_the_textbook_pid() {
         // K(j) = kp + ki/j + kd·j/(tf·j + 1) at ω = 1 rad/s.
         let (kp, ki, kd, tf) = (2.0, 3.0, 0.5, 0.1);
-        let k = Block::Pid(DerivativeFilter::Tuned).realize(&[kp, ki, kd, f64::ln(tf)]).unwrap();
+        let k = Block::Pid(DerivativeFilter::Tuned)
+            .realize(&[kp, ki, kd, f64::ln(tf)])
+            .unwrap();
         let s = faer::c64::new(0.0, 1.0);
         let want = kp + ki / s + kd * s / (tf * s + 1.0);
         let got = skyloop_lti::freqresp::evalfr(&k, s).unwrap()[(0, 0)];
@@ -513,7 +544,12 @@ mod tests {
     fn two_path_pid_is_the_sum_of_its_paths() {
         let fpi = skyloop_lti::expr::parse_model("300/(s+300)").unwrap();
         let fd = skyloop_lti::expr::parse_model("2500/(s^2+70*s+2500)").unwrap();
-        let k = Block::PidFiltered { pi_filter: Some(fpi.clone()), d_filter: fd.clone() }.realize(&[2.0, 3.0, 0.5]).unwrap();
+        let k = Block::PidFiltered {
+            pi_filter: Some(fpi.clone()),
+            d_filter: fd.clone(),
+        }
+        .realize(&[2.0, 3.0, 0.5])
+        .unwrap();
         let s = faer::c64::new(0.0, 7.0);
         let ev = |m: &StateSpace| skyloop_lti::freqresp::evalfr(m, s).unwrap()[(0, 0)];
         let want = (2.0 + 3.0 / s) * ev(&fpi) + 0.5 * s * ev(&fd);

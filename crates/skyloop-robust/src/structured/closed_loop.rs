@@ -58,7 +58,10 @@ impl KSens {
             }
             s
         };
-        bil(&self.a, &g.d, &self.r) + bil(&self.a, &g.c, &self.x) + bil(&self.b, &g.a, &self.x) + bil(&self.b, &g.b, &self.r)
+        bil(&self.a, &g.d, &self.r)
+            + bil(&self.a, &g.c, &self.x)
+            + bil(&self.b, &g.a, &self.x)
+            + bil(&self.b, &g.b, &self.r)
     }
 }
 
@@ -166,8 +169,14 @@ impl GenPlant {
     fn mn(&self, k: &StateSpace) -> Result<(Mat<f64>, Mat<f64>)> {
         let (p1, m1) = self.sizes();
         let d22 = self.p.d.get(p1.., m1..).to_owned();
-        let m = rinv(&(Mat::<f64>::identity(self.ncon, self.ncon) - &k.d * &d22), "I - D_K D22")?;
-        let n = rinv(&(Mat::<f64>::identity(self.nmeas, self.nmeas) - &d22 * &k.d), "I - D22 D_K")?;
+        let m = rinv(
+            &(Mat::<f64>::identity(self.ncon, self.ncon) - &k.d * &d22),
+            "I - D_K D22",
+        )?;
+        let n = rinv(
+            &(Mat::<f64>::identity(self.nmeas, self.nmeas) - &d22 * &k.d),
+            "I - D22 D_K",
+        )?;
         Ok((m, n))
     }
 
@@ -295,7 +304,10 @@ impl GenPlant {
         let p22 = pj.get(p1.., m1..).to_owned();
         let (kv, x, y) = k_at(k, s)?;
         let left = cinv(&(Mat::<c64>::identity(self.ncon, self.ncon) - &kv * &p22), "I - K P22")?;
-        let right = cinv(&(Mat::<c64>::identity(self.nmeas, self.nmeas) - &p22 * &kv), "I - P22 K")?;
+        let right = cinv(
+            &(Mat::<c64>::identity(self.nmeas, self.nmeas) - &p22 * &kv),
+            "I - P22 K",
+        )?;
         let t = &p11 + &p12 * &kv * &right * &p21;
         let svd = t
             .svd()
@@ -363,10 +375,18 @@ mod tests {
             tm[i] -= h;
             let f = |t: &[f64]| p.hinf(&s.realize(t).unwrap(), &[]).unwrap().0;
             let fd = (f(&tp) - f(&tm)) / (2.0 * h);
-            assert!((fd - grad[i]).abs() < 1e-4 * (1.0 + fd.abs()), "hinf param {i}: fd {fd} vs {}", grad[i]);
+            assert!(
+                (fd - grad[i]).abs() < 1e-4 * (1.0 + fd.abs()),
+                "hinf param {i}: fd {fd} vs {}",
+                grad[i]
+            );
             let sa = |t: &[f64]| p.spectral_abscissa(&s.realize(t).unwrap(), &[]).unwrap().0;
             let fd = (sa(&tp) - sa(&tm)) / (2.0 * h);
-            assert!((fd - agrad[i]).abs() < 1e-4 * (1.0 + fd.abs()), "abscissa param {i}: fd {fd} vs {}", agrad[i]);
+            assert!(
+                (fd - agrad[i]).abs() < 1e-4 * (1.0 + fd.abs()),
+                "abscissa param {i}: fd {fd} vs {}",
+                agrad[i]
+            );
         }
     }
 }

@@ -183,10 +183,26 @@ pub(crate) struct Channel {
 }
 
 /// S (= y from an output disturbance), S − ½ (disk margin), T and C·S.
-pub(crate) const CH_S: Channel = Channel { alpha_w: 1.0, beta: 1.0, gamma: 0.0 };
-pub(crate) const CH_DISK: Channel = Channel { alpha_w: 0.5, beta: 1.0, gamma: 0.0 };
-pub(crate) const CH_T: Channel = Channel { alpha_w: 0.0, beta: 1.0, gamma: 0.0 };
-pub(crate) const CH_KS: Channel = Channel { alpha_w: 0.0, beta: 0.0, gamma: 1.0 };
+pub(crate) const CH_S: Channel = Channel {
+    alpha_w: 1.0,
+    beta: 1.0,
+    gamma: 0.0,
+};
+pub(crate) const CH_DISK: Channel = Channel {
+    alpha_w: 0.5,
+    beta: 1.0,
+    gamma: 0.0,
+};
+pub(crate) const CH_T: Channel = Channel {
+    alpha_w: 0.0,
+    beta: 1.0,
+    gamma: 0.0,
+};
+pub(crate) const CH_KS: Channel = Channel {
+    alpha_w: 0.0,
+    beta: 0.0,
+    gamma: 1.0,
+};
 
 /// Generalized plant [z; e] = P·[w; u] with z = W·sig and e = −(w + G·u), so that
 /// lft(P, C) is W·S, W·(S − ½), −W·T or −W·C·S for the channels above (the sign does not change a
@@ -258,14 +274,25 @@ mod tests {
 
     #[test]
     fn goals_reject_bounds_outside_their_range() {
-        let e = Goal::hard(Requirement::Ms, Bound::AtMost(0.9), "ms<=0.9").validate().unwrap_err();
-        assert!(e.to_string().contains("ms<=0.9") && e.to_string().contains("> 1"), "{e}");
-        let e = Goal::hard(Requirement::DiskMargin, Bound::AtLeast(2.5), "disk_margin>=2.5").validate().unwrap_err();
+        let e = Goal::hard(Requirement::Ms, Bound::AtMost(0.9), "ms<=0.9")
+            .validate()
+            .unwrap_err();
+        assert!(
+            e.to_string().contains("ms<=0.9") && e.to_string().contains("> 1"),
+            "{e}"
+        );
+        let e = Goal::hard(Requirement::DiskMargin, Bound::AtLeast(2.5), "disk_margin>=2.5")
+            .validate()
+            .unwrap_err();
         assert!(e.to_string().contains("(0, 2)"), "{e}");
-        let e = Goal::hard(Requirement::PhaseMarginDeg, Bound::AtMost(45.0), "phase_margin_deg<=45").validate().unwrap_err();
+        let e = Goal::hard(Requirement::PhaseMarginDeg, Bound::AtMost(45.0), "phase_margin_deg<=45")
+            .validate()
+            .unwrap_err();
         assert!(e.to_string().contains("lower bound"), "{e}");
         let unstable = parse_model("1/(s-1)").unwrap();
-        let e = Goal::hard(Requirement::WeightedS(unstable), Bound::AtMost(1.0), "ws").validate().unwrap_err();
+        let e = Goal::hard(Requirement::WeightedS(unstable), Bound::AtMost(1.0), "ws")
+            .validate()
+            .unwrap_err();
         assert!(e.to_string().contains("stable"), "{e}");
     }
 }

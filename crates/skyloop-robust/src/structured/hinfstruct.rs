@@ -8,11 +8,11 @@ use super::blocks::{Block, Structure};
 use super::closed_loop::GenPlant;
 use super::nonsmooth::{bfgs, BfgsOptions};
 use super::systune::{normal, random_ss};
+use crate::error::{Result, RobustError};
 use faer::Mat;
 use rand::SeedableRng;
-use skyloop_linalg::riccati::care;
-use crate::error::{Result, RobustError};
 use rayon::prelude::*;
+use skyloop_linalg::riccati::care;
 use skyloop_lti::freqresp::dynamics_range;
 use skyloop_lti::StateSpace;
 
@@ -66,13 +66,24 @@ pub struct HinfstructSolution {
 /// assert!(sol.gamma >= opt * (1.0 - 1e-3) && sol.gamma <= opt * 1.05);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
-pub fn hinfstruct(p: &StateSpace, nmeas: usize, ncon: usize, order: usize, opts: &HinfstructOptions) -> Result<HinfstructSolution> {
+pub fn hinfstruct(
+    p: &StateSpace,
+    nmeas: usize,
+    ncon: usize,
+    order: usize,
+    opts: &HinfstructOptions,
+) -> Result<HinfstructSolution> {
     let gp = GenPlant::new(p, nmeas, ncon)?;
     if order > 50 {
-        return Err(RobustError::InvalidArgument(format!("controller order {order} is outside 0..=50")));
+        return Err(RobustError::InvalidArgument(format!(
+            "controller order {order} is outside 0..=50"
+        )));
     }
     if opts.starts == 0 || opts.starts > 1000 {
-        return Err(RobustError::InvalidArgument(format!("starts must be in 1..=1000, got {}", opts.starts)));
+        return Err(RobustError::InvalidArgument(format!(
+            "starts must be in 1..=1000, got {}",
+            opts.starts
+        )));
     }
     let s = Structure::new(Block::StateSpace {
         order,
@@ -85,7 +96,10 @@ pub fn hinfstruct(p: &StateSpace, nmeas: usize, ncon: usize, order: usize, opts:
     // plant's channels, start 1 the unit-weight LQG one, starts 2 and 3 perturb them; the others
     // (and every start below full order) are random, and the stabilization phase repairs them.
     let seeds: Vec<Vec<f64>> = if order == p.nx() {
-        [true, false].iter().filter_map(|&w| lqg_start(p, nmeas, ncon, w).ok()).collect()
+        [true, false]
+            .iter()
+            .filter_map(|&w| lqg_start(p, nmeas, ncon, w).ok())
+            .collect()
     } else {
         Vec::new()
     };
@@ -97,7 +111,10 @@ pub fn hinfstruct(p: &StateSpace, nmeas: usize, ncon: usize, order: usize, opts:
                 seeds[k].clone()
             } else if k < 2 * seeds.len() {
                 let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
-                seeds[k - seeds.len()].iter().map(|v| v * (1.0 + 0.3 * normal(&mut rng))).collect()
+                seeds[k - seeds.len()]
+                    .iter()
+                    .map(|v| v * (1.0 + 0.3 * normal(&mut rng)))
+                    .collect()
             } else {
                 random_ss(order, ncon, nmeas, w0, 1.0, seed)
             };
@@ -121,7 +138,9 @@ pub fn hinfstruct(p: &StateSpace, nmeas: usize, ncon: usize, order: usize, opts:
     let cl = skyloop_lti::interconnect::lft_lower(p, &controller)?;
     let (gamma, _) = skyloop_lti::norms::hinf_norm(&cl)?;
     if !gamma.is_finite() {
-        return Err(RobustError::Numerical("the tuned controller does not stabilize the verified closed loop".into()));
+        return Err(RobustError::Numerical(
+            "the tuned controller does not stabilize the verified closed loop".into(),
+        ));
     }
     Ok(HinfstructSolution {
         controller,
@@ -187,7 +206,15 @@ fn run(gp: &GenPlant, s: &Structure, th0: Vec<f64>, w0: f64, max_iter: usize) ->
     }
     let rounds = max_iter.div_ceil(opts.max_iter).max(1);
     for _ in 0..rounds {
-        let (f, t) = round(&norm, &th, &BfgsOptions { ftol: 1e-9, stall: 20, ..opts });
+        let (f, t) = round(
+            &norm,
+            &th,
+            &BfgsOptions {
+                ftol: 1e-9,
+                stall: 20,
+                ..opts
+            },
+        );
         let gain = (best - f) / best;
         if f < best {
             best = f;

@@ -61,7 +61,12 @@ pub fn bfgs(mut f: impl FnMut(&[f64]) -> (f64, Vec<f64>), x0: &[f64], opts: &Bfg
     let mut stalled = 0;
     let mut it = 0;
     if !fx.is_finite() || g.len() != n {
-        return BfgsResult { x, f: fx, iterations: 0, evaluations: evals };
+        return BfgsResult {
+            x,
+            f: fx,
+            iterations: 0,
+            evaluations: evals,
+        };
     }
     while it < opts.max_iter && fx > opts.target {
         it += 1;
@@ -106,15 +111,24 @@ pub fn bfgs(mut f: impl FnMut(&[f64]) -> (f64, Vec<f64>), x0: &[f64], opts: &Bfg
         } else {
             stalled = 0;
         }
-        if s.iter().all(|v| v.abs() <= 1e-14 * (1.0 + x.iter().map(|v| v.abs()).fold(0.0, f64::max))) {
+        if s.iter()
+            .all(|v| v.abs() <= 1e-14 * (1.0 + x.iter().map(|v| v.abs()).fold(0.0, f64::max)))
+        {
             break;
         }
     }
-    BfgsResult { x, f: fx, iterations: it, evaluations: evals }
+    BfgsResult {
+        x,
+        f: fx,
+        iterations: it,
+        evaluations: evals,
+    }
 }
 
 fn identity(n: usize) -> Vec<Vec<f64>> {
-    (0..n).map(|i| (0..n).map(|j| if i == j { 1.0 } else { 0.0 }).collect()).collect()
+    (0..n)
+        .map(|i| (0..n).map(|j| if i == j { 1.0 } else { 0.0 }).collect())
+        .collect()
 }
 
 /// H ← (I − ρsyᵀ)H(I − ρysᵀ) + ρssᵀ, ρ = 1/(sᵀy).
@@ -178,7 +192,10 @@ mod tests {
         // first two planes and the third meet).
         let f = |x: &[f64]| {
             let p = [x[0] + x[1], x[0] - x[1], -0.5 * x[0] + 1.0];
-            let (k, v) = p.iter().enumerate().fold((0, f64::NEG_INFINITY), |a, (i, &v)| if v > a.1 { (i, v) } else { a });
+            let (k, v) = p
+                .iter()
+                .enumerate()
+                .fold((0, f64::NEG_INFINITY), |a, (i, &v)| if v > a.1 { (i, v) } else { a });
             let mut g = match k {
                 0 => vec![1.0, 1.0],
                 1 => vec![1.0, -1.0],
@@ -188,7 +205,14 @@ mod tests {
             g[1] += x[1] / 50.0;
             (v + (x[0] * x[0] + x[1] * x[1]) / 100.0, g)
         };
-        let r = bfgs(f, &[3.0, 2.0], &BfgsOptions { max_iter: 500, ..Default::default() });
+        let r = bfgs(
+            f,
+            &[3.0, 2.0],
+            &BfgsOptions {
+                max_iter: 500,
+                ..Default::default()
+            },
+        );
         assert!((r.x[0] - 2.0 / 3.0).abs() < 1e-3 && r.x[1].abs() < 1e-3, "{:?}", r);
     }
 
@@ -201,7 +225,16 @@ mod tests {
                 vec![-2.0 * (1.0 - a) - 400.0 * a * (b - a * a), 200.0 * (b - a * a)],
             )
         };
-        let r = bfgs(f, &[-1.2, 1.0], &BfgsOptions { max_iter: 500, ftol: 0.0, stall: 1000, ..Default::default() });
+        let r = bfgs(
+            f,
+            &[-1.2, 1.0],
+            &BfgsOptions {
+                max_iter: 500,
+                ftol: 0.0,
+                stall: 1000,
+                ..Default::default()
+            },
+        );
         assert!((r.x[0] - 1.0).abs() < 1e-5 && (r.x[1] - 1.0).abs() < 1e-5, "{:?}", r);
     }
 }

@@ -152,14 +152,18 @@ struct Terms {
 }
 
 fn worst(t: &[(f64, Vec<f64>)], n: usize) -> (f64, Vec<f64>) {
-    t.iter()
-        .fold((f64::NEG_INFINITY, vec![0.0; n]), |a, b| if b.0 > a.0 { b.clone() } else { a })
+    t.iter().fold(
+        (f64::NEG_INFINITY, vec![0.0; n]),
+        |a, b| if b.0 > a.0 { b.clone() } else { a },
+    )
 }
 
 impl<'a> Compiled<'a> {
     fn new(prob: &'a LoopTuning) -> Result<Self> {
         if prob.plants.is_empty() {
-            return Err(RobustError::InvalidArgument("loop tuning needs at least one plant".into()));
+            return Err(RobustError::InvalidArgument(
+                "loop tuning needs at least one plant".into(),
+            ));
         }
         prob.structure.validate()?;
         if prob.structure.block.dims() != (1, 1) {
@@ -173,7 +177,10 @@ impl<'a> Compiled<'a> {
             )));
         }
         if o.starts == 0 || o.starts > 1000 {
-            return Err(RobustError::InvalidArgument(format!("starts must be in 1..=1000, got {}", o.starts)));
+            return Err(RobustError::InvalidArgument(format!(
+                "starts must be in 1..=1000, got {}",
+                o.starts
+            )));
         }
         let ki = prob.structure.block.integral_gain_index();
         let needs_ki = prob.objective == Objective::MaximizeIntegralGain
@@ -281,7 +288,9 @@ impl<'a> Compiled<'a> {
                     let i = self.ki.unwrap_or(0);
                     let ki = th[i];
                     let mut g = vec![0.0; n];
-                    let Bound::AtLeast(b) = goal.bound else { unreachable_bound()? };
+                    let Bound::AtLeast(b) = goal.bound else {
+                        unreachable_bound()?
+                    };
                     if ki <= 0.0 {
                         return Ok(None);
                     }
@@ -289,7 +298,9 @@ impl<'a> Compiled<'a> {
                     push((b / ki, g));
                 }
                 Requirement::PoleDecay => {
-                    let Bound::AtLeast(b) = goal.bound else { unreachable_bound()? };
+                    let Bound::AtLeast(b) = goal.bound else {
+                        unreachable_bound()?
+                    };
                     for a in &absc {
                         push((1.0 + (b + a.0) / b, a.1.iter().map(|v| v / b).collect()));
                     }
@@ -443,7 +454,11 @@ fn controller_gain(goal: &Goal, k: &StateSpace, dk: &[RealizationGrad], wn: f64)
     let Bound::AtMost(b) = goal.bound else {
         return unreachable_bound();
     };
-    let kmag = |w: f64| k_sens_siso(k, Some(c64::new(0.0, w))).map(|r| r.0.norm()).unwrap_or(f64::INFINITY);
+    let kmag = |w: f64| {
+        k_sens_siso(k, Some(c64::new(0.0, w)))
+            .map(|r| r.0.norm())
+            .unwrap_or(f64::INFINITY)
+    };
     let (w, v) = sampled_peak(kmag, wn, wn * 1e4, 120);
     let dinf = k.d[(0, 0)].abs();
     let s = if dinf > v { None } else { Some(c64::new(0.0, w)) };
@@ -452,7 +467,10 @@ fn controller_gain(goal: &Goal, k: &StateSpace, dk: &[RealizationGrad], wn: f64)
     if mag == 0.0 {
         return Ok((0.0, vec![0.0; dk.len()]));
     }
-    Ok((mag / b, dk.iter().map(|g| (kv.conj() * ks.apply(g)).re / (mag * b)).collect()))
+    Ok((
+        mag / b,
+        dk.iter().map(|g| (kv.conj() * ks.apply(g)).re / (mag * b)).collect(),
+    ))
 }
 
 /// The first plant's ultimate frequency (phase −180°) and gain 1/|G| there; without a phase
@@ -493,7 +511,9 @@ fn heuristic(block: &Block, ku: f64, wu: f64, sign: f64, seed: u64) -> Vec<f64> 
     match block {
         Block::Gain => vec![0.3 * k],
         Block::Pi => vec![0.2 * k, 0.1 * k * wu],
-        Block::Pid(super::blocks::DerivativeFilter::Tuned) => vec![0.3 * k, 0.1 * k * wu, 0.05 * k / wu, (0.1 / wu).ln()],
+        Block::Pid(super::blocks::DerivativeFilter::Tuned) => {
+            vec![0.3 * k, 0.1 * k * wu, 0.05 * k / wu, (0.1 / wu).ln()]
+        }
         Block::Pid(_) | Block::PidFiltered { .. } => vec![0.3 * k, 0.1 * k * wu, 0.05 * k / wu],
         Block::LeadLag => vec![0.3 * k, (wu / 3.0).ln(), (3.0 * wu).ln()],
         Block::StateSpace { order, ny, nu } => random_ss(*order, *ny, *nu, wu, 0.3 * k, seed),
@@ -558,7 +578,10 @@ struct StartResult {
 /// Runs the three phases from θ₀ (scaled so every parameter starts at magnitude ~1).
 fn run_start(c: &Compiled, th0: &[f64]) -> Result<Option<StartResult>> {
     let n = c.n();
-    let scale: Vec<f64> = th0.iter().map(|v| if v.abs() > 1e-12 { v.abs() } else { 1.0 }).collect();
+    let scale: Vec<f64> = th0
+        .iter()
+        .map(|v| if v.abs() > 1e-12 { v.abs() } else { 1.0 })
+        .collect();
     let to_th = |x: &[f64]| -> Vec<f64> { x.iter().zip(&scale).map(|(a, s)| a * s).collect() };
     let chain = |g: Vec<f64>| -> Vec<f64> { g.iter().zip(&scale).map(|(a, s)| a * s).collect() };
     let mut x: Vec<f64> = th0.iter().zip(&scale).map(|(a, s)| a / s).collect();
@@ -639,7 +662,11 @@ fn run_start(c: &Compiled, th0: &[f64]) -> Result<Option<StartResult>> {
         |x| match c.terms(&to_th(x)) {
             Ok(Some(t)) => {
                 let (sv, sg) = soft_of(&t);
-                let (hv, hg) = if t.hard.is_empty() { (f64::NEG_INFINITY, vec![0.0; n]) } else { worst(&t.hard, n) };
+                let (hv, hg) = if t.hard.is_empty() {
+                    (f64::NEG_INFINITY, vec![0.0; n])
+                } else {
+                    worst(&t.hard, n)
+                };
                 if hv <= 1.0 && best.as_ref().is_none_or(|b| sv < b.0) {
                     best = Some((sv, x.to_vec()));
                 }
@@ -725,9 +752,14 @@ pub fn tune_loop(prob: &LoopTuning) -> Result<TunedLoop> {
         .into_par_iter()
         .map(|k| {
             let th0 = match &prob.structure.block {
-                Block::StateSpace { order, ny, nu } if k > 0 => {
-                    random_ss(*order, *ny, *nu, c.w0, base.iter().map(|v| v.abs()).fold(0.0, f64::max), prob.options.seed + k as u64)
-                }
+                Block::StateSpace { order, ny, nu } if k > 0 => random_ss(
+                    *order,
+                    *ny,
+                    *nu,
+                    c.w0,
+                    base.iter().map(|v| v.abs()).fold(0.0, f64::max),
+                    prob.options.seed + k as u64,
+                ),
                 _ => perturb(&base, &names, prob.options.seed, k),
             };
             run_start(&c, &th0)
@@ -797,7 +829,11 @@ pub fn ultimate_point(g: &StateSpace) -> Result<(f64, f64)> {
 
 /// The exact re-verification of every goal (worst over plants).
 fn verify(c: &Compiled, th: &[f64], k: &StateSpace) -> Result<(Vec<GoalReport>, Vec<LoopCheck>)> {
-    let loops: Vec<LoopCheck> = c.plants.iter().map(|p| check_loop(&p.exact, k)).collect::<Result<_>>()?;
+    let loops: Vec<LoopCheck> = c
+        .plants
+        .iter()
+        .map(|p| check_loop(&p.exact, k))
+        .collect::<Result<_>>()?;
     let mut reports = Vec::new();
     for goal in &c.prob.goals {
         let mut vals = Vec::new();
@@ -813,9 +849,14 @@ fn verify(c: &Compiled, th: &[f64], k: &StateSpace) -> Result<(Vec<GoalReport>, 
                     weighted_exact(&goal.req, &p.exact, k, w)?
                 }
                 Requirement::ControllerGainAbove { w_rad_s } => {
-                    let kmag =
-                        |w: f64| k_sens_siso(k, Some(c64::new(0.0, w))).map(|r| r.0.norm()).unwrap_or(f64::INFINITY);
-                    sampled_peak(kmag, *w_rad_s, w_rad_s * 1e4, 400).1.max(k.d[(0, 0)].abs())
+                    let kmag = |w: f64| {
+                        k_sens_siso(k, Some(c64::new(0.0, w)))
+                            .map(|r| r.0.norm())
+                            .unwrap_or(f64::INFINITY)
+                    };
+                    sampled_peak(kmag, *w_rad_s, w_rad_s * 1e4, 400)
+                        .1
+                        .max(k.d[(0, 0)].abs())
                 }
                 Requirement::PoleDecay => -p.lp.spectral_abscissa(k, &[])?.0,
                 Requirement::IntegralGain => th[c.ki.unwrap_or(0)],
@@ -823,10 +864,16 @@ fn verify(c: &Compiled, th: &[f64], k: &StateSpace) -> Result<(Vec<GoalReport>, 
             vals.push(v);
         }
         // The worst plant is the one with the largest normalized value.
-        let (value, normalized) = vals
-            .iter()
-            .map(|&v| (v, goal.normalize(v)))
-            .fold((f64::NAN, f64::NEG_INFINITY), |a, b| if b.1 > a.1 || b.1.is_nan() { b } else { a });
+        let (value, normalized) =
+            vals.iter()
+                .map(|&v| (v, goal.normalize(v)))
+                .fold((f64::NAN, f64::NEG_INFINITY), |a, b| {
+                    if b.1 > a.1 || b.1.is_nan() {
+                        b
+                    } else {
+                        a
+                    }
+                });
         reports.push(GoalReport {
             label: goal.label.clone(),
             value,
@@ -836,8 +883,16 @@ fn verify(c: &Compiled, th: &[f64], k: &StateSpace) -> Result<(Vec<GoalReport>, 
             hard: goal.hard,
         });
     }
-    let soft_worst = reports.iter().filter(|r| !r.hard).map(|r| r.normalized).fold(f64::NEG_INFINITY, f64::max);
-    let hard_worst = reports.iter().filter(|r| r.hard).map(|r| r.normalized).fold(f64::NEG_INFINITY, f64::max);
+    let soft_worst = reports
+        .iter()
+        .filter(|r| !r.hard)
+        .map(|r| r.normalized)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let hard_worst = reports
+        .iter()
+        .filter(|r| r.hard)
+        .map(|r| r.normalized)
+        .fold(f64::NEG_INFINITY, f64::max);
     for r in &mut reports {
         r.active = if r.hard {
             (r.normalized - 1.0).abs() <= 1e-2 || (hard_worst > 1.0 && r.normalized == hard_worst)
@@ -889,7 +944,11 @@ mod tests {
                 goal(Requirement::PhaseMarginDeg, Bound::AtLeast(45.0), "pm"),
                 goal(Requirement::GainMarginDb, Bound::AtLeast(6.0), "gm"),
                 goal(Requirement::CrossoverHz, Bound::AtLeast(2.0), "fc"),
-                goal(Requirement::ControllerGainAbove { w_rad_s: 100.0 }, Bound::AtMost(5.0), "noise"),
+                goal(
+                    Requirement::ControllerGainAbove { w_rad_s: 100.0 },
+                    Bound::AtMost(5.0),
+                    "noise",
+                ),
                 goal(Requirement::Ms, Bound::AtMost(1.5), "ms"),
             ],
             objective: Objective::MaximizeCrossover,
@@ -907,7 +966,11 @@ mod tests {
                 let fp = c.terms(&tp).unwrap().unwrap().hard[gi].0;
                 let fm = c.terms(&tm).unwrap().unwrap().hard[gi].0;
                 let fd = (fp - fm) / (2.0 * h);
-                assert!((fd - g[i]).abs() < 1e-3 * (1.0 + fd.abs()), "goal {gi} ({v}) param {i}: fd {fd} vs {}", g[i]);
+                assert!(
+                    (fd - g[i]).abs() < 1e-3 * (1.0 + fd.abs()),
+                    "goal {gi} ({v}) param {i}: fd {fd} vs {}",
+                    g[i]
+                );
             }
         }
     }
@@ -919,7 +982,10 @@ mod tests {
             structure: Structure::new(Block::Pi),
             goals: vec![goal(Requirement::Ms, Bound::AtMost(1.4), "ms<=1.4")],
             objective: Objective::MaximizeIntegralGain,
-            options: TuneOptions { starts: 4, ..Default::default() },
+            options: TuneOptions {
+                starts: 4,
+                ..Default::default()
+            },
         };
         let r = tune_loop(&prob).unwrap();
         assert!(r.feasible, "{:?}", r.goals);

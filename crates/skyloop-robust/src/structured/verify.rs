@@ -73,7 +73,11 @@ pub fn check_loop(g: &StateSpace, c: &StateSpace) -> Result<LoopCheck> {
     let (ms, mt) = if all.stable {
         let ev = FreqEvaluator::new(&l)?;
         let (lo, hi) = loop_band(&l)?;
-        let at = |w: f64| ev.eval(c64::new(0.0, w)).map(|m| m[(0, 0)]).unwrap_or(c64::new(f64::INFINITY, 0.0));
+        let at = |w: f64| {
+            ev.eval(c64::new(0.0, w))
+                .map(|m| m[(0, 0)])
+                .unwrap_or(c64::new(f64::INFINITY, 0.0))
+        };
         let ms = sampled_peak(|w| (1.0 / (1.0 + at(w))).norm(), lo, hi, 4000).1;
         let mt = sampled_peak(|w| (at(w) / (1.0 + at(w))).norm(), lo, hi, 4000).1;
         (ms, mt)

@@ -238,7 +238,12 @@ impl AirborneCriteria {
         let mut limits = Vec::new();
         let mut push = |channel: String, lo: f64, hi: f64, reason: &'static str| {
             if has(&channel) {
-                limits.push(Limit { channel, lo, hi, reason });
+                limits.push(Limit {
+                    channel,
+                    lo,
+                    hi,
+                    reason,
+                });
             }
         };
         match firmware {
@@ -272,7 +277,12 @@ impl AirborneCriteria {
                         "idle throttle",
                     );
                 } else {
-                    push("actuator_controls_0.control[3]".into(), 0.05, f64::INFINITY, "idle throttle");
+                    push(
+                        "actuator_controls_0.control[3]".into(),
+                        0.05,
+                        f64::INFINITY,
+                        "idle throttle",
+                    );
                 }
                 for k in 0..8 {
                     push(
@@ -389,7 +399,11 @@ pub fn airborne_segments(
             c.min_len_s,
             t_first,
             t_last,
-            if why.is_empty() { "nothing; the span is too short".to_string() } else { why.join(", ") }
+            if why.is_empty() {
+                "nothing; the span is too short".to_string()
+            } else {
+                why.join(", ")
+            }
         )));
     }
     Ok(Airborne {
@@ -450,8 +464,12 @@ mod tests {
         let n = 2000;
         let t = |i: usize| i as f64 * 0.01;
         let thr: Vec<f64> = (0..n).map(|i| if t(i) < 2.0 { 1000.0 } else { 1400.0 }).collect();
-        let m0: Vec<f64> = (0..n).map(|i| if (8.0..9.0).contains(&t(i)) { 2047.0 } else { 900.0 }).collect();
-        let g0: Vec<f64> = (0..n).map(|i| if (12.0..12.5).contains(&t(i)) { 1999.0 } else { 100.0 }).collect();
+        let m0: Vec<f64> = (0..n)
+            .map(|i| if (8.0..9.0).contains(&t(i)) { 2047.0 } else { 900.0 })
+            .collect();
+        let g0: Vec<f64> = (0..n)
+            .map(|i| if (12.0..12.5).contains(&t(i)) { 1999.0 } else { 100.0 })
+            .collect();
         let l = log(
             LogFormat::Blackbox,
             vec![
@@ -474,7 +492,9 @@ mod tests {
         let idle = a.excluded_s.iter().find(|(r, _)| *r == "idle throttle").unwrap().1;
         assert!((idle - 2.0).abs() < 0.02, "{idle}");
         // A span with no flight names what excluded it.
-        let e = airborne_segments(&l, "gyroADC[0]", &c, Some(0.0), Some(1.9)).unwrap_err().to_string();
+        let e = airborne_segments(&l, "gyroADC[0]", &c, Some(0.0), Some(1.9))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("idle throttle"), "{e}");
         // Channels: the PID sum of the terms logged, setpoint as instrument.
         let ch = RateLoopChannels::find(&l, Axis::Roll).unwrap();

@@ -227,7 +227,11 @@ fn grid_peaks<const N: usize>(mut f: impl FnMut(f64) -> [f64; N], lo: f64, hi: f
         let a = grid[k.saturating_sub(1)].ln();
         let b = grid[(k + 1).min(grid.len() - 1)].ln();
         let (x, refined) = golden_max(|x| f(x.exp())[j], a, b, 1e-10);
-        *o = if refined > best { (refined, x.exp()) } else { (best, grid[k]) };
+        *o = if refined > best {
+            (refined, x.exp())
+        } else {
+            (best, grid[k])
+        };
     }
     Ok(out)
 }

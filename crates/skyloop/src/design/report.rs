@@ -172,7 +172,13 @@ fn stage_row(st: &StageSummary) -> Vec<String> {
             "∞".to_string()
         }
     };
-    let inf_or = |v: f64, p: usize| if v.is_finite() { format!("{v:.p$}") } else { "∞".into() };
+    let inf_or = |v: f64, p: usize| {
+        if v.is_finite() {
+            format!("{v:.p$}")
+        } else {
+            "∞".into()
+        }
+    };
     vec![
         st.stage.clone(),
         st.order.to_string(),

@@ -18,12 +18,7 @@ const TWO_PI: f64 = 2.0 * std::f64::consts::PI;
 /// # Errors
 /// Fewer than 2 or more than [`freqresp::MAX_GRID_POINTS`] points, or a range that is not
 /// 0 < min < max < ∞.
-pub fn frequency_grid(
-    models: &[Labeled],
-    hz_min: Option<f64>,
-    hz_max: Option<f64>,
-    points: usize,
-) -> Result<Vec<f64>> {
+pub fn frequency_grid(models: &[Labeled], hz_min: Option<f64>, hz_max: Option<f64>, points: usize) -> Result<Vec<f64>> {
     if points < 2 {
         return Err(format!("--points must be at least 2, got {points}").into());
     }
@@ -196,10 +191,7 @@ mod tests {
 
     #[test]
     fn mimo_bode_is_a_grid_and_siso_an_overlay() {
-        let g = Labeled::new(
-            "G",
-            diag("1/(s+1)", "2/(s+3)"),
-        );
+        let g = Labeled::new("G", diag("1/(s+1)", "2/(s+3)"));
         let w = frequency_grid(std::slice::from_ref(&g), None, None, 50).unwrap();
         // 2×2: a magnitude and a phase panel per channel.
         assert_eq!(bode(&[g], &w, false).unwrap().panels.len(), 8);
@@ -211,10 +203,7 @@ mod tests {
 
     #[test]
     fn sigma_of_diagonal_is_its_gains() {
-        let g = Labeled::new(
-            "G",
-            diag("10/(s+1)", "0.1/(s+1)"),
-        );
+        let g = Labeled::new("G", diag("10/(s+1)", "0.1/(s+1)"));
         let f = sigma(&[g], &[1e-3]).unwrap();
         let ys: Vec<f64> = f.panels[0].series.iter().map(|s| s.y[0]).collect();
         assert!((ys[0] - 20.0).abs() < 1e-3 && (ys[1] + 20.0).abs() < 1e-3, "{ys:?}");

@@ -79,8 +79,10 @@ pub fn save(fig: &skyloop_plot::figure::Figure, path: &std::path::Path) -> Resul
         .is_some_and(|e| e.eq_ignore_ascii_case("html") || e.eq_ignore_ascii_case("htm"));
     if html {
         let mut r = skyloop_plot::report::Report::new(fig.title.clone());
-        r.section("")
-            .interactive_figure(fig.clone(), "wheel: zoom (shift: x only, alt: y only) · drag: pan · double-click: reset");
+        r.section("").interactive_figure(
+            fig.clone(),
+            "wheel: zoom (shift: x only, alt: y only) · drag: pan · double-click: reset",
+        );
         r.save(path)?;
     } else {
         fig.save(path)?;

@@ -78,7 +78,9 @@ pub fn root_locus_data(l: &Labeled, gains: Option<(f64, f64)>) -> Result<RootLoc
         }
         // u = −k·(y) with y = Cx + Du  ⇒  u = −k/(1+kD)·Cx.
         let f = k / den;
-        let a = Mat::from_fn(sys.nx(), sys.nx(), |i, j| sys.a[(i, j)] - f * sys.b[(i, 0)] * sys.c[(0, j)]);
+        let a = Mat::from_fn(sys.nx(), sys.nx(), |i, j| {
+            sys.a[(i, j)] - f * sys.b[(i, 0)] * sys.c[(0, j)]
+        });
         Ok(balanced_eigenvalues(&a).map_err(|e| format!("{}: {e}", l.label))?)
     };
     let open = poles(sys).map_err(|e| format!("{}: {e}", l.label))?;
@@ -107,7 +109,11 @@ pub fn root_locus_data(l: &Labeled, gains: Option<(f64, f64)>) -> Result<RootLoc
         for i in 1..ks.len() {
             let jump = displacement(&roots[i - 1], &roots[i]);
             if jump > 0.03 * scale && ks.len() + added < MAX_LOCUS_GAINS {
-                let mid = if ks[i - 1] == 0.0 { ks[i] * 1e-2 } else { (ks[i - 1] * ks[i]).sqrt() };
+                let mid = if ks[i - 1] == 0.0 {
+                    ks[i] * 1e-2
+                } else {
+                    (ks[i - 1] * ks[i]).sqrt()
+                };
                 next_k.push(mid);
                 next_r.push(closed(mid).unwrap_or_default());
                 added += 1;
@@ -121,11 +127,8 @@ pub fn root_locus_data(l: &Labeled, gains: Option<(f64, f64)>) -> Result<RootLoc
             break;
         }
     }
-    let (gains, poles): (Vec<f64>, Vec<Vec<C64>>) = ks
-        .into_iter()
-        .zip(roots)
-        .filter(|(_, r)| r.len() == sys.nx())
-        .unzip();
+    let (gains, poles): (Vec<f64>, Vec<Vec<C64>>) =
+        ks.into_iter().zip(roots).filter(|(_, r)| r.len() == sys.nx()).unzip();
     Ok(RootLocusData {
         gains,
         poles,
@@ -153,7 +156,11 @@ pub fn rlocus(l: &Labeled, gains: Option<(f64, f64)>) -> Result<Figure> {
             .fold(0.0f64, f64::max);
         crop(&mut data, 5.0 * if size > 0.0 { size } else { 1.0 });
     }
-    Ok(rlocus_figure(&format!("Root locus of {}", l.label), &data, !l.sys.is_continuous()))
+    Ok(rlocus_figure(
+        &format!("Root locus of {}", l.label),
+        &data,
+        !l.sys.is_continuous(),
+    ))
 }
 
 /// Drops the gains after the first one at which a root lies beyond `radius` (that one is kept, so
@@ -206,7 +213,9 @@ mod tests {
         for (k, r) in d.gains.iter().zip(&d.poles) {
             let disc = C64::new(1.0 - k, 0.0).sqrt();
             for p in r {
-                let e = (p - (C64::new(-1.0, 0.0) + disc)).norm().min((p - (C64::new(-1.0, 0.0) - disc)).norm());
+                let e = (p - (C64::new(-1.0, 0.0) + disc))
+                    .norm()
+                    .min((p - (C64::new(-1.0, 0.0) - disc)).norm());
                 assert!(e < 1e-6 * (1.0 + k.sqrt()), "k = {k}: {p}");
             }
         }
@@ -224,7 +233,10 @@ mod tests {
     #[test]
     fn pzmap_refuses_mixed_domains() {
         let c = Labeled::new("c", parse_model("1/(s+1)").unwrap());
-        let d = Labeled::new("d", skyloop_lti::discretize::c2d(&c.sys, 0.1, skyloop_lti::discretize::Method::Zoh).unwrap());
+        let d = Labeled::new(
+            "d",
+            skyloop_lti::discretize::c2d(&c.sys, 0.1, skyloop_lti::discretize::Method::Zoh).unwrap(),
+        );
         assert!(pzmap(std::slice::from_ref(&c)).is_ok());
         assert!(pzmap(&[c, d]).is_err());
     }

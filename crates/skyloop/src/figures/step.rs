@@ -91,7 +91,11 @@ pub fn step(models: &[Labeled], closed_loop: bool, t_final_s: Option<f64>) -> Re
             }
         }
     }
-    let title = if closed_loop { "Closed-loop step response" } else { "Step response" };
+    let title = if closed_loop {
+        "Closed-loop step response"
+    } else {
+        "Step response"
+    };
     Ok((step_figure(title, &traces, &infos), runs))
 }
 
@@ -114,9 +118,13 @@ fn prepare(m: &Labeled, closed_loop: bool) -> Result<Prepared> {
     }
     let stable = match &delayed_loop {
         Some(l) => skyloop_lti::margins::nyquist_stable(l).map_err(|e| format!("{}: {e}", m.label))?,
-        None => skyloop_lti::poles_zeros::poles(&sys)?
-            .iter()
-            .all(|p| if sys.is_continuous() { p.re < 0.0 } else { p.norm() < 1.0 }),
+        None => skyloop_lti::poles_zeros::poles(&sys)?.iter().all(|p| {
+            if sys.is_continuous() {
+                p.re < 0.0
+            } else {
+                p.norm() < 1.0
+            }
+        }),
     };
     Ok(Prepared {
         label: m.label.clone(),
@@ -143,12 +151,16 @@ fn simulate_all(models: &[Prepared], t_final_s: Option<f64>) -> Result<Vec<StepR
         .iter()
         .map(|p| {
             let grid = timeresp::auto_grid(&p.sys, Some(tf)).map_err(|e| format!("{}: {e}", p.label))?;
-            let y = match &p.delayed_loop {
-                Some(l) => vec![vec![
-                    skyloop_sim::delayed_loop::closed_loop_step(l, &grid).map_err(|e| format!("{}: {e}", p.label))?,
-                ]],
-                None => timeresp::step(&p.sys, Some(&grid)).map_err(|e| format!("{}: {e}", p.label))?.y,
-            };
+            let y =
+                match &p.delayed_loop {
+                    Some(l) => vec![vec![skyloop_sim::delayed_loop::closed_loop_step(l, &grid)
+                        .map_err(|e| format!("{}: {e}", p.label))?]],
+                    None => {
+                        timeresp::step(&p.sys, Some(&grid))
+                            .map_err(|e| format!("{}: {e}", p.label))?
+                            .y
+                    }
+                };
             let dc = if p.stable {
                 Some(skyloop_lti::poles_zeros::dcgain(&p.sys)?)
             } else {

@@ -140,7 +140,10 @@ pub fn from_continuous(kp: f64, ki: f64, kd: f64, f: u32, axis: Axis) -> Result<
         Ok(v as u32)
     };
     if f > F_GAIN_MAX {
-        return Err(Error::Input(format!("Betaflight f_{} = {f} is outside 0..={F_GAIN_MAX}", axis.name())));
+        return Err(Error::Input(format!(
+            "Betaflight f_{} = {f} is outside 0..={F_GAIN_MAX}",
+            axis.name()
+        )));
     }
     Ok(Gains {
         p: conv("p", kp, PTERM_SCALE)?,
@@ -218,7 +221,12 @@ mod tests {
     /// pid.h's scale factors.
     #[test]
     fn low_frequency_part_is_the_scaled_pid() {
-        let g = Gains { p: 45, i: 80, d: 40, f: 120 };
+        let g = Gains {
+            p: 45,
+            i: 80,
+            d: 40,
+            f: 120,
+        };
         let c = feedback_controller(&g, Axis::Roll, &Filters::default()).unwrap();
         for w in [0.05, 0.5, 2.0] {
             let s = c64::new(0.0, w);
@@ -235,11 +243,19 @@ mod tests {
 
     #[test]
     fn gains_round_trip_and_out_of_range_is_named() {
-        let g = Gains { p: 45, i: 80, d: 40, f: 120 };
+        let g = Gains {
+            p: 45,
+            i: 80,
+            d: 40,
+            f: 120,
+        };
         let (kp, ki, kd, _) = continuous(&g, Axis::Pitch);
         assert_eq!(from_continuous(kp, ki, kd, 120, Axis::Pitch).unwrap(), g);
         let e = from_continuous(100.0, ki, kd, 0, Axis::Roll).unwrap_err();
-        assert!(e.to_string().contains("p_roll") && e.to_string().contains("0..=250"), "{e}");
+        assert!(
+            e.to_string().contains("p_roll") && e.to_string().contains("0..=250"),
+            "{e}"
+        );
         assert_eq!(cli_lines(&g, Axis::Roll)[0], "set p_roll = 45");
     }
 }

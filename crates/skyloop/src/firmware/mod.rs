@@ -50,7 +50,9 @@ impl Lowpass {
     pub fn model(&self) -> Result<StateSpace> {
         let f = self.cutoff_hz();
         if !(f.is_finite() && f > 0.0) {
-            return Err(Error::Input(format!("lowpass cutoff must be a positive number of Hz, got {f}")));
+            return Err(Error::Input(format!(
+                "lowpass cutoff must be a positive number of Hz, got {f}"
+            )));
         }
         let w = 2.0 * PI * f;
         let pt = |n: i32| -> Result<StateSpace> {
@@ -103,7 +105,9 @@ pub fn chain(stages: &[Lowpass]) -> Result<Option<StateSpace>> {
 /// A loop rate that is not a finite positive number.
 pub fn hold_delay_s(loop_hz: f64) -> Result<f64> {
     if !(loop_hz.is_finite() && loop_hz > 0.0) {
-        return Err(Error::Input(format!("the loop rate must be a positive number of Hz, got {loop_hz}")));
+        return Err(Error::Input(format!(
+            "the loop rate must be a positive number of Hz, got {loop_hz}"
+        )));
     }
     Ok(0.5 / loop_hz)
 }
@@ -131,8 +135,14 @@ mod tests {
 
     #[test]
     fn every_lowpass_is_minus_3_db_at_its_cutoff() {
-        for lp in [Lowpass::Pt1(100.0), Lowpass::Pt2(100.0), Lowpass::Pt3(100.0), Lowpass::Biquad(100.0)] {
-            let g = skyloop_lti::freqresp::evalfr(&lp.model().unwrap(), c64::new(0.0, 2.0 * PI * 100.0)).unwrap()[(0, 0)];
+        for lp in [
+            Lowpass::Pt1(100.0),
+            Lowpass::Pt2(100.0),
+            Lowpass::Pt3(100.0),
+            Lowpass::Biquad(100.0),
+        ] {
+            let g =
+                skyloop_lti::freqresp::evalfr(&lp.model().unwrap(), c64::new(0.0, 2.0 * PI * 100.0)).unwrap()[(0, 0)];
             assert!((g.norm() - 0.5f64.sqrt()).abs() < 1e-9, "{lp:?}: {}", g.norm());
         }
         assert!(Lowpass::Pt1(-1.0).model().is_err());

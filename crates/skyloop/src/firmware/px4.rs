@@ -65,7 +65,10 @@ pub fn param_names(axis: Axis) -> [String; 5] {
 /// # Errors
 /// Negative or non-finite cutoffs.
 pub fn block(f: &Filters) -> Result<Block> {
-    for (name, v) in [("IMU_GYRO_CUTOFF", f.gyro_cutoff_hz), ("IMU_DGYRO_CUTOFF", f.dgyro_cutoff_hz)] {
+    for (name, v) in [
+        ("IMU_GYRO_CUTOFF", f.gyro_cutoff_hz),
+        ("IMU_DGYRO_CUTOFF", f.dgyro_cutoff_hz),
+    ] {
         if !(v.is_finite() && v >= 0.0) {
             return Err(Error::Input(format!("{name} must be >= 0 Hz (0 disables), got {v}")));
         }
@@ -106,7 +109,13 @@ pub fn feedback_controller(g: &Gains, f: &Filters) -> Result<StateSpace> {
 /// Never for finite gains.
 pub fn reference_path(g: &Gains) -> Result<StateSpace> {
     let (kp, ki, _) = continuous(g);
-    Ok(StateSpace::from_rows(&[vec![0.0]], &[vec![1.0]], &[vec![ki]], &[vec![kp + g.ff]], 0.0)?)
+    Ok(StateSpace::from_rows(
+        &[vec![0.0]],
+        &[vec![1.0]],
+        &[vec![ki]],
+        &[vec![kp + g.ff]],
+        0.0,
+    )?)
 }
 
 /// PX4 `param set` lines.
@@ -128,7 +137,13 @@ mod tests {
     /// Well below the filters, C_fb = K·(P + I/s + D·s) with K multiplying all three.
     #[test]
     fn low_frequency_part_is_k_times_the_pid() {
-        let g = Gains { k: 1.5, p: 0.15, i: 0.2, d: 0.003, ff: 0.0 };
+        let g = Gains {
+            k: 1.5,
+            p: 0.15,
+            i: 0.2,
+            d: 0.003,
+            ff: 0.0,
+        };
         let c = feedback_controller(&g, &Filters::default()).unwrap();
         // The Butterworth filters lag by about √2·ω/ω_c, so the relative error grows like ω/ω_c.
         for w in [0.01, 0.05, 0.5] {

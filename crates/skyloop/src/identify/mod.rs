@@ -277,7 +277,11 @@ fn spec_channels(spec: &str) -> Vec<String> {
 fn slowest_channel(log: &Log, specs: &[&str]) -> Result<(String, f64)> {
     let mut slowest = (String::new(), f64::INFINITY);
     for spec in specs {
-        let names = if log.channel(spec).is_ok() { vec![spec.to_string()] } else { spec_channels(spec) };
+        let names = if log.channel(spec).is_ok() {
+            vec![spec.to_string()]
+        } else {
+            spec_channels(spec)
+        };
         for n in names {
             let (t, _) = log.channel(&n)?;
             let r = median_rate_hz(t);
@@ -299,7 +303,10 @@ pub fn coherent_band(frf: &Frf) -> Option<(f64, f64)> {
     let smooth: Vec<f64> = (0..f.len())
         .map(|i| {
             let (lo, hi) = (f[i] * 10f64.powf(-1.0 / 6.0), f[i] * 10f64.powf(1.0 / 6.0));
-            let near: Vec<f64> = (0..f.len()).filter(|&k| f[k] >= lo && f[k] <= hi).map(|k| frf.coherence[k]).collect();
+            let near: Vec<f64> = (0..f.len())
+                .filter(|&k| f[k] >= lo && f[k] <= hi)
+                .map(|k| frf.coherence[k])
+                .collect();
             near.iter().sum::<f64>() / near.len().max(1) as f64
         })
         .collect();
@@ -355,13 +362,21 @@ pub fn identify(a: &IdentifyRequest) -> Result<Identification> {
     let mut warnings = Vec::new();
     let method: Method = a.method.parse()?;
     let window: Window = a.window.parse()?;
-    for (name, v) in [("--fmin-hz", a.fmin_hz), ("--fmax-hz", a.fmax_hz), ("--from", a.from), ("--to", a.to)] {
+    for (name, v) in [
+        ("--fmin-hz", a.fmin_hz),
+        ("--fmax-hz", a.fmax_hz),
+        ("--from", a.from),
+        ("--to", a.to),
+    ] {
         if v.is_some_and(|x| !x.is_finite()) {
             return Err(Error::Input(format!("{name} must be a finite number")));
         }
     }
     if a.blocks == 1 || a.blocks > 64 {
-        return Err(Error::Input(format!("--blocks {} is outside 2..=64 (0 turns the jackknife off)", a.blocks)));
+        return Err(Error::Input(format!(
+            "--blocks {} is outside 2..=64 (0 turns the jackknife off)",
+            a.blocks
+        )));
     }
     let log = Log::open(
         &a.data,
@@ -495,7 +510,11 @@ pub fn identify(a: &IdentifyRequest) -> Result<Identification> {
             "{} airborne segments, {total:.1} s of {:.1} s searched (excluded: {})",
             air.segments.len(),
             air.searched.len_s(),
-            if excluded.is_empty() { "nothing".to_string() } else { excluded.join(", ") }
+            if excluded.is_empty() {
+                "nothing".to_string()
+            } else {
+                excluded.join(", ")
+            }
         ));
         air.segments
             .iter()
@@ -517,7 +536,11 @@ pub fn identify(a: &IdentifyRequest) -> Result<Identification> {
         })
         .collect();
     // Half-second ramps: long against the loop's dynamics (tens of ms), short against the segments.
-    let taper = if ranges.len() > 1 { (0.5 / data.dt_s).round() as usize } else { 0 };
+    let taper = if ranges.len() > 1 {
+        (0.5 / data.dt_s).round() as usize
+    } else {
+        0
+    };
     let joined = data.segments_joined(&ranges, taper);
     let dt = data.dt_s;
     let has_r = excitation.is_some();
@@ -552,7 +575,9 @@ pub fn identify(a: &IdentifyRequest) -> Result<Identification> {
         if let Some((lo, hi)) = coherent_band_hz {
             fit_opts.fmin_hz = Some(lo);
             fit_opts.fmax_hz = Some(hi);
-            notes.push(format!("fitting {lo:.2} .. {hi:.2} Hz, where the coherence is at least {COHERENT}"));
+            notes.push(format!(
+                "fitting {lo:.2} .. {hi:.2} Hz, where the coherence is at least {COHERENT}"
+            ));
         }
     }
     let mut uncertainty = None;
@@ -586,8 +611,12 @@ pub fn identify(a: &IdentifyRequest) -> Result<Identification> {
                 let blocks = uncertainty::blocks(n, a.blocks);
                 let mut loo = Vec::new();
                 for b in 0..blocks.len() {
-                    let keep: Vec<Range<usize>> =
-                        blocks.iter().enumerate().filter(|(k, _)| *k != b).map(|(_, r)| r.clone()).collect();
+                    let keep: Vec<Range<usize>> = blocks
+                        .iter()
+                        .enumerate()
+                        .filter(|(k, _)| *k != b)
+                        .map(|(_, r)| r.clone())
+                        .collect();
                     let part = uncertainty::pick(&joined, &keep);
                     if let Ok(f) = frf_of(&part) {
                         if let Ok(fr) = fit_expr(&f, &expr, &specs, &fit_opts) {
@@ -624,7 +653,9 @@ pub fn identify(a: &IdentifyRequest) -> Result<Identification> {
                 // Held out: fit the even blocks, predict the odd ones (both spread over the flight).
                 let train: Vec<usize> = (0..blocks.len()).step_by(2).collect();
                 let test: Vec<usize> = (1..blocks.len()).step_by(2).collect();
-                let part = |ix: &[usize]| uncertainty::pick(&joined, &ix.iter().map(|&i| blocks[i].clone()).collect::<Vec<_>>());
+                let part = |ix: &[usize]| {
+                    uncertainty::pick(&joined, &ix.iter().map(|&i| blocks[i].clone()).collect::<Vec<_>>())
+                };
                 let held = (|| -> Result<Validation> {
                     let f_train = frf_of(&part(&train))?;
                     let f_test = frf_of(&part(&test))?;
@@ -699,9 +730,12 @@ pub fn identify(a: &IdentifyRequest) -> Result<Identification> {
     });
     Ok(Identification {
         title: format!("{input} → {output}"),
-        preset: preset
-            .as_ref()
-            .map(|p| (p.channels.firmware.name().to_string(), p.channels.axis.name().to_string())),
+        preset: preset.as_ref().map(|p| {
+            (
+                p.channels.firmware.name().to_string(),
+                p.channels.axis.name().to_string(),
+            )
+        }),
         input,
         output,
         instrument: excitation,
@@ -741,7 +775,11 @@ fn fit_warnings(r: &FitResult, warnings: &mut Vec<String>) {
     if !nan.is_empty() || r.params.values().any(|v| !v.is_finite()) {
         warnings.push(format!(
             "the fit's standard errors are undetermined for {}: the data do not constrain them",
-            if nan.is_empty() { "some parameters".to_string() } else { nan.join(", ") }
+            if nan.is_empty() {
+                "some parameters".to_string()
+            } else {
+                nan.join(", ")
+            }
         ));
     }
 }
@@ -753,9 +791,17 @@ impl Identification {
     /// {fit_percent, frf_residual, ..}, "converged", "at_bounds", "warnings"}`, as `skyloop identify
     /// --json` prints it (a non-finite number is null).
     pub fn to_json(&self) -> serde_json::Value {
-        let num = |x: f64| if x.is_finite() { serde_json::json!(x) } else { serde_json::Value::Null };
+        let num = |x: f64| {
+            if x.is_finite() {
+                serde_json::json!(x)
+            } else {
+                serde_json::Value::Null
+            }
+        };
         let map = |m: &BTreeMap<String, f64>| {
-            m.iter().map(|(k, s)| (k.clone(), num(*s))).collect::<serde_json::Map<_, _>>()
+            m.iter()
+                .map(|(k, s)| (k.clone(), num(*s)))
+                .collect::<serde_json::Map<_, _>>()
         };
         let frf = &self.frf;
         let mut v = serde_json::json!({

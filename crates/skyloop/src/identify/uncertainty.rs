@@ -74,7 +74,13 @@ mod tests {
         let n = x.len() as f64;
         let loo: Vec<BTreeMap<String, f64>> = (0..x.len())
             .map(|i| {
-                let m = x.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, v)| v).sum::<f64>() / (n - 1.0);
+                let m = x
+                    .iter()
+                    .enumerate()
+                    .filter(|(j, _)| *j != i)
+                    .map(|(_, v)| v)
+                    .sum::<f64>()
+                    / (n - 1.0);
                 BTreeMap::from([("m".to_string(), m)])
             })
             .collect();

@@ -16,7 +16,9 @@ use skyloop_lti::json::LtiJson;
 use skyloop_lti::StateSpace;
 use skyloop_robust::structured::blocks::{Block, DerivativeFilter, Structure};
 use skyloop_robust::structured::goals::{Bound, Goal, Requirement};
-use skyloop_robust::structured::systune::{evaluate, tune_loop, ultimate_point, GoalReport, LoopTuning, Objective, TuneOptions};
+use skyloop_robust::structured::systune::{
+    evaluate, tune_loop, ultimate_point, GoalReport, LoopTuning, Objective, TuneOptions,
+};
 use skyloop_robust::structured::verify::LoopCheck;
 use std::f64::consts::PI;
 
@@ -43,7 +45,9 @@ impl Firmware {
             "betaflight" => Ok(Firmware::Betaflight),
             "px4" => Ok(Firmware::Px4),
             "generic" => Ok(Firmware::Generic),
-            _ => Err(Error::Input(format!("--firmware must be betaflight, px4 or generic, got `{s}`"))),
+            _ => Err(Error::Input(format!(
+                "--firmware must be betaflight, px4 or generic, got `{s}`"
+            ))),
         }
     }
 }
@@ -89,7 +93,9 @@ impl Maximize {
         match s {
             "integral_gain" => Ok(Maximize::IntegralGain),
             "crossover" => Ok(Maximize::Crossover),
-            _ => Err(Error::Input(format!("--maximize must be crossover or integral_gain, got `{s}`"))),
+            _ => Err(Error::Input(format!(
+                "--maximize must be crossover or integral_gain, got `{s}`"
+            ))),
         }
     }
 }
@@ -197,7 +203,11 @@ pub fn parse_goal(text: &str) -> Result<Goal> {
             )))
         }
     };
-    let bound = if op == "<=" { Bound::AtMost(v) } else { Bound::AtLeast(v) };
+    let bound = if op == "<=" {
+        Bound::AtMost(v)
+    } else {
+        Bound::AtLeast(v)
+    };
     let g = Goal::hard(req, bound, text.trim());
     g.validate()?;
     Ok(g)
@@ -260,7 +270,9 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
             (GenericStructure::Pid, None) => Block::Pid(DerivativeFilter::Tuned),
             (GenericStructure::Pid, Some(tau)) => {
                 if !(tau.is_finite() && tau > 0.0) {
-                    return Err(Error::Input(format!("--d-filter-tau must be a positive number of seconds, got {tau}")));
+                    return Err(Error::Input(format!(
+                        "--d-filter-tau must be a positive number of seconds, got {tau}"
+                    )));
                 }
                 Block::Pid(DerivativeFilter::Fixed(StateSpace::from_rows(
                     &[vec![-1.0 / tau]],
@@ -275,7 +287,11 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
     let mut goals: Vec<Goal> = req.goals.iter().map(|g| parse_goal(g)).collect::<Result<_>>()?;
     let mut defaults = Vec::new();
     if !goals.iter().any(|g| g.req == Requirement::DiskMargin) {
-        goals.push(Goal::hard(Requirement::DiskMargin, Bound::AtLeast(0.5), "disk_margin>=0.5 (default floor)"));
+        goals.push(Goal::hard(
+            Requirement::DiskMargin,
+            Bound::AtLeast(0.5),
+            "disk_margin>=0.5 (default floor)",
+        ));
         defaults.push("disk_margin>=0.5: the loop tolerates ±5.6 dB and ±28° at once".to_string());
     }
     let (wu, ku) = ultimate_point(&plants[0])?;
@@ -310,7 +326,11 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
         for _ in 0..3 {
             let (_, theta) = betaflight_rounding(&prob, &tuned.params, req)?;
             let (goals, loops) = evaluate(&prob, &theta)?;
-            let worst = goals.iter().filter(|g| g.hard).map(|g| g.normalized).fold(f64::NEG_INFINITY, f64::max);
+            let worst = goals
+                .iter()
+                .filter(|g| g.hard)
+                .map(|g| g.normalized)
+                .fold(f64::NEG_INFINITY, f64::max);
             if worst <= 1.0 + 1e-6 && loops.iter().all(|l| l.stable) {
                 break;
             }
@@ -338,7 +358,11 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
             let mut g = json!({"kp": th[0], "ki": th[1]});
             if th.len() > 2 {
                 g["kd"] = json!(th[2]);
-                g["tf"] = json!(if th.len() > 3 { th[3].exp() } else { req.d_filter_tau_s.unwrap_or(0.0) });
+                g["tf"] = json!(if th.len() > 3 {
+                    th[3].exp()
+                } else {
+                    req.d_filter_tau_s.unwrap_or(0.0)
+                });
             } else {
                 g["kd"] = json!(0.0);
                 g["tf"] = json!(0.0);
@@ -446,7 +470,11 @@ fn best_rounding<G: Copy>(prob: &LoopTuning, cands: Vec<(G, Vec<f64>)>, maximize
                 Maximize::Crossover => -loops.iter().map(|l| l.crossover_hz).fold(f64::INFINITY, f64::min),
             }
         } else {
-            goals.iter().filter(|r| r.hard).map(|r| r.normalized).fold(f64::NEG_INFINITY, f64::max)
+            goals
+                .iter()
+                .filter(|r| r.hard)
+                .map(|r| r.normalized)
+                .fold(f64::NEG_INFINITY, f64::max)
         };
         let better = match &best {
             None => true,
@@ -456,7 +484,8 @@ fn best_rounding<G: Copy>(prob: &LoopTuning, cands: Vec<(G, Vec<f64>)>, maximize
             best = Some((ok, score, g, th));
         }
     }
-    best.map(|(_, _, g, th)| (g, th)).ok_or_else(|| Error::Failed("no rounded gains to check".into()))
+    best.map(|(_, _, g, th)| (g, th))
+        .ok_or_else(|| Error::Failed("no rounded gains to check".into()))
 }
 
 impl TuneOutcome {

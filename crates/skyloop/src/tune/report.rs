@@ -24,7 +24,10 @@ pub fn write_outputs(out: &TuneOutcome, dir: &Path) -> Result<()> {
     let cli_path = dir.join("cli.txt");
     std::fs::write(&cli_path, out.cli.join("\n") + "\n").map_err(|e| Error::write(&cli_path, e))?;
     write_json(&dir.join("tune.json"), &out.to_json())?;
-    write_json(&dir.join("feedback_controller.json"), &LtiJson::from_ss(&out.feedback_controller))?;
+    write_json(
+        &dir.join("feedback_controller.json"),
+        &LtiJson::from_ss(&out.feedback_controller),
+    )?;
 
     let (lo, hi) = dynamics_range(&series(&out.feedback_controller, &out.loop_plant)?)?;
     let f_hz = logspace((lo / 20.0).log10() - 1.0, (hi / 6.0).log10() + 0.5, 800);
@@ -92,14 +95,34 @@ pub fn write_outputs(out: &TuneOutcome, dir: &Path) -> Result<()> {
         rows.push(("note", n.clone()));
     }
     for g in &out.goals {
-        rows.push(("goal", format!("{}: {:.5} ({})", g.label, g.value, if g.met { "met" } else { "NOT met" })));
+        rows.push((
+            "goal",
+            format!(
+                "{}: {:.5} ({})",
+                g.label,
+                g.value,
+                if g.met { "met" } else { "NOT met" }
+            ),
+        ));
     }
     sec.key_values(&rows);
     let sec = rep.section("Frequency and time responses");
     for (name, fig, caption) in [
-        ("loop_bode", bode, "L and C_fb with the exact plant delay and the loop's hold; PM marked."),
-        ("loop_nyquist", nyq, "Nyquist plot of L (zoomed to radius 3 around the origin)."),
-        ("step", step, "Unit setpoint step with error feedback (plant delay as Padé order 6)."),
+        (
+            "loop_bode",
+            bode,
+            "L and C_fb with the exact plant delay and the loop's hold; PM marked.",
+        ),
+        (
+            "loop_nyquist",
+            nyq,
+            "Nyquist plot of L (zoomed to radius 3 around the origin).",
+        ),
+        (
+            "step",
+            step,
+            "Unit setpoint step with error feedback (plant delay as Padé order 6).",
+        ),
     ] {
         fig.save(&dir.join(format!("{name}.svg")))?;
         sec.figure(fig, caption);
