@@ -48,7 +48,7 @@ pub enum DerivativeFilter {
 /// measured unit):
 #[derive(Debug, Clone, PartialEq)]
 pub enum Block {
-    /// K = k. θ = [k].
+    /// K = k. θ = \[k\].
     Gain,
     /// K = kp + ki/s. θ = [kp, ki (1/s)].
     Pi,

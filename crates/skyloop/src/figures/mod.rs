@@ -1,6 +1,6 @@
 //! The figures of models that the plotting commands draw (`bode`, `sigma`, `nichols`, `nyquist`,
 //! `pzmap`, `rlocus`, `step`): each function computes the responses of labelled models and builds
-//! the [`Figure`], so the CLI only parses and saves, and a library user gets the same pictures.
+//! the [`Figure`](skyloop_plot::figure::Figure), so the CLI only parses and saves, and a library user gets the same pictures.
 //!
 //! Frequencies are chosen in rad/s and shown in Hz, gains in dB, phases in degrees, times in s.
 
