@@ -17,6 +17,10 @@ The dense linear-algebra rows (schur, care, dare, lyapunov) need no CLI: one run
 matrices (the example's random matrices come from an LCG reproduced below; it prints check
 values). BLAS is single-threaded on both sides (our code is single-threaded; a threaded BLAS on a
 busy machine makes the reference look slower than it is).
+
+The step, reduction and identification rows (groups step, reduce, sysid) likewise come from one
+run of the `time_workflows` example of the skyloop crate (bench/workflow_times.py), thread CPU time
+on both sides. Nothing here writes a tracked file.
 """
 import os
 

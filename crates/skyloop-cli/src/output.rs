@@ -16,6 +16,20 @@ pub fn print_json<T: serde::Serialize>(v: &T) -> skyloop::Result<()> {
     }
 }
 
+/// With `--bench N`, runs `f` N times and prints the fastest wall time on stderr as
+/// `bench_seconds T` (for `bench/compare.py`: start-up and printing are not timed).
+pub fn bench<T, E>(n: Option<usize>, mut f: impl FnMut() -> Result<T, E>) -> Result<(), E> {
+    let Some(n) = n else { return Ok(()) };
+    let mut best = f64::INFINITY;
+    for _ in 0..n.max(1) {
+        let t = std::time::Instant::now();
+        std::hint::black_box(f()?);
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    eprintln!("bench_seconds {best:e}");
+    Ok(())
+}
+
 /// Formats a matrix as aligned rows.
 pub fn matrix_table(m: &Mat<f64>) -> String {
     let mut s = String::new();

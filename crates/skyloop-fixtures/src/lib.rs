@@ -39,3 +39,33 @@ pub fn f64s(v: &Value) -> Vec<f64> {
         .map(|x| x.as_f64().unwrap_or_else(|| panic!("expected a number, got {x}")))
         .collect()
 }
+
+/// Seconds of CPU time consumed by the calling thread (wall time where that clock is unavailable).
+/// The timing examples measure with it, as `bench/compare.py` measures the references with
+/// Python's `time.thread_time`: on a busy machine, wall time is mostly waiting for a core.
+#[allow(unsafe_code)] // one libc call; std has no per-thread CPU clock
+pub fn thread_cpu_seconds() -> f64 {
+    #[cfg(unix)]
+    {
+        let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+        // SAFETY: clock_gettime only writes the timespec it is given.
+        if unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) } == 0 {
+            return ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9;
+        }
+    }
+    use std::sync::OnceLock;
+    static T0: OnceLock<std::time::Instant> = OnceLock::new();
+    T0.get_or_init(std::time::Instant::now).elapsed().as_secs_f64()
+}
+
+/// The smallest thread CPU time (s) of `repeats` calls of `f` (at least one), after one warm-up call.
+pub fn best_cpu_seconds<T>(repeats: usize, mut f: impl FnMut() -> T) -> f64 {
+    std::hint::black_box(f());
+    let mut best = f64::INFINITY;
+    for _ in 0..repeats.max(1) {
+        let t = thread_cpu_seconds();
+        std::hint::black_box(f());
+        best = best.min(thread_cpu_seconds() - t);
+    }
+    best
+}

@@ -1,5 +1,5 @@
 //! Balanced reduction of a 100-state 2×2 system (control.rss, fixture rss_n100 from
-//! tools/gen_reduce.py) to order 10; bench/compare_reduce.py compares with python-control + slycot.
+//! tools/gen_reduce.py) to order 10; `bench/compare.py --group reduce` compares with python-control + slycot.
 #![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 #![allow(missing_docs)] // criterion_group! generates an undocumented function
 

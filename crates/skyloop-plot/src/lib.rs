@@ -41,6 +41,7 @@ pub mod mu;
 pub mod nichols;
 pub mod nyquist;
 pub mod pzmap;
+mod raster_text;
 mod render;
 pub mod report;
 pub mod sigma;

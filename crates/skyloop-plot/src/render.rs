@@ -77,7 +77,9 @@ pub(crate) fn save(fig: &Figure, path: &Path) -> Result<()> {
             root.present().map_err(|e| draw_err(e.to_string()))
         }
         Some("png") => {
-            let root = BitMapBackend::new(path, size).into_drawing_area();
+            let backend =
+                crate::raster_text::PngBackend::new(BitMapBackend::new(path, size), FONT).map_err(draw_err)?;
+            let root = backend.into_drawing_area();
             draw_figure(fig, &root).map_err(draw_err)?;
             root.present().map_err(|e| draw_err(e.to_string()))
         }
@@ -1033,6 +1035,8 @@ fn draw_markers<DB: DrawingBackend>(
     let grey = neutral();
     // Labels of vertical markers are stacked in rows so neighbours do not overwrite each other.
     let mut rows: Vec<Vec<(i32, i32)>> = Vec::new();
+    // Rectangles (left, top, right, bottom in px) of the notes drawn so far.
+    let mut placed: Vec<(i32, i32, i32, i32)> = Vec::new();
     for m in &p.markers {
         match m {
             Marker::Vertical { x, label } if usable(*x, p.x_log) => {
@@ -1107,35 +1111,48 @@ fn draw_markers<DB: DrawingBackend>(
                 }
                 let q = ipt(q);
                 let (tw, th) = measure(area, label, NOTE_FONT);
-                // Of the four places around the point, the one inside the frame that hides the
-                // least of the curves (a note must not cover the response it describes).
-                let mut best: Option<((i32, i32), HPos, VPos, usize)> = None;
-                for (dx, dy) in [(1, -1), (1, 1), (-1, -1), (-1, 1)] {
-                    let x0 = if dx > 0 { q.0 + 6 } else { q.0 - 6 - tw };
-                    let y0 = if dy < 0 { q.1 - 6 - th } else { q.1 + 6 };
-                    if x0 < f.left || x0 + tw > f.right || y0 < f.top || y0 + th > f.bottom {
-                        continue;
-                    }
-                    let hidden = coverage(
-                        runs,
-                        (
-                            (x0 - 2) as f64,
-                            (y0 - 1) as f64,
-                            (x0 + tw + 2) as f64,
-                            (y0 + th + 1) as f64,
-                        ),
-                    );
-                    if best.is_none_or(|b| hidden < b.3) {
-                        let h = if dx > 0 { HPos::Left } else { HPos::Right };
-                        let v = if dy < 0 { VPos::Bottom } else { VPos::Top };
-                        let anchor = (
-                            if dx > 0 { q.0 + 6 } else { q.0 - 6 },
-                            if dy < 0 { q.1 - 6 } else { q.1 + 6 },
-                        );
-                        best = Some((anchor, h, v, hidden));
+                // Of the places around the point (four quadrants, near then farther out), the one
+                // inside the frame that hides the least of the curves and no earlier note: a note
+                // must not cover the response it describes, nor another trace's note.
+                let mut best: Option<((i32, i32), HPos, VPos, (i32, i32, i32, i32), usize)> = None;
+                for gap in [6, 22, 40] {
+                    for (dx, dy) in [(1, -1), (1, 1), (-1, -1), (-1, 1)] {
+                        let x0 = if dx > 0 { q.0 + gap } else { q.0 - gap - tw };
+                        let y0 = if dy < 0 { q.1 - gap - th } else { q.1 + gap };
+                        if x0 < f.left || x0 + tw > f.right || y0 < f.top || y0 + th > f.bottom {
+                            continue;
+                        }
+                        let rect = (x0 - 2, y0 - 1, x0 + tw + 2, y0 + th + 1);
+                        let hidden = coverage(runs, (rect.0 as f64, rect.1 as f64, rect.2 as f64, rect.3 as f64));
+                        let clashes = placed
+                            .iter()
+                            .filter(|r: &&(i32, i32, i32, i32)| {
+                                rect.0 < r.2 && r.0 < rect.2 && rect.1 < r.3 && r.1 < rect.3
+                            })
+                            .count();
+                        // Farther places cost a little, so a free near place wins.
+                        let score = hidden + 10_000 * clashes + gap as usize;
+                        if best.is_none_or(|b| score < b.4) {
+                            let h = if dx > 0 { HPos::Left } else { HPos::Right };
+                            let v = if dy < 0 { VPos::Bottom } else { VPos::Top };
+                            let anchor = (
+                                if dx > 0 { q.0 + gap } else { q.0 - gap },
+                                if dy < 0 { q.1 - gap } else { q.1 + gap },
+                            );
+                            best = Some((anchor, h, v, rect, score));
+                        }
                     }
                 }
-                let (anchor, h, v) = best.map_or(((q.0 + 6, q.1 - 6), HPos::Left, VPos::Bottom), |b| (b.0, b.1, b.2));
+                let Some((anchor, h, v, rect, _)) = best else {
+                    note(area, label, (q.0 + 6, q.1 - 6), HPos::Left, VPos::Bottom)?;
+                    continue;
+                };
+                if (anchor.0 - q.0).abs() > 6 {
+                    // A leader from the point to the note's near corner says which point it names.
+                    area.draw(&PathElement::new(vec![q, anchor], grey.stroke_width(1)))
+                        .map_err(e)?;
+                }
+                placed.push(rect);
                 note(area, label, anchor, h, v)?;
             }
             Marker::Arrow { x, y, dx, dy, color: c } if usable(*x, p.x_log) && usable(*y, p.y_log) => {

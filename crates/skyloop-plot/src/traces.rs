@@ -140,10 +140,20 @@ pub fn step_figure(title: &str, traces: &[Trace], infos: &[StepInfo]) -> Figure 
     for (k, (tr, info)) in traces.iter().zip(infos).enumerate() {
         let yf = info.final_value;
         let mut dots: (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
+        // With several traces on one axis, each note names its trace.
+        let whose = if traces.len() > 1 && !tr.label.is_empty() {
+            format!("{}: ", tr.label)
+        } else {
+            String::new()
+        };
         let dot = |x: f64, y: f64, p: &mut Panel, dots: &mut (Vec<f64>, Vec<f64>), label: String| {
             dots.0.push(x);
             dots.1.push(y);
-            p.markers.push(Marker::Note { x, y, label });
+            p.markers.push(Marker::Note {
+                x,
+                y,
+                label: format!("{whose}{label}"),
+            });
         };
         p.series.push(
             Series::line("", vec![t_start, t_end], vec![yf, yf])

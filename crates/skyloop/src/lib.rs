@@ -83,6 +83,7 @@ pub mod identify;
 pub mod model;
 pub mod papers;
 pub mod prelude;
+pub mod response;
 pub mod simulation;
 pub mod spec;
 pub mod synthesis;

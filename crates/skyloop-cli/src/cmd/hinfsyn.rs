@@ -45,15 +45,9 @@ pub fn run(a: Args) -> skyloop::Result<()> {
         gamma_range: (a.gamma_min, a.gamma_max.unwrap_or(f64::INFINITY)),
         rel_tol: a.tol,
     };
-    if let Some(n) = a.bench {
-        let mut best = f64::INFINITY;
-        for _ in 0..n.max(1) {
-            let t = std::time::Instant::now();
-            hinfsyn_with(&p, a.nmeas, a.ncon, &opts).map_err(|e| format!("hinfsyn: {e}"))?;
-            best = best.min(t.elapsed().as_secs_f64());
-        }
-        eprintln!("bench_seconds {best:e}");
-    }
+    crate::output::bench(a.bench, || {
+        hinfsyn_with(&p, a.nmeas, a.ncon, &opts).map_err(|e| format!("hinfsyn: {e}"))
+    })?;
     let sol = hinfsyn_with(&p, a.nmeas, a.ncon, &opts).map_err(|e| format!("hinfsyn: {e}"))?;
     if let Some(path) = &a.out {
         std::fs::write(path, skyloop::lti::json::to_json_string(&sol.controller))

@@ -30,16 +30,7 @@ fn fin(x: f64) -> Value {
 /// Computes the norms and prints them.
 pub fn run(a: Args) -> skyloop::Result<()> {
     let sys = skyloop::model::load_model(&a.model)?;
-    if let Some(n) = a.bench {
-        let mut best = f64::INFINITY;
-        for _ in 0..n.max(1) {
-            let t = std::time::Instant::now();
-            let r = hinf_norm(&sys)?;
-            best = best.min(t.elapsed().as_secs_f64());
-            std::hint::black_box(r);
-        }
-        eprintln!("bench_seconds {best:e}");
-    }
+    output::bench(a.bench, || hinf_norm(&sys))?;
     let (hinf, w) = hinf_norm(&sys)?;
     let h2 = h2_norm(&sys)?;
     // The peak gain of an unstable model (its L∞ norm) is still informative for a reader.

@@ -10,6 +10,7 @@
 
 pub mod loop_metrics;
 pub mod report;
+pub mod table;
 
 pub use crate::spec::design::{DesignSpec, SynthesisMethod};
 use loop_metrics::{closeness, closeness_warped, crossover_limits, four_block_norms, loop_gain_at, loop_margins};
