@@ -88,6 +88,11 @@ def freq_comparisons(run):
     ref = best_of(lambda: control.frequency_response(g, w), 5)
     ours = run(["freqresp", path, "--logspace-hz", f"{w[0] / (2 * np.pi)},{w[-1] / (2 * np.pi)},10000"], 20)
     out.append(("freqresp 20 states 2x2, 10k frequencies", ours, ref, 20.0))
+    # Issue 15: the whole CLI call (start-up, computation, streaming 10k frequencies of JSON to a
+    # pipe), wall time, against python-control's in-process call.
+    args = [BIN, "freqresp", path, "--logspace-hz", f"{w[0] / (2 * np.pi)},{w[-1] / (2 * np.pi)},10000", "--json"]
+    whole = best_of(lambda: subprocess.run(args, stdout=subprocess.PIPE, check=True), 10)
+    out.append(("freqresp --json whole CLI call vs in-process", whole, ref, 5.0))
 
     return out
 

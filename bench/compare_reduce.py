@@ -32,6 +32,14 @@ def comparisons(run):
         # SLICOT alone, without python-control's wrapper.
         rows.append(("balred BT 100 -> 10 (slycot AB09AD only)", ours()["balred_100_2x2_to_10"],
                      thread_best(lambda: slycot.ab09ad("C", "B", "N", 100, 2, 2, a, b, c, nr=10, tol=0.0), 7), 1.0))
+        # n = 1000 (issue 15): the LCG model of the time_workflows example, reproduced bit for bit.
+        from compare import lcg
+
+        a1k = lcg(1000, 1000, 11) - np.sqrt(1000) * np.eye(1000)
+        b1k, c1k = lcg(1000, 2, 12), lcg(2, 1000, 13)
+        rows.append(("balred BT 1000 -> 10 (slycot AB09AD)", ours()["balred_1000_2x2_to_10"],
+                     thread_best(lambda: slycot.ab09ad("C", "B", "N", 1000, 2, 2, a1k.copy(), b1k.copy(), c1k.copy(),
+                                                       nr=10, tol=0.0), 1), 1.0))
     except ImportError:
         print("compare_reduce: slycot not installed, the AB09AD-only row is skipped")
     return rows

@@ -8,7 +8,7 @@ use skyloop::lti::reduce::{balred, Method};
 use skyloop::lti::StateSpace;
 use skyloop::sysid::logs::{Log, OpenOptions};
 use skyloop::sysid::spectral::{estimate, IoData, Options};
-use skyloop_fixtures::{best_cpu_seconds, cases};
+use skyloop_fixtures::{best_cpu_seconds, cases, lcg_matrix};
 
 const ROOT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
 
@@ -50,6 +50,22 @@ fn main() {
     let bt = best_cpu_seconds(10, || balred(&big, 10, Method::Balanced).unwrap());
     let spa = best_cpu_seconds(10, || balred(&big, 10, Method::Spa).unwrap());
 
+    // Reduction at n = 1000 (issue 15: no slower than SLICOT AB09AD): A = LCG − √n·I (stable: the
+    // random part's spectral radius is about √(n/3)), B, C from the LCG, to order 10.
+    let mut a1k = lcg_matrix(1000, 1000, 11);
+    for (i, row) in a1k.iter_mut().enumerate() {
+        row[i] -= 1000f64.sqrt();
+    }
+    let sys1k = StateSpace::from_rows(
+        &a1k,
+        &lcg_matrix(1000, 2, 12),
+        &lcg_matrix(2, 1000, 13),
+        &[vec![0.0; 2], vec![0.0; 2]],
+        0.0,
+    )
+    .unwrap();
+    let bt1k = best_cpu_seconds(1, || balred(&sys1k, 10, Method::Balanced).unwrap());
+
     let (u, y) = record();
     let data = IoData {
         u: &u,
@@ -68,6 +84,7 @@ fn main() {
             "step_20_states_1000_points": step,
             "balred_100_2x2_to_10": bt,
             "balred_spa_100_2x2_to_10": spa,
+            "balred_1000_2x2_to_10": bt1k,
             "spafdr_600k_samples": spafdr,
             "read_sample_ulg_4mb": read_ulog,
             "check_y_last": y[y.len() - 1],
