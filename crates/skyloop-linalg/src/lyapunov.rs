@@ -256,6 +256,13 @@ fn hammarling(t: MatRef<f64>, b: MatRef<f64>, kind: Kind) -> Result<Mat<f64>> {
     let t = tt.as_ref();
     let b = bb.as_ref();
     let mut g = upper_factor(b);
+    // A trailing Γ below 1e-100·max|G| contributes nothing at working precision, but its square
+    // underflows and the 2×2 factor's inverse then overflows to inf/NaN (seen at n = 1000 with
+    // two inputs, where the factor decays geometrically). Such a block is treated as unexcited.
+    let floor = 1e-100
+        * (0..n)
+            .flat_map(|j| (0..n).map(move |i| (i, j)))
+            .fold(0.0f64, |m, (i, j)| m.max(g[(i, j)].abs()));
     let mut u = Mat::<f64>::zeros(n, n);
     let bl = blocks(t);
     for &(k0, s) in bl.iter().rev() {
@@ -267,7 +274,7 @@ fn hammarling(t: MatRef<f64>, b: MatRef<f64>, kind: Kind) -> Result<Mat<f64>> {
                 gam[i][j] = g[(k0 + i, k0 + j)];
             }
         }
-        let Some(fac) = small_factor(&sm, &gam, s, kind) else {
+        let Some(fac) = small_factor(&sm, &gam, s, kind, floor) else {
             // Γ = 0: this block carries no excitation, so P12 = 0 and P22 = 0; with u = 0 the
             // leading problem keeps G1·G1ᵀ + g·gᵀ.
             let y = Mat::from_fn(k0, s, |i, j| g[(i, k0 + j)]);
@@ -334,9 +341,9 @@ struct SmallFactor {
 }
 
 /// Factor V of the s×s equation and the derived K1 = V⁻¹SV, K2 = V⁻¹Γ; `None` when Γ = 0.
-fn small_factor(sm: &[[f64; 2]; 2], gam: &[[f64; 2]; 2], s: usize, kind: Kind) -> Option<SmallFactor> {
+fn small_factor(sm: &[[f64; 2]; 2], gam: &[[f64; 2]; 2], s: usize, kind: Kind, floor: f64) -> Option<SmallFactor> {
     let gnorm = gam.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
-    if gnorm == 0.0 {
+    if gnorm <= floor {
         return None;
     }
     let mut out = SmallFactor {

@@ -258,3 +258,46 @@ fn static_gain_reduces_to_itself() {
     assert_eq!(r.sys.d, g.d);
     assert_eq!(minreal(&g, None).unwrap().nx(), 0);
 }
+
+/// Issue 15: a 1000-state stable model with two inputs (its gramian factors decay geometrically,
+/// which once made the Cholesky factor non-finite and the reduction fail) reduces to order 10;
+/// the Hankel singular values match SLICOT AB09AD (tools/gen_reduce_large.py) and the reduced
+/// model is stable within the balanced-truncation error bound at DC.
+#[test]
+fn reduction_of_a_1000_state_model_matches_slicot() {
+    let fx = skyloop_fixtures::load(env!("CARGO_MANIFEST_DIR"), "tests/fixtures/reduce/lcg_n1000.json");
+    let n = 1000;
+    let mut a = skyloop_fixtures::lcg_matrix(n, n, 11);
+    for (i, row) in a.iter_mut().enumerate() {
+        row[i] -= (n as f64).sqrt();
+    }
+    let (b, c) = (
+        skyloop_fixtures::lcg_matrix(n, 2, 12),
+        skyloop_fixtures::lcg_matrix(2, n, 13),
+    );
+    let check = skyloop_fixtures::f64s(&fx["check"]);
+    assert_eq!(
+        [a[3][2], b[999][1], c[1][999]],
+        [check[0], check[1], check[2]],
+        "LCG mismatch"
+    );
+    let sys = StateSpace::from_rows(&a, &b, &c, &[vec![0.0; 2], vec![0.0; 2]], 0.0).unwrap();
+    let hsv = hsvd(&sys).unwrap();
+    for (k, want) in skyloop_fixtures::f64s(&fx["hsv"]).iter().enumerate() {
+        assert!(
+            (hsv[k] - want).abs() <= 1e-6 * want,
+            "σ{k}: {} vs SLICOT {want}",
+            hsv[k]
+        );
+    }
+    let r = balred(&sys, 10, Method::Balanced).unwrap();
+    assert_eq!(r.nx(), 10);
+    assert!(eigs(&r).iter().all(|p| p.re < 0.0));
+    let bound = 2.0 * hsv[10..].iter().sum::<f64>();
+    let (g, gr) = (
+        evalfr(&sys, c64::new(0.0, 0.0)).unwrap(),
+        evalfr(&r, c64::new(0.0, 0.0)).unwrap(),
+    );
+    let err = sigma_max(&(&g - &gr));
+    assert!(err <= bound * (1.0 + 1e-6), "DC error {err} above the bound {bound}");
+}

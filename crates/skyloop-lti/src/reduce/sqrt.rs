@@ -20,6 +20,11 @@ impl SquareRoot {
     /// Factors and SVD for a stable model whose A has the real Schur form `schur`.
     pub(super) fn new(sys: &StateSpace, schur: &Schur) -> Result<Self> {
         let (lc, lo) = gram_chol_pair_schur(sys, schur)?;
+        let finite = |f: &Mat<f64>| f.col_iter().all(|c| c.iter().all(|x| x.is_finite()));
+        if !finite(&lc) || !finite(&lo) {
+            // An SVD of non-finite numbers only reports NoConvergence; say where it came from.
+            return Err(LtiError::Numerical("a gramian's Cholesky factor is not finite".into()));
+        }
         let m = lo.transpose() * &lc;
         let svd = m
             .thin_svd()
