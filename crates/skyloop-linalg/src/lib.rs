@@ -1,9 +1,10 @@
 //! Dense numerics on faer: balancing, real Schur form and reordering, Sylvester, Lyapunov
-//! (also in Cholesky-factor form), CARE and DARE, matrix exponential, bounded Levenberg–Marquardt,
-//! the top eigenpairs of small Hermitian matrices, and scalar root finding and maximization.
+//! (also in Cholesky-factor form), CARE and DARE, eigenvalues of Hamiltonian matrices, matrix
+//! exponential, bounded Levenberg–Marquardt, the top eigenpairs of small Hermitian matrices, and
+//! scalar root finding and maximization.
 //!
 //! Ported from the published algorithms (LAPACK dgebal/dlahqr/dlaqr0–5/dtrexc/dlaexc/dlasy2/dtrsyl,
-//! Hammarling, Laub's ordered-Schur Riccati method); no Fortran.
+//! Hammarling, Laub's ordered-Schur Riccati method, Van Loan's square-reduced method); no Fortran.
 
 pub mod error;
 
@@ -12,6 +13,7 @@ pub use faer::{c64, Mat, MatRef};
 pub mod balance;
 mod dense;
 pub mod expm;
+pub mod hamiltonian;
 pub mod hermitian;
 pub mod lm;
 pub mod logm;

@@ -103,8 +103,44 @@ pub fn eigenvalues(a: MatRef<f64>) -> Result<Vec<c64>> {
     let mut h = Dm::from_mat(bal.a.as_ref());
     let mut z = Dm::zeros(0);
     hessenberg(&mut h, false);
-    crate::multishift::laqr0(&mut h, &mut z)?;
+    if h.n < crate::multishift::NMIN {
+        // Same eigenvalues bit for bit (the active block never reads what lies outside it).
+        lahqr_with(&mut h, &mut z, false)?;
+    } else {
+        crate::multishift::laqr0(&mut h, &mut z)?;
+    }
     Ok(block_eigenvalues(&h))
+}
+
+/// Eigenvalues of an upper Hessenberg work matrix (destroyed): diagonal scaling (dgebal's
+/// scaling, which keeps the Hessenberg form, unlike its permutations), then the QR iteration
+/// without the Schur factor outside the active block below the multishift order.
+pub(crate) fn hessenberg_eigenvalues(h: &mut Dm) -> Result<Vec<c64>> {
+    let n = h.n;
+    if h.d.iter().any(|v| !v.is_finite()) {
+        return Err(LinalgError::InvalidArgument(
+            "eigenvalues: matrix has NaN or infinite entries".into(),
+        ));
+    }
+    let bal = crate::balance::try_balance_with(
+        MatRef::from_column_major_slice(&h.d, n, n),
+        crate::balance::BalanceJob {
+            permute: false,
+            scale: true,
+        },
+    )?;
+    let mut hb = Dm::from_mat(bal.a.as_ref());
+    for j in 0..n {
+        for i in j + 2..n {
+            hb[(i, j)] = 0.0;
+        }
+    }
+    if n < crate::multishift::NMIN {
+        lahqr_with(&mut hb, &mut Dm::zeros(0), false)?;
+    } else {
+        crate::multishift::laqr0(&mut hb, &mut Dm::zeros(0))?;
+    }
+    Ok(block_eigenvalues(&hb))
 }
 
 /// Schur form on work matrices: returns `(T, Q)`.
@@ -215,6 +251,12 @@ fn hessenberg_unblocked(h: &mut Dm, want_q: bool) -> Dm {
 /// Francis double-shift QR on an upper Hessenberg matrix (LAPACK dlahqr with WANTT = true),
 /// accumulating the transformations into `z` unless `z` is empty (WANTZ = false).
 pub(crate) fn lahqr(h: &mut Dm, z: &mut Dm) -> Result<()> {
+    lahqr_with(h, z, true)
+}
+
+/// [`lahqr`], with the Schur factor `T` outside the active block left unfinished unless `wantt`
+/// (dlahqr's WANTT): the eigenvalues are the same, at about half the work.
+pub(crate) fn lahqr_with(h: &mut Dm, z: &mut Dm, wantt: bool) -> Result<()> {
     let n = h.n;
     if n <= 1 {
         return Ok(());
@@ -238,7 +280,7 @@ pub(crate) fn lahqr(h: &mut Dm, z: &mut Dm) -> Result<()> {
     let smlnum = safmin * (nh as f64 / ulp);
     let itmax = 30 * nh.max(10);
     let mut kdefl = 0usize;
-    let (i1, i2) = (0usize, n - 1);
+    let (mut i1, mut i2) = (0usize, n - 1);
 
     let mut i = ihi as isize;
     while i >= ilo as isize {
@@ -285,6 +327,10 @@ pub(crate) fn lahqr(h: &mut Dm, z: &mut Dm) -> Result<()> {
                 break;
             }
             kdefl += 1;
+            if !wantt {
+                i1 = l;
+                i2 = iu;
+            }
 
             let (h11, h12, h21, h22);
             if kdefl % (2 * KEXSH) == 0 {
@@ -432,10 +478,12 @@ pub(crate) fn lahqr(h: &mut Dm, z: &mut Dm) -> Result<()> {
             h[(iu - 1, iu)] = r.b;
             h[(iu, iu - 1)] = r.c;
             h[(iu, iu)] = r.d;
-            if i2 > iu {
-                h.rot_rows(iu - 1, iu, iu + 1..i2 + 1, r.cs, r.sn);
+            if wantt {
+                if i2 > iu {
+                    h.rot_rows(iu - 1, iu, iu + 1..i2 + 1, r.cs, r.sn);
+                }
+                h.rot_cols(iu - 1, iu, i1..iu - 1, r.cs, r.sn);
             }
-            h.rot_cols(iu - 1, iu, i1..iu - 1, r.cs, r.sn);
             if wantz {
                 z.rot_cols(iu - 1, iu, 0..n, r.cs, r.sn);
             }

@@ -46,7 +46,7 @@ fn bench(c: &mut Criterion) {
         (false, false) => -big.a[(j - n, i - n)],
     });
     c.bench_function("hamiltonian eigenvalues 80x80 (square-reduced)", |b| {
-        b.iter(|| skyloop_lti::hamiltonian::hamiltonian_eigenvalues(black_box(ham.as_ref())).expect("eig"))
+        b.iter(|| skyloop_linalg::hamiltonian::hamiltonian_eigenvalues(black_box(ham.as_ref())).expect("eig"))
     });
     c.bench_function("hamiltonian eigenvalues 80x80 (faer dense)", |b| {
         b.iter(|| black_box(&ham).eigenvalues().expect("eig"))

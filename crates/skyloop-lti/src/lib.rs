@@ -17,7 +17,6 @@ pub mod discretize;
 pub mod display;
 pub mod expr;
 pub mod gramian;
-pub mod hamiltonian;
 pub mod interconnect;
 pub mod minreal;
 pub mod pade;

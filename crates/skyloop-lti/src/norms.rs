@@ -6,7 +6,7 @@
 //! (Bruinsma & Steinbuch, Systems & Control Letters 14, 1990). Each step raises the lower bound to
 //! the largest gain at the midpoints of the intervals where σ_max > γ; when H((1 + 2ε)γ) has no
 //! imaginary eigenvalue, the norm lies in [γ, (1 + 2ε)γ]. The Hamiltonian's eigenvalues come from
-//! Van Loan's square-reduced method ([`crate::hamiltonian`], an n × n QR iteration instead of
+//! Van Loan's square-reduced method ([`skyloop_linalg::hamiltonian`], an n × n QR iteration instead of
 //! 2n × 2n), and the first level is the best gain over ω = 0, the poles' resonance/corner
 //! frequencies and a local (Brent) maximization around the best of them, so that usually a single
 //! Hamiltonian solve certifies the result. Discrete models go through the bilinear
@@ -78,9 +78,89 @@ fn linf_with_poles(sys: &StateSpace, poles: &PoleSummary) -> Result<(f64, f64)> 
 }
 
 /// Largest singular value of G(jω).
+#[cfg(test)]
 fn sigma_max(ev: &FreqEvaluator, w: f64) -> Result<f64> {
     let g = ev.eval(c64::new(0.0, w))?;
     sigma_max_of(&g)
+}
+
+/// σ_max(G(jω)) of the model an evaluator was built on, times a power-of-two `scale`, with the
+/// scratch space of the evaluation and of the small eigenvalue problem kept across the hundred or
+/// so evaluations of one norm computation.
+struct Gain<'a> {
+    ev: &'a FreqEvaluator,
+    scale: f64,
+    scratch: std::cell::RefCell<GainScratch>,
+}
+
+struct GainScratch {
+    ws: crate::freqresp::Workspace,
+    g: Vec<c64>,
+    gram: Mat<c64>,
+    herm: skyloop_linalg::hermitian::Workspace,
+}
+
+impl<'a> Gain<'a> {
+    fn new(ev: &'a FreqEvaluator, scale: f64) -> Self {
+        let m = ev.ny().min(ev.nu());
+        Gain {
+            ev,
+            scale,
+            scratch: std::cell::RefCell::new(GainScratch {
+                ws: ev.workspace(),
+                g: vec![c64::new(0.0, 0.0); ev.ny() * ev.nu()],
+                gram: Mat::zeros(m, m),
+                herm: Default::default(),
+            }),
+        }
+    }
+
+    fn at(&self, w: f64) -> Result<f64> {
+        let mut guard = self.scratch.borrow_mut();
+        let sc = &mut *guard;
+        self.ev.eval_into(c64::new(0.0, w), &mut sc.ws, &mut sc.g)?;
+        Ok(sigma_max_small(&sc.g, self.ev.ny(), self.ev.nu(), &mut sc.gram, &mut sc.herm)? * self.scale)
+    }
+}
+
+/// Largest singular value of the row-major `ny` × `nu` matrix `g`: the square root of the largest
+/// eigenvalue of the smaller Gram matrix (of G scaled by its largest entry, so nothing overflows).
+/// That eigenvalue is computed backward stably, with an absolute error of a few ulps of
+/// ‖G‖₂², so σ_max is accurate to a few ulps relative, as from a full SVD, at a fraction of its
+/// cost for the few inputs and outputs of a plant.
+fn sigma_max_small(
+    g: &[c64],
+    ny: usize,
+    nu: usize,
+    gram: &mut Mat<c64>,
+    herm: &mut skyloop_linalg::hermitian::Workspace,
+) -> Result<f64> {
+    let big = g.iter().map(|z| z.norm()).fold(0.0f64, f64::max);
+    if big == 0.0 || !big.is_finite() {
+        return Ok(big);
+    }
+    let inv = 1.0 / big;
+    if ny == 1 || nu == 1 {
+        let s: f64 = g.iter().map(|z| (z * inv).norm_sqr()).sum();
+        return Ok(big * s.sqrt());
+    }
+    let m = ny.min(nu);
+    let at = |i: usize, j: usize| g[i * nu + j] * inv;
+    for j in 0..m {
+        for i in j..m {
+            // Lower triangle of GᴴG (nu ≤ ny) or of GGᴴ.
+            let v: c64 = if nu <= ny {
+                (0..ny).map(|k| at(k, i) * at(k, j).conj()).sum()
+            } else {
+                (0..nu).map(|k| at(i, k) * at(j, k).conj()).sum()
+            };
+            gram[(i, j)] = v;
+        }
+    }
+    match skyloop_linalg::hermitian::top_eigen(gram.as_ref(), herm, |_| 0) {
+        Some(e) => Ok(big * e.lam.last().copied().unwrap_or(0.0).max(0.0).sqrt()),
+        None => sigma_max_of(&Mat::from_fn(ny, nu, |i, j| g[i * nu + j])),
+    }
 }
 
 fn sigma_max_of(g: &Mat<c64>) -> Result<f64> {
@@ -126,7 +206,7 @@ fn sigma_max_real(d: &Mat<f64>) -> Result<f64> {
 fn linf_continuous(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
     let (n, ny, nu) = (sys.nx(), sys.ny(), sys.nu());
     if n == 0 || ny == 0 || nu == 0 {
-        return linf_scaled(sys, eig);
+        return Ok((sigma_max_real(&sys.d)?, 0.0));
     }
     // Frequency scaling s = ω0·s̃ (Ã = A/ω0, B̃ = B/ω0): the peak gain is unchanged and is reached
     // at ω/ω0; ω0 is the power of two nearest the largest pole magnitude.
@@ -139,10 +219,27 @@ fn linf_continuous(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
     let eig0: Vec<c64> = eig.iter().map(|p| p / w0).collect();
     let a = &sys.a * (1.0 / w0);
     let b = &sys.b * (1.0 / w0);
-    let fs = StateSpace::new(a, b, sys.c.clone(), sys.d.clone(), 0.0)?;
-    // Initial gain estimate: D, ω = 0 and the poles' frequencies.
+    // A uniform state scaling (B/σ, C·σ with σ² ≈ ‖B‖/‖C‖) first: the imbalance may exceed what
+    // the per-state balancing moves (its factors are capped at 1e±100).
+    let uniform = |b: &Mat<f64>, c: &Mat<f64>| {
+        let (nb, nc) = (b.norm_l2(), c.norm_l2());
+        if nb > 0.0 && nc > 0.0 && nb.is_finite() && nc.is_finite() {
+            2f64.powi(((nb.log2() - nc.log2()) / 2.0).round() as i32)
+        } else {
+            1.0
+        }
+    };
+    let sig = uniform(&b, &sys.c);
+    let fs = StateSpace::new(a, &b * (1.0 / sig), &sys.c * sig, sys.d.clone(), 0.0)?;
+    // One evaluator serves the whole computation: the model the Hamiltonian is built on below
+    // differs from `fs` only by exact power-of-two scalings (outputs by 1/k, states), so its gain is
+    // σ_max(G_fs)/k. A few hundred evaluations at most: the Hessenberg set-up pays off over Schur.
     let ev = FreqEvaluator::new_hessenberg(&fs)?;
-    let mut g0 = sigma_max_real(&sys.d)?;
+    let raw = Gain::new(&ev, 1.0);
+    // Initial gain estimate and lower bound: ω = ∞ (D), ω = 0 and one frequency per pole (per
+    // conjugate pair): the resonance frequency |Im p| of a complex pair, the corner frequency |p|
+    // of a real pole (Bruinsma–Steinbuch's initial guesses), cheap at O(n²) each.
+    let (mut g0, mut w_best) = (sigma_max_real(&sys.d)?, f64::INFINITY);
     let mut freqs = vec![0.0];
     freqs.extend(
         eig0.iter()
@@ -150,15 +247,16 @@ fn linf_continuous(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
             .map(|p| if p.im > 0.0 { p.im } else { p.norm() }),
     );
     for w in freqs {
-        if let Ok(v) = sigma_max(&ev, w) {
-            if v.is_finite() {
-                g0 = g0.max(v);
-            } else {
-                return Err(LtiError::Numerical(format!(
-                    "the gain at {:e} rad/s overflows the floating-point range (|G| > 1.8e308): the norm is out of range",
-                    w * w0
-                )));
-            }
+        let v = raw.at(w)?;
+        if !v.is_finite() {
+            return Err(LtiError::Numerical(format!(
+                "the gain at {:e} rad/s overflows the floating-point range (|G| > 1.8e308): the norm is out of range",
+                w * w0
+            )));
+        }
+        if v > g0 {
+            g0 = v;
+            w_best = w;
         }
     }
     let k = if g0 > 0.0 && g0.is_finite() {
@@ -168,21 +266,16 @@ fn linf_continuous(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
     };
     // Output scaling to unit gain, then the states balanced (D⁻¹ÃD, D⁻¹B̃, C̃D/k).
     let mut c = &fs.c * (1.0 / k);
-    // A uniform state scaling first (B/σ, C·σ with σ² ≈ ‖B‖/‖C‖): the imbalance may exceed what
-    // the per-state balancing below moves (its factors are capped at 1e±100).
-    let (nb, nc) = (fs.b.norm_l2(), c.norm_l2());
-    let mut b0 = fs.b.clone();
-    if nb > 0.0 && nc > 0.0 && nb.is_finite() && nc.is_finite() {
-        let sigma = 2f64.powi(((nb.log2() - nc.log2()) / 2.0).round() as i32);
-        b0 = &b0 * (1.0 / sigma);
-        c = &c * sigma;
-    }
+    let sigma = uniform(&fs.b, &c);
+    let b0 = &fs.b * (1.0 / sigma);
+    c = &c * sigma;
     let dsc = crate::freqresp::system_scaling(&fs.a, &b0, &c);
     let a = Mat::from_fn(n, n, |i, j| fs.a[(i, j)] * dsc[j] / dsc[i]);
     let b = Mat::from_fn(n, nu, |i, j| b0[(i, j)] / dsc[i]);
     let c = Mat::from_fn(ny, n, |i, j| c[(i, j)] * dsc[j]);
     let scaled = StateSpace::new(a, b, c, &sys.d * (1.0 / k), 0.0)?;
-    let (g, w) = linf_scaled(&scaled, &eig0)?;
+    let gain = Gain::new(&ev, 1.0 / k);
+    let (g, w) = linf_scaled(&scaled, &eig0, &gain, (g0 / k, w_best))?;
     let g = g * k;
     if !g.is_finite() {
         return Err(LtiError::Numerical(
@@ -192,32 +285,19 @@ fn linf_continuous(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
     Ok((g, w * w0))
 }
 
-/// [`linf_continuous`] on an already scaled model.
-fn linf_scaled(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
-    let (n, ny, nu) = (sys.nx(), sys.ny(), sys.nu());
-    let d_gain = sigma_max_real(&sys.d)?;
-    if n == 0 || ny == 0 || nu == 0 {
-        return Ok((d_gain, 0.0));
-    }
-    // A few hundred evaluations at most: the cheaper Hessenberg set-up pays off over the Schur one.
-    let ev = FreqEvaluator::new_hessenberg(sys)?;
-    // Initial lower bound: ω = ∞ (D), ω = 0 and one frequency per pole (cheap at O(n²) each).
-    let (mut gamma, mut w_peak) = (d_gain, f64::INFINITY);
+/// [`linf_continuous`] on an already scaled model (n, ny, nu ≥ 1) whose gain `gain` evaluates,
+/// starting from the lower bound `init` = (gain, frequency) of the initial candidates.
+fn linf_scaled(sys: &StateSpace, eig: &[c64], gain: &Gain, init: (f64, f64)) -> Result<(f64, f64)> {
+    let sigma_at = |w: f64| gain.at(w);
+    let (mut gamma, mut w_peak) = init;
     let try_w = |w: f64, gamma: &mut f64, w_peak: &mut f64| -> Result<()> {
-        let s = sigma_max(&ev, w)?;
+        let s = sigma_at(w)?;
         if s > *gamma {
             *gamma = s;
             *w_peak = w;
         }
         Ok(())
     };
-    try_w(0.0, &mut gamma, &mut w_peak)?;
-    // One candidate per pole (per conjugate pair): the resonance frequency |Im p| of a complex
-    // pair, the corner frequency |p| of a real pole (Bruinsma–Steinbuch's initial guesses).
-    for p in eig.iter().filter(|p| p.im >= 0.0) {
-        let w = if p.im > 0.0 { p.im } else { p.norm() };
-        try_w(w, &mut gamma, &mut w_peak)?;
-    }
     if !w_peak.is_finite() {
         // When no candidate beats D, the first level (1 + 2ε)·σ(D) makes R = DᵀD − γ²I nearly
         // singular and the Hamiltonian's imaginary eigenvalues unreliable, so a peak well above D
@@ -236,12 +316,8 @@ fn linf_scaled(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
     // Climb the best initial peak locally: when it is the global one, the first Hamiltonian
     // eigenvalue solve already certifies the bound.
     if w_peak.is_finite() && w_peak > 0.0 {
-        let (x, fx) = skyloop_linalg::scalar_search::brent_max(
-            |w| sigma_max(&ev, w).unwrap_or(0.0),
-            0.7 * w_peak,
-            1.4 * w_peak,
-            1e-9,
-        );
+        let (x, fx) =
+            skyloop_linalg::scalar_search::brent_max(|w| sigma_at(w).unwrap_or(0.0), 0.7 * w_peak, 1.4 * w_peak, 1e-9);
         if fx > gamma {
             gamma = fx;
             w_peak = x;
@@ -259,14 +335,14 @@ fn linf_scaled(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
         let before = gamma;
         for p in freqs.windows(2) {
             let mid = 0.5 * (p[0] + p[1]);
-            let s = sigma_max(&ev, mid)?;
+            let s = sigma_at(mid)?;
             if s > gamma {
                 gamma = s;
                 w_peak = mid;
             }
             if s > level {
                 let (x, fx) =
-                    skyloop_linalg::scalar_search::brent_max(|w| sigma_max(&ev, w).unwrap_or(0.0), p[0], p[1], 1e-9);
+                    skyloop_linalg::scalar_search::brent_max(|w| sigma_at(w).unwrap_or(0.0), p[0], p[1], 1e-9);
                 if fx > gamma {
                     gamma = fx;
                     w_peak = x;
@@ -283,7 +359,7 @@ fn linf_scaled(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
     // Polish the peak locally (the bound is already within 2·REL_TOL).
     if w_peak.is_finite() && w_peak > 0.0 {
         let (a, b) = (w_peak * (1.0 - 1e-3), w_peak * (1.0 + 1e-3));
-        let (x, fx) = skyloop_linalg::scalar_search::brent_max(|w| sigma_max(&ev, w).unwrap_or(0.0), a, b, 1e-12);
+        let (x, fx) = skyloop_linalg::scalar_search::brent_max(|w| sigma_at(w).unwrap_or(0.0), a, b, 1e-12);
         if fx > gamma {
             gamma = fx;
             w_peak = x;
@@ -295,7 +371,7 @@ fn linf_scaled(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
 /// Non-negative frequencies ω where `gamma` is a singular value of G(jω), from the imaginary
 /// eigenvalues of the Hamiltonian H(γ), sorted.
 fn imaginary_axis_crossings(sys: &StateSpace, gamma: f64) -> Result<Vec<f64>> {
-    let (n, ny, nu) = (sys.nx(), sys.ny(), sys.nu());
+    let (ny, nu) = (sys.ny(), sys.nu());
     let (a, b, c, d) = (&sys.a, &sys.b, &sys.c, &sys.d);
     let g2 = gamma * gamma;
     let r = Mat::from_fn(nu, nu, |i, j| {
@@ -319,22 +395,20 @@ fn imaginary_axis_crossings(sys: &StateSpace, gamma: f64) -> Result<Vec<f64>> {
     let rinv_dt_c = r_lu.solve(d.transpose() * c); // R⁻¹DᵀC
     let rinv_bt = r_lu.solve(b.transpose()); // R⁻¹Bᵀ
     let sinv_c = s_lu.solve(c); // S⁻¹C
+                                // H(γ) = [[H11, G], [Q, −H11ᵀ]]: the (2,2) block A − B R⁻¹DᵀC transposed (R is symmetric),
+                                // so only the three n × n blocks are formed.
     let h11 = a - b * &rinv_dt_c;
-    let h12 = b * &rinv_bt * (-gamma);
-    let h21 = c.transpose() * &sinv_c * gamma;
-    let h22 = -(a.transpose()) + c.transpose() * d * &rinv_bt;
-    let mut h = Mat::<f64>::zeros(2 * n, 2 * n);
-    h.as_mut().submatrix_mut(0, 0, n, n).copy_from(&h11);
-    h.as_mut().submatrix_mut(0, n, n, n).copy_from(&h12);
-    h.as_mut().submatrix_mut(n, 0, n, n).copy_from(&h21);
-    h.as_mut().submatrix_mut(n, n, n, n).copy_from(&h22);
-    if !h.norm_l2().is_finite() {
+    let g = b * &rinv_bt * (-gamma);
+    let q = c.transpose() * &sinv_c * gamma;
+    let (n11, ng, nq) = (h11.norm_l2(), g.norm_l2(), q.norm_l2());
+    let hnorm = n11.hypot(n11).hypot(ng).hypot(nq); // ‖H‖_F without overflow in the squares
+    if !hnorm.is_finite() {
         return Err(LtiError::Numerical(format!(
             "Hamiltonian at gamma = {gamma} is not finite"
         )));
     }
-    let eig = crate::hamiltonian::hamiltonian_eigenvalues(h.as_ref())?;
-    let scale = h.norm_l2().max(1.0);
+    let eig = skyloop_linalg::hamiltonian::hamiltonian_eigenvalues_blocks(h11.as_ref(), g.as_ref(), q.as_ref())?;
+    let scale = hnorm.max(1.0);
     let mut w: Vec<f64> = eig
         .iter()
         .filter(|l| l.re.abs() <= 1e-8 * scale.max(l.norm()) && l.im >= 0.0)
