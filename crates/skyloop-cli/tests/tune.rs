@@ -112,7 +112,7 @@ fn betaflight_prints_integer_gains_and_cli_lines() {
     assert!(file.starts_with(cli[0]));
     assert!(dir.join("report.html").exists() && dir.join("loop_bode.png").exists());
     // The hold of the 4 kHz loop (half a period) is part of the checked loop.
-    check_claims(&format!("exp(-0.003125*s)*400/(s*(0.025*s+1))"), &v);
+    check_claims("exp(-0.003125*s)*400/(s*(0.025*s+1))", &v);
 }
 
 #[test]

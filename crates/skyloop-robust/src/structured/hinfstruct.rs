@@ -160,7 +160,7 @@ pub fn hinfstruct(
 /// where the inverse Hessian of a long run becomes too ill conditioned to make progress.
 fn run(gp: &GenPlant, s: &Structure, th0: Vec<f64>, w0: f64, max_iter: usize) -> Option<(f64, Vec<f64>)> {
     let opts = BfgsOptions {
-        max_iter: max_iter.min(300).max(1),
+        max_iter: max_iter.clamp(1, 300),
         ..Default::default()
     };
     let scaled = |th: &[f64]| -> Vec<f64> {

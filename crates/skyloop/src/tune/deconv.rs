@@ -260,7 +260,7 @@ mod tests {
             cutoff_hz: 100.0,
             ..Default::default()
         };
-        let st = step_from_log(&u, &y, dt, &[0..n], &o).unwrap();
+        let st = step_from_log(&u, &y, dt, std::slice::from_ref(&(0..n)), &o).unwrap();
         assert!(st.windows > 50, "{}", st.windows);
         for (i, &t) in st.t_s.iter().enumerate() {
             let exact = if i == 0 { 0.0 } else { 1.0 - a.powi(i as i32) };
@@ -269,7 +269,7 @@ mod tests {
             }
         }
         let quiet = vec![0.0; n];
-        let e = step_from_log(&quiet, &y, dt, &[0..n], &o).unwrap_err();
+        let e = step_from_log(&quiet, &y, dt, std::slice::from_ref(&(0..n)), &o).unwrap_err();
         assert!(e.to_string().contains("setpoint RMS"), "{e}");
     }
 }
