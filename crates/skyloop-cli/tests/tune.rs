@@ -112,7 +112,7 @@ fn betaflight_prints_integer_gains_and_cli_lines() {
     assert!(file.starts_with(cli[0]));
     assert!(dir.join("report.html").exists() && dir.join("loop_bode.png").exists());
     // The hold of the 4 kHz loop (half a period) is part of the checked loop.
-    check_claims(&format!("exp(-0.003125*s)*400/(s*(0.025*s+1))"), &v);
+    check_claims("exp(-0.003125*s)*400/(s*(0.025*s+1))", &v);
 }
 
 #[test]
@@ -222,4 +222,103 @@ fn hinfstruct_json_gamma_is_the_closed_loop_norm() {
         gamma >= opt * (1.0 - 1e-3) && gamma <= opt * 1.05,
         "{gamma} vs slicot {opt}"
     );
+}
+
+/// The header line `H <key>:a,b,c` read straight from the log's bytes (independent of the
+/// decoder).
+fn header_numbers(log: &str, key: &str) -> Vec<u64> {
+    let bytes = std::fs::read(log).unwrap();
+    let text = String::from_utf8_lossy(&bytes);
+    let line = text
+        .lines()
+        .find(|l| l.starts_with(&format!("H {key}:")))
+        .unwrap_or_else(|| panic!("no {key} in {log}"));
+    line.split(':')
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .map(|x| x.trim().parse().unwrap())
+        .collect()
+}
+
+#[test]
+fn tune_from_a_betaflight_log_compares_the_flown_gains() {
+    let log = format!("{}/../../testdata/logs/LOG00037.BFL", env!("CARGO_MANIFEST_DIR"));
+    let dir = std::env::temp_dir().join(format!("skyloop-tune-log-{}", std::process::id()));
+    let v = json(&[
+        "tune",
+        &log,
+        "--axis",
+        "roll",
+        "--firmware",
+        "betaflight",
+        "--starts",
+        "2",
+        "--out",
+        dir.to_str().unwrap(),
+        "--json",
+    ]);
+    // The flown gains, with the proposal's keys, equal the header's.
+    let pid = header_numbers(&log, "rollPID");
+    let cur = &v["current"]["gains"];
+    for k in ["p", "i", "d", "f"] {
+        assert!(v["gains"][k].is_u64() && cur[k].is_u64(), "{k}: {v}");
+    }
+    assert_eq!(
+        [&cur["p"], &cur["i"], &cur["d"]].map(|x| x.as_u64().unwrap()),
+        [pid[0], pid[1], pid[2]]
+    );
+    // The claimed margins hold on the identified plant with its exact delay and the 8 kHz hold.
+    let id = &v["identification"]["params"];
+    let (k, tau, td) = (
+        id["K"].as_f64().unwrap(),
+        id["tau"].as_f64().unwrap(),
+        id["Td"].as_f64().unwrap(),
+    );
+    assert!(v["filters"].to_string().contains("8000 Hz"), "{}", v["filters"]);
+    check_claims(&format!("{k}*exp(-{}*s)/(s*({tau}*s+1))", td + 0.5 / 8000.0), &v);
+    // Seven plants: the fit and K, tau, Td at ±2σ (Td's lower side clamps at 0 and still counts).
+    assert_eq!(v["identification"]["plants"].as_u64().unwrap(), 7);
+    for key in ["current", "proposed"] {
+        let m = &v[key]["margins"];
+        assert!(m["ms"].as_f64().unwrap() >= 1.0, "{key}: {m}");
+        assert!(v[key]["noise_gain"].as_f64().unwrap() > 0.0);
+    }
+    let ms = &v["measured_step"];
+    assert!(ms["windows"].as_u64().unwrap() >= 5, "{ms}");
+    assert!(v["model_step_rms"].as_f64().unwrap().is_finite());
+    assert!(v["cli"][0].as_str().unwrap().starts_with("set p_roll = "));
+    assert!(dir.join("report.html").exists() && dir.join("step.svg").exists());
+    let cli = std::fs::read_to_string(dir.join("cli.txt")).unwrap();
+    assert!(cli.starts_with(v["cli"][0].as_str().unwrap()));
+}
+
+#[test]
+fn tune_from_a_log_rejects_bad_requests() {
+    let logs = format!("{}/../../testdata/logs", env!("CARGO_MANIFEST_DIR"));
+    let bf = format!("{logs}/LOG00037.BFL");
+    let idle = format!("{logs}/btfl_001.bbl");
+    let cases: [(Vec<&str>, &str); 4] = [
+        (
+            vec!["tune", &bf, "--plant", "1/s", "--firmware", "betaflight"],
+            "cannot be used with",
+        ),
+        (
+            vec!["tune", &bf, "--axis", "roll", "--firmware", "px4"],
+            "Betaflight log",
+        ),
+        (
+            vec!["tune", &idle, "--axis", "roll", "--firmware", "betaflight"],
+            "airborne",
+        ),
+        (
+            vec!["tune", "--plant", "1/s", "--firmware", "generic", "--fmin-hz", "2"],
+            "needs a LOG",
+        ),
+    ];
+    for (args, want) in cases {
+        let (code, _, err) = skyloop(&args);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(err.contains(want), "{args:?}: {err}");
+    }
 }

@@ -1,18 +1,23 @@
-//! `skyloop tune --plant MODEL --firmware betaflight|px4|generic ...`: gains for the flight
-//! controller, tuned against margin goals and re-verified (thin: parse, call skyloop::tune, print).
+//! `skyloop tune (LOG --axis roll | --plant MODEL) --firmware betaflight|px4|generic ...`: gains
+//! for the flight controller, tuned against margin goals and re-verified; from a log, the axis is
+//! identified and the flown tune is compared (thin: parse, call skyloop::tune, print).
 
 use crate::output::print_json;
 use clap::Args as ClapArgs;
 use skyloop::firmware::betaflight::Axis;
 use skyloop::model::load_model;
+use skyloop::tune::log::{tune_from_log, LogTuneOutcome, LogTuneRequest};
 use skyloop::tune::{report::write_outputs, tune as run_tune, Firmware, GenericStructure, Maximize, TuneRequest};
 
 /// Arguments of `skyloop tune`.
 #[derive(ClapArgs)]
 pub struct Args {
+    /// A flight log (Betaflight blackbox or PX4 ULog): identify --axis from it, read the flown gains and filters from its header, and compare.
+    #[arg(conflicts_with = "plant", required_unless_present = "plant")]
+    pub log: Option<std::path::PathBuf>,
     /// The rate-loop plant (expression or LTI JSON), in the firmware's units (Betaflight: PID sum → deg/s; PX4: normalized torque → rad/s).
     #[arg(long, allow_hyphen_values = true)]
-    pub plant: String,
+    pub plant: Option<String>,
     /// betaflight, px4 or generic.
     #[arg(long)]
     pub firmware: String,
@@ -31,6 +36,18 @@ pub struct Args {
     /// Axis the gains are for: roll, pitch or yaw.
     #[arg(long, default_value = "roll")]
     pub axis: String,
+    /// With LOG: blackbox session (counted from 1); default: the longest.
+    #[arg(long)]
+    pub session: Option<usize>,
+    /// With LOG: lowest frequency of the identification, Hz (as `identify --fmin-hz`).
+    #[arg(long)]
+    pub fmin_hz: Option<f64>,
+    /// With LOG: highest frequency of the identification, Hz (as `identify --fmax-hz`).
+    #[arg(long)]
+    pub fmax_hz: Option<f64>,
+    /// With LOG: the goals hold for K, tau, Td at ± this many standard errors (0..=5; 0: nominal only).
+    #[arg(long, default_value_t = 2.0)]
+    pub sigma: f64,
     /// Optimizer starts (1..=64).
     #[arg(long, default_value_t = 8)]
     pub starts: usize,
@@ -44,10 +61,25 @@ pub struct Args {
 
 /// Runs the tuning and prints the proposal.
 pub fn run(a: Args) -> skyloop::Result<()> {
-    let mut req = TuneRequest::new(load_model(&a.plant)?, Firmware::parse(&a.firmware)?);
+    if let Some(log) = &a.log {
+        return run_log(log.clone(), &a);
+    }
+    for (flag, given) in [
+        ("--session", a.session.is_some()),
+        ("--fmin-hz", a.fmin_hz.is_some()),
+        ("--fmax-hz", a.fmax_hz.is_some()),
+    ] {
+        if given {
+            return Err(skyloop::Error::Input(format!(
+                "{flag} needs a LOG (it has no meaning with --plant)"
+            )));
+        }
+    }
+    let plant = a.plant.as_deref().unwrap_or_default();
+    let mut req = TuneRequest::new(load_model(plant)?, Firmware::parse(&a.firmware)?);
     req.structure = GenericStructure::parse(&a.structure)?;
     req.d_filter_tau_s = a.d_filter_tau;
-    req.goals = a.goals;
+    req.goals = a.goals.clone();
     req.maximize = Maximize::parse(&a.maximize)?;
     req.axis = Axis::parse(&a.axis)?;
     req.starts = a.starts;
@@ -59,6 +91,11 @@ pub fn run(a: Args) -> skyloop::Result<()> {
     if a.json {
         return print_json(&out.to_json());
     }
+    print_outcome(&out);
+    Ok(())
+}
+
+fn print_outcome(out: &skyloop::tune::TuneOutcome) {
     println!("gains    {}", out.gains);
     let m = &out.margins;
     println!(
@@ -82,5 +119,82 @@ pub fn run(a: Args) -> skyloop::Result<()> {
     for l in &out.cli {
         println!("{l}");
     }
+}
+
+fn run_log(log: std::path::PathBuf, a: &Args) -> skyloop::Result<()> {
+    if a.plant.is_some() {
+        return Err(skyloop::Error::Input("give LOG or --plant, not both".into()));
+    }
+    let mut req = LogTuneRequest::new(log, Axis::parse(&a.axis)?, Firmware::parse(&a.firmware)?);
+    req.session = a.session;
+    req.fmin_hz = a.fmin_hz;
+    req.fmax_hz = a.fmax_hz;
+    req.sigma = a.sigma;
+    req.structure = GenericStructure::parse(&a.structure)?;
+    req.d_filter_tau_s = a.d_filter_tau;
+    req.goals = a.goals.clone();
+    req.maximize = Maximize::parse(&a.maximize)?;
+    req.starts = a.starts;
+    let out = tune_from_log(&req)?;
+    if let Some(dir) = &a.out {
+        skyloop::tune::report::write_log_outputs(&out, dir)?;
+        eprintln!("wrote {}", dir.display());
+    }
+    if a.json {
+        return print_json(&out.to_json());
+    }
+    print_log_outcome(&out);
     Ok(())
+}
+
+fn print_log_outcome(out: &LogTuneOutcome) {
+    for (k, (v, s)) in &out.params {
+        println!("plant    {k} = {v:.6} ± {s:.6}");
+    }
+    for f in &out.filters {
+        println!("filter   {f}");
+    }
+    let row = |name: &str, f: &dyn Fn(&skyloop::tune::log::TuneAnalysis) -> String| {
+        println!(
+            "{name:<28} {:>22} {:>22}",
+            out.current.as_ref().map(f).unwrap_or_else(|| "-".into()),
+            f(&out.proposed_analysis)
+        );
+    };
+    println!("{:<28} {:>22} {:>22}", "", "current", "proposed");
+    row("gains", &|t| t.gains.to_string());
+    row("disk margin alpha", &|t| format!("{:.3}", t.margins.disk_alpha));
+    row("  worst over uncertainty", &|t| format!("{:.3}", t.worst.disk_alpha));
+    row("gain margin [dB]", &|t| format!("{:.2}", t.margins.gain_margin_db));
+    row("phase margin [deg]", &|t| format!("{:.1}", t.margins.phase_margin_deg));
+    row("crossover [Hz]", &|t| format!("{:.2}", t.margins.crossover_hz));
+    row("Ms", &|t| format!("{:.3}", t.margins.ms));
+    row("  worst over uncertainty", &|t| format!("{:.3}", t.worst.ms));
+    row("noise gain |C_fb| max", &|t| format!("{:.4}", t.noise_gain));
+    row("step rise time [ms]", &|t| {
+        t.rise_time_s
+            .map(|x| format!("{:.1}", 1e3 * x))
+            .unwrap_or_else(|| "-".into())
+    });
+    row("step overshoot [%]", &|t| {
+        t.overshoot_pct.map(|x| format!("{x:.1}")).unwrap_or_else(|| "-".into())
+    });
+    match (&out.measured_step, out.model_step_rms) {
+        (Some(m), Some(r)) => println!(
+            "model check: predicted step of the current tune vs the step deconvolved from the log ({} of {} windows): RMS difference {r:.3}",
+            m.windows, m.windows_total
+        ),
+        (Some(m), None) => println!("measured step from {} windows (no current tune to compare)", m.windows),
+        (None, _) => println!(
+            "no measured step: {}",
+            out.measured_step_error.as_deref().unwrap_or("unknown")
+        ),
+    }
+    for n in &out.notes {
+        println!("note     {n}");
+    }
+    for w in out.identification.warnings.iter().chain(&out.warnings) {
+        println!("warning  {w}");
+    }
+    print_outcome(&out.proposed);
 }

@@ -95,7 +95,7 @@ pub fn hinfstruct(
     // At full order observer-based controllers stabilize: start 0 is the H2-optimal one for the
     // plant's channels, start 1 the unit-weight LQG one, starts 2 and 3 perturb them; the others
     // (and every start below full order) are random, and the stabilization phase repairs them.
-    let seeds: Vec<Vec<f64>> = if order == p.nx() {
+    let mut seeds: Vec<Vec<f64>> = if order == p.nx() {
         [true, false]
             .iter()
             .filter_map(|&w| lqg_start(p, nmeas, ncon, w).ok())
@@ -103,6 +103,11 @@ pub fn hinfstruct(
     } else {
         Vec::new()
     };
+    // Central H∞ controllers a little above γ_opt, reduced to the order when it is lower: the
+    // near-optimal basin the random and LQG starts often miss (a local minimum of the
+    // realization's entries far above γ_opt). Several levels, because the controller at γ_opt
+    // itself is ill conditioned (its gains grow without bound as γ → γ_opt).
+    seeds.splice(0..0, hinfsyn_starts(p, nmeas, ncon, order, w0));
     let runs: Vec<Option<(f64, Vec<f64>)>> = (0..opts.starts)
         .into_par_iter()
         .map(|k| {
@@ -155,7 +160,7 @@ pub fn hinfstruct(
 /// where the inverse Hessian of a long run becomes too ill conditioned to make progress.
 fn run(gp: &GenPlant, s: &Structure, th0: Vec<f64>, w0: f64, max_iter: usize) -> Option<(f64, Vec<f64>)> {
     let opts = BfgsOptions {
-        max_iter: max_iter.min(300).max(1),
+        max_iter: max_iter.clamp(1, 300),
         ..Default::default()
     };
     let scaled = |th: &[f64]| -> Vec<f64> {
@@ -225,6 +230,70 @@ fn run(gp: &GenPlant, s: &Structure, th0: Vec<f64>, w0: f64, max_iter: usize) ->
         }
     }
     Some((best, th))
+}
+
+/// Parameter vectors of central H∞ controllers built at 1.001, 1.01, 1.05 and 1.2 times
+/// hinfsyn's γ, each reduced by balanced truncation to `order` (or padded with decoupled poles at
+/// −w0 when shorter); the levels hinfsyn cannot build, or whose reduction fails, are skipped.
+fn hinfsyn_starts(p: &StateSpace, nmeas: usize, ncon: usize, order: usize, w0: f64) -> Vec<Vec<f64>> {
+    let Ok(opt) = crate::hinfsyn::hinfsyn(p, nmeas, ncon) else {
+        return Vec::new();
+    };
+    let mut out = Vec::new();
+    for c in [1.001, 1.01, 1.05, 1.2] {
+        let o = crate::hinfsyn::HinfOptions {
+            gamma_range: (opt.gamma * c, f64::INFINITY),
+            ..Default::default()
+        };
+        let Ok(sol) = crate::hinfsyn::hinfsyn_with(p, nmeas, ncon, &o) else {
+            continue;
+        };
+        let k = &sol.controller;
+        let k = if k.nx() > order {
+            match skyloop_lti::reduce::balred(k, order, skyloop_lti::reduce::Method::Balanced) {
+                Ok(r) => r.sys,
+                Err(_) => continue,
+            }
+        } else {
+            k.clone()
+        };
+        out.push(ss_params(&k, order, w0));
+    }
+    out
+}
+
+/// θ of a full state-space block (A row-major, B, C, D) holding `k`, padded to `order` states
+/// with uncoupled poles at −w0.
+fn ss_params(k: &StateSpace, order: usize, w0: f64) -> Vec<f64> {
+    let (nk, ny, nu) = (k.nx().min(order), k.ny(), k.nu());
+    let mut th = Vec::new();
+    for i in 0..order {
+        for j in 0..order {
+            th.push(if i < nk && j < nk {
+                k.a[(i, j)]
+            } else if i == j {
+                -w0
+            } else {
+                0.0
+            });
+        }
+    }
+    for i in 0..order {
+        for j in 0..nu {
+            th.push(if i < nk { k.b[(i, j)] } else { 0.0 });
+        }
+    }
+    for i in 0..ny {
+        for j in 0..order {
+            th.push(if j < nk { k.c[(i, j)] } else { 0.0 });
+        }
+    }
+    for i in 0..ny {
+        for j in 0..nu {
+            th.push(k.d[(i, j)]);
+        }
+    }
+    th
 }
 
 /// The H2-optimal (LQG) observer-based controller u = −F·x̂ for the plant's own performance and

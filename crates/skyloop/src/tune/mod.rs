@@ -22,6 +22,8 @@ use skyloop_robust::structured::systune::{
 use skyloop_robust::structured::verify::LoopCheck;
 use std::f64::consts::PI;
 
+pub mod deconv;
+pub mod log;
 pub mod report;
 
 /// Which firmware's controller structure and gains.
@@ -126,6 +128,10 @@ pub struct TuneRequest {
     pub px4: px4::Filters,
     /// Optimizer starts.
     pub starts: usize,
+    /// Betaflight: the F gain to keep (not tuned; None: 120, Betaflight 4.4's default).
+    pub betaflight_f: Option<u32>,
+    /// PX4: the MC_*RATE_FF to keep (not tuned; None: 0).
+    pub px4_ff: Option<f64>,
 }
 
 impl TuneRequest {
@@ -143,6 +149,8 @@ impl TuneRequest {
             betaflight: betaflight::Filters::default(),
             px4: px4::Filters::default(),
             starts: 8,
+            betaflight_f: None,
+            px4_ff: None,
         }
     }
 }
@@ -168,6 +176,8 @@ pub struct TuneOutcome {
     pub notes: Vec<String>,
     /// The plant the loop was checked with (hold delay included).
     pub loop_plant: StateSpace,
+    /// The default noise limit's frequency: |C_fb| is bounded above it, rad/s.
+    pub noise_w_rad_s: f64,
 }
 
 /// Parses one goal: `ms<=1.4`, `mt<=1.3`, `disk_margin>=0.6`, `gain_margin_db>=6`,
@@ -370,11 +380,16 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
             (g, th.clone(), Vec::new(), None)
         }
         Firmware::Betaflight => {
-            let f = 120;
+            let f = req.betaflight_f.unwrap_or(120);
             let (bg, theta) = betaflight_rounding(&prob, th, req)?;
             notes.push(format!(
-                "f_{} = {f} is not tuned (feedforward acts on the setpoint only, not on the margins); Betaflight 4.4's default, keep yours",
-                req.axis.name()
+                "f_{} = {f} is not tuned (feedforward acts on the setpoint only, not on the margins){}",
+                req.axis.name(),
+                if req.betaflight_f.is_some() {
+                    "; kept as flown"
+                } else {
+                    "; Betaflight 4.4's default, keep yours"
+                }
             ));
             notes.push("plant units: input Betaflight's PID sum, output gyro deg/s".into());
             let c = betaflight::feedback_controller(&bg, req.axis, &req.betaflight)?;
@@ -400,9 +415,12 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
                 p: round(th[0]),
                 i: round(th[1]),
                 d: round(th[2]),
-                ff: 0.0,
+                ff: req.px4_ff.unwrap_or(0.0),
             };
-            notes.push("MC_*RATE_K = 1 (parallel form); FF = 0 is not tuned (setpoint path only)".into());
+            notes.push(format!(
+                "MC_*RATE_K = 1 (parallel form); FF = {} is not tuned (setpoint path only)",
+                pg.ff
+            ));
             notes.push("plant units: input normalized torque, output rad/s".into());
             let (kp, ki, kd) = px4::continuous(&pg);
             let names = px4::param_names(req.axis);
@@ -431,6 +449,7 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
         defaults,
         notes,
         loop_plant: plants[0].clone(),
+        noise_w_rad_s: wn,
     })
 }
 
@@ -448,7 +467,7 @@ fn betaflight_rounding(prob: &LoopTuning, th: &[f64], req: &TuneRequest) -> Resu
             pick(th[0], betaflight::PTERM_SCALE, 0),
             pick(th[1], betaflight::ITERM_SCALE * yaw, 1),
             pick(th[2], betaflight::DTERM_SCALE, 2),
-            120,
+            req.betaflight_f.unwrap_or(120),
             req.axis,
         )?;
         let (kp, ki, kd, _) = betaflight::continuous(&bg, req.axis);

@@ -131,3 +131,186 @@ pub fn write_outputs(out: &TuneOutcome, dir: &Path) -> Result<()> {
     rep.save(&path)?;
     Ok(())
 }
+
+/// The files of a proposal from a log: those of [`write_outputs`] (for the proposal), plus
+/// current-vs-proposed Bode and Nyquist plots of L, the predicted steps of both beside the step
+/// deconvolved from the log, and a report.html that puts the two tunes side by side.
+///
+/// # Errors
+/// A file that cannot be written or a response that cannot be evaluated.
+pub fn write_log_outputs(out: &super::log::LogTuneOutcome, dir: &Path) -> Result<()> {
+    use super::log::TuneAnalysis;
+    std::fs::create_dir_all(dir).map_err(|e| Error::create(dir, e))?;
+    let p = &out.proposed;
+    let cli_path = dir.join("cli.txt");
+    std::fs::write(&cli_path, p.cli.join("\n") + "\n").map_err(|e| Error::write(&cli_path, e))?;
+    write_json(&dir.join("tune.json"), &out.to_json())?;
+    write_json(
+        &dir.join("feedback_controller.json"),
+        &LtiJson::from_ss(&p.feedback_controller),
+    )?;
+    let (lo, hi) = dynamics_range(&series(&p.feedback_controller, &p.loop_plant)?)?;
+    let f_hz = logspace((lo / 20.0).log10() - 1.0, (hi / 6.0).log10() + 0.5, 800);
+    let plant = response(&p.loop_plant, &f_hz)?;
+    let mut tunes: Vec<(&str, &TuneAnalysis)> = Vec::new();
+    if let Some(c) = &out.current {
+        tunes.push(("current", c));
+    }
+    tunes.push(("proposed", &out.proposed_analysis));
+    let mut bode_series = Vec::new();
+    let mut nyq = Vec::new();
+    for (name, t) in &tunes {
+        let c = response(&t.feedback_controller, &f_hz)?;
+        let l: Vec<c64> = plant.iter().zip(&c).map(|(a, b)| a * b).collect();
+        bode_series.push(bode_data(&format!("L {name}"), &f_hz, &l));
+        nyq.push(NyquistData {
+            label: format!("L {name}"),
+            re: l.iter().map(|z| z.re).collect(),
+            im: l.iter().map(|z| z.im).collect(),
+        });
+    }
+    let m = &out.proposed_analysis.margins;
+    let fin = |x: f64| x.is_finite().then_some(x);
+    let bode = bode_figure(
+        "Loop transfer L = P·C_fb, current and proposed (identified plant, exact delay)",
+        &bode_series,
+        &BodeMarks {
+            crossover_hz: fin(m.crossover_hz),
+            gain_margin: None,
+            phase_margin: fin(m.phase_margin_deg).zip(fin(m.crossover_hz)),
+        },
+    );
+    let nyquist = nyquist_figure("Nyquist plot of L, current and proposed", &nyq, Some(3.0));
+    let mut traces: Vec<Trace> = tunes
+        .iter()
+        .map(|(name, t)| Trace {
+            label: format!("predicted, {name}"),
+            t: t.step_t_s.clone(),
+            y: t.step_y.clone(),
+        })
+        .collect();
+    if let Some(ms) = &out.measured_step {
+        traces.push(Trace {
+            label: format!("deconvolved from the log ({} windows)", ms.windows),
+            t: ms.t_s.clone(),
+            y: ms.y.clone(),
+        });
+    }
+    let step = traces_figure(
+        "Setpoint → gyro step",
+        &[TracePanel {
+            y_label: "gyro per unit setpoint".into(),
+            traces,
+            references: vec![(1.0, "setpoint".into())],
+        }],
+    );
+    bode.save(&dir.join("loop_bode.png"))?;
+    let mut rep = Report::new("skyloop tune: current and proposed gains");
+    let sec = rep.section("Identified plant");
+    let mut rows: Vec<(&str, String)> = out
+        .params
+        .iter()
+        .map(|(k, (v, s))| ("parameter", format!("{k} = {v:.6} ± {s:.6} (1σ)")))
+        .collect();
+    for f in &out.filters {
+        rows.push(("filter", f.clone()));
+    }
+    for w in &out.identification.warnings {
+        rows.push(("identification warning", w.clone()));
+    }
+    for w in &out.warnings {
+        rows.push(("WARNING", w.clone()));
+    }
+    sec.key_values(&rows);
+    let sec = rep.section("Current vs proposed");
+    let cur = out.current.as_ref();
+    let pro = &out.proposed_analysis;
+    let both = |f: &dyn Fn(&TuneAnalysis) -> String| {
+        format!(
+            "current {}  |  proposed {}",
+            cur.map(f).unwrap_or_else(|| "-".into()),
+            f(pro)
+        )
+    };
+    let opt = |x: Option<f64>, k: f64, d: usize| x.map(|v| format!("{:.*}", d, k * v)).unwrap_or_else(|| "-".into());
+    let rows: Vec<(&str, String)> = vec![
+        ("gains", both(&|t| t.gains.to_string())),
+        ("disk margin α", both(&|t| format!("{:.3}", t.margins.disk_alpha))),
+        (
+            "disk margin α, worst over the uncertainty",
+            both(&|t| format!("{:.3}", t.worst.disk_alpha)),
+        ),
+        (
+            "gain margin [dB]",
+            both(&|t| format!("{:.2}", t.margins.gain_margin_db)),
+        ),
+        (
+            "phase margin [deg]",
+            both(&|t| format!("{:.1}", t.margins.phase_margin_deg)),
+        ),
+        ("crossover [Hz]", both(&|t| format!("{:.2}", t.margins.crossover_hz))),
+        ("Ms", both(&|t| format!("{:.3}", t.margins.ms))),
+        (
+            "Ms, worst over the uncertainty",
+            both(&|t| format!("{:.3}", t.worst.ms)),
+        ),
+        (
+            "noise gain max |C_fb| above the noise frequency",
+            both(&|t| format!("{:.4}", t.noise_gain)),
+        ),
+        ("step rise time 10–90 % [ms]", both(&|t| opt(t.rise_time_s, 1e3, 1))),
+        ("step overshoot [%]", both(&|t| opt(t.overshoot_pct, 1.0, 1))),
+        (
+            "model check",
+            match (&out.measured_step, out.model_step_rms) {
+                (Some(ms), Some(r)) => format!(
+                    "RMS(predicted current step − deconvolved step) = {r:.3} over {:.2} s, {} of {} windows",
+                    ms.t_s.last().copied().unwrap_or(0.0),
+                    ms.windows,
+                    ms.windows_total
+                ),
+                (Some(ms), None) => format!("deconvolved step from {} windows; no current tune", ms.windows),
+                (None, _) => format!(
+                    "no deconvolved step: {}",
+                    out.measured_step_error.as_deref().unwrap_or("")
+                ),
+            },
+        ),
+    ];
+    sec.key_values(&rows);
+    let sec = rep.section("Proposal");
+    let mut rows: Vec<(&str, String)> = Vec::new();
+    let cli = p.cli.join("; ");
+    if !cli.is_empty() {
+        rows.push(("firmware lines", cli));
+    }
+    for g in &p.goals {
+        rows.push((
+            "goal",
+            format!(
+                "{}: {:.5} ({})",
+                g.label,
+                g.value,
+                if g.met { "met" } else { "NOT met" }
+            ),
+        ));
+    }
+    for d in &p.defaults {
+        rows.push(("default", d.clone()));
+    }
+    for n in p.notes.iter().chain(&out.notes) {
+        rows.push(("note", n.clone()));
+    }
+    sec.key_values(&rows);
+    let sec = rep.section("Frequency and time responses");
+    for (name, fig, caption) in [
+        ("loop_bode", bode, "L of both tunes with the identified plant's exact delay and the loop's hold; the proposal's PM marked."),
+        ("loop_nyquist", nyquist, "Nyquist plot of L (zoomed to radius 3 around the origin)."),
+        ("step", step, "Setpoint → gyro: predicted for both tunes (P and I on the error, D on the gyro, F on the setpoint; delay as Padé order 6) and the step response deconvolved from the log."),
+    ] {
+        fig.save(&dir.join(format!("{name}.svg")))?;
+        sec.figure(fig, caption);
+    }
+    rep.save(&dir.join("report.html"))?;
+    Ok(())
+}

@@ -1,0 +1,653 @@
+//! `skyloop tune LOG --axis roll`: identify the axis from the flight log, read the gains and
+//! filters the craft flew with from the log header, analyse that tune, check the model against the
+//! step response deconvolved from the log, and propose gains that keep the firmware's filters and
+//! meet the goals over the identified uncertainty.
+//!
+//! Model and filters. The identified plant runs from the PID sum to the gyro *as the PID sees it*
+//! (Betaflight logs `gyroADC` after the gyro lowpass and notch chain; PX4 logs
+//! `vehicle_angular_velocity` after `IMU_GYRO_CUTOFF`), so the gyro filters are already inside
+//! the plant and are not applied a second time; the D-term lowpass chain (Betaflight
+//! `dterm_lowpass*`, PX4 `IMU_DGYRO_CUTOFF`) is part of the controller, as flown. A dynamic
+//! lowpass is taken at the low end of its range (hover throttle: the most lag).
+//!
+//! Uncertainty. The identification gives one model with standard errors (never smaller than its
+//! jackknife spread), not per-segment models; the goals must hold for the nominal fit and for
+//! each of K, τ, Td moved by ±`sigma` standard errors with the others at their fit (6 more
+//! plants), clamped to K ≥ K/20, τ ≥ 0.1 ms, Td ≥ 0.
+
+use super::deconv::{step_from_log, DeconvOptions, MeasuredStep};
+use super::{tune, with_hold, Firmware, GenericStructure, Maximize, TuneOutcome, TuneRequest};
+use crate::error::{Error, Result};
+use crate::firmware::betaflight::{self, Axis};
+use crate::firmware::{px4, Lowpass};
+use crate::identify::{identify, Identification, IdentifyRequest};
+use serde_json::{json, Value};
+use skyloop_lti::interconnect::{feedback, series};
+use skyloop_lti::{c64, StateSpace};
+use skyloop_robust::structured::verify::{check_loop, sampled_peak, LoopCheck};
+use skyloop_sysid::logs::tuning::{self as fw, FirmwareTuning};
+use skyloop_sysid::logs::{Log, OpenOptions};
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+/// A tuning request from a flight log.
+#[derive(Debug, Clone)]
+pub struct LogTuneRequest {
+    /// The flight log (Betaflight blackbox or PX4 ULog).
+    pub log: PathBuf,
+    /// The axis to identify and tune.
+    pub axis: Axis,
+    /// Blackbox session (counted from 1; None: the longest).
+    pub session: Option<usize>,
+    /// Lowest frequency of the identification, Hz (None: identify's default).
+    pub fmin_hz: Option<f64>,
+    /// Highest frequency of the identification, Hz (None: identify's default).
+    pub fmax_hz: Option<f64>,
+    /// Firmware (must match the log's; generic tunes C = kp + ki/s + kd·s/(tf·s+1) on the same plant).
+    pub firmware: Firmware,
+    /// Generic structure.
+    pub structure: GenericStructure,
+    /// Generic PID: a fixed derivative filter time constant, s.
+    pub d_filter_tau_s: Option<f64>,
+    /// Goals as written (`ms<=1.4`, ...).
+    pub goals: Vec<String>,
+    /// What to maximize.
+    pub maximize: Maximize,
+    /// Optimizer starts.
+    pub starts: usize,
+    /// Half-width of the uncertainty box in standard errors (0: nominal only).
+    pub sigma: f64,
+}
+
+impl LogTuneRequest {
+    /// Defaults: identify's band, ±2σ, generic PID structure, maximize ki, 8 starts.
+    pub fn new(log: PathBuf, axis: Axis, firmware: Firmware) -> Self {
+        LogTuneRequest {
+            log,
+            axis,
+            session: None,
+            fmin_hz: None,
+            fmax_hz: None,
+            firmware,
+            structure: GenericStructure::Pid,
+            d_filter_tau_s: None,
+            goals: Vec::new(),
+            maximize: Maximize::IntegralGain,
+            starts: 8,
+            sigma: 2.0,
+        }
+    }
+}
+
+/// One tune (current or proposed) analysed on the nominal identified plant, exact delay.
+#[derive(Debug, Clone)]
+pub struct TuneAnalysis {
+    /// The gains, with the firmware's keys.
+    pub gains: Value,
+    /// C_fb (y → u), continuous, plant units.
+    pub feedback_controller: StateSpace,
+    /// C_r (setpoint → u).
+    pub reference_path: StateSpace,
+    /// Margins and peaks (exact delay, the loop's hold included).
+    pub margins: LoopCheck,
+    /// The worst margins over the uncertainty set.
+    pub worst: LoopCheck,
+    /// Largest |C_fb(jω)| above the noise-limit frequency (plant units).
+    pub noise_gain: f64,
+    /// Predicted setpoint → gyro step (Padé order 6 for the delays inside the loop).
+    pub step_t_s: Vec<f64>,
+    /// See `step_t_s`.
+    pub step_y: Vec<f64>,
+    /// Rise time 10–90 %, s.
+    pub rise_time_s: Option<f64>,
+    /// Overshoot, %.
+    pub overshoot_pct: Option<f64>,
+}
+
+/// The proposal from a log.
+#[derive(Debug, Clone)]
+pub struct LogTuneOutcome {
+    /// The identification behind the plant.
+    pub identification: Identification,
+    /// The nominal plant (no hold), plant units.
+    pub plant: StateSpace,
+    /// Its parameters and standard errors.
+    pub params: BTreeMap<String, (f64, f64)>,
+    /// The uncertainty set (nominal first; no hold).
+    pub plants: Vec<StateSpace>,
+    /// The filters and loop rate read from the header, as used.
+    pub filters: Vec<String>,
+    /// The tune that was flown, analysed (None when the header carries no gains for the axis or
+    /// the firmware is generic).
+    pub current: Option<TuneAnalysis>,
+    /// The proposal.
+    pub proposed: TuneOutcome,
+    /// The proposal analysed like the current tune.
+    pub proposed_analysis: TuneAnalysis,
+    /// The step response deconvolved from the log (None when the log has too little stick input).
+    pub measured_step: Option<MeasuredStep>,
+    /// Why there is no measured step.
+    pub measured_step_error: Option<String>,
+    /// RMS of (predicted current − measured) over the measured step's span, per unit step.
+    pub model_step_rms: Option<f64>,
+    /// Notes (filters inside the plant, what is not modelled).
+    pub notes: Vec<String>,
+    /// What the pilot must act on: a model that contradicts the flight (the flown tune predicted
+    /// unstable, or a predicted step far from the measured one).
+    pub warnings: Vec<String>,
+}
+
+/// Largest RMS difference between the predicted and the measured step (per unit step) that
+/// passes the model check without a warning.
+pub const MODEL_STEP_RMS_MAX: f64 = 0.3;
+
+fn lowpass_of(l: &fw::Lowpass, notes: &mut Vec<String>, name: &str) -> Option<Lowpass> {
+    let f = match l.dynamic_hz {
+        Some((lo, _)) => lo,
+        None => l.cutoff_hz,
+    };
+    if !(f > 0.0) {
+        return None;
+    }
+    Some(match l.kind.as_str() {
+        "PT1" => Lowpass::Pt1(f),
+        "PT2" => Lowpass::Pt2(f),
+        "PT3" => Lowpass::Pt3(f),
+        "BIQUAD" => Lowpass::Biquad(f),
+        other => {
+            notes.push(format!(
+                "{name}: unknown filter type {other}, modelled as PT1 at {f} Hz"
+            ));
+            Lowpass::Pt1(f)
+        }
+    })
+}
+
+fn axis_index(a: Axis) -> usize {
+    match a {
+        Axis::Roll => 0,
+        Axis::Pitch => 1,
+        Axis::Yaw => 2,
+    }
+}
+
+/// The rate-loop model K·e^(−Td·s)/(s·(τ·s + 1)) with the given parameters.
+fn rate_model(k: f64, tau: f64, td: f64) -> Result<StateSpace> {
+    // Rust prints f64 without exponents, which the expression parser reads.
+    Ok(skyloop_lti::expr::parse_model(&format!(
+        "{k}*exp(-{td}*s)/(s*({tau}*s+1))"
+    ))?)
+}
+
+/// Tunes from a log (see the module documentation).
+///
+/// # Errors
+/// An identification that fails (its error names the cause and the flags that change it), a
+/// firmware that does not match the log's, or a tuning failure.
+pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
+    if !(req.sigma.is_finite() && (0.0..=5.0).contains(&req.sigma)) {
+        return Err(Error::Input(format!("--sigma must be in 0..=5, got {}", req.sigma)));
+    }
+    let idreq = IdentifyRequest {
+        data: req.log.clone(),
+        axis: Some(req.axis.name().to_string()),
+        session: req.session,
+        fmin_hz: req.fmin_hz,
+        fmax_hz: req.fmax_hz,
+        ..Default::default()
+    };
+    let id = identify(&idreq)?;
+    let log_fw = id.preset.as_ref().map(|p| p.0.clone()).unwrap_or_default();
+    match (req.firmware, log_fw.as_str()) {
+        (Firmware::Betaflight, "Betaflight") | (Firmware::Px4, "PX4") | (Firmware::Generic, _) => {}
+        (f, l) => {
+            return Err(Error::Input(format!(
+                "--firmware {} does not match the log, which is a {l} log",
+                match f {
+                    Firmware::Betaflight => "betaflight",
+                    Firmware::Px4 => "px4",
+                    Firmware::Generic => "generic",
+                }
+            )))
+        }
+    }
+    let (_, fit) = id
+        .fit
+        .as_ref()
+        .ok_or_else(|| Error::Failed("the identification gave no parametric fit".into()))?;
+    let get = |n: &str| -> Result<(f64, f64)> {
+        let v = *fit
+            .params
+            .get(n)
+            .ok_or_else(|| Error::Failed(format!("the fit has no parameter {n}")))?;
+        Ok((v, fit.stderr.get(n).copied().unwrap_or(f64::NAN)))
+    };
+    let (k, sk) = get("K")?;
+    let (tau, stau) = get("tau")?;
+    let (td, std_) = get("Td")?;
+    let mut notes = Vec::new();
+    notes.push(format!(
+        "plant K*exp(-Td*s)/(s*(tau*s+1)) identified from {} ({} → {}), fit {:.1} %",
+        req.log.display(),
+        id.input,
+        id.output,
+        fit.fit_percent
+    ));
+    let plant = rate_model(k, tau, td)?;
+    let mut plants = vec![plant.clone()];
+    if req.sigma > 0.0 {
+        let spread = |s: f64| if s.is_finite() { req.sigma * s } else { 0.0 };
+        for (n, s) in [("K", sk), ("tau", stau), ("Td", std_)] {
+            if !s.is_finite() {
+                notes.push(format!(
+                    "the standard error of {n} is undetermined: {n} is held at its fit"
+                ));
+            }
+        }
+        let (dk, dtau, dtd) = (spread(sk), spread(stau), spread(std_));
+        // One parameter at a time: a corner of the box would be 2σ·√3 from the fit, and τ and
+        // Td trade off against each other in the fit (their errors are correlated), so the
+        // corners are far less likely than the fit's ±2σ says.
+        for (i, d) in [dk, dtau, dtd].into_iter().enumerate() {
+            if d == 0.0 {
+                continue;
+            }
+            for sign in [-1.0, 1.0] {
+                let mut v = [k, tau, td];
+                v[i] += sign * d;
+                plants.push(rate_model(v[0].max(k / 20.0), v[1].max(1e-4), v[2].max(0.0))?);
+            }
+        }
+        notes.push(format!(
+            "robust over K, tau, Td at ±{}σ: K {:.4} ± {:.4}, tau {:.5} ± {:.5} s, Td {:.5} ± {:.5} s (one at a time, clamped to K ≥ K/20, tau ≥ 0.1 ms, Td ≥ 0)",
+            req.sigma, k, dk, tau, dtau, td, dtd
+        ));
+    }
+
+    // The header's tuning.
+    let log = Log::open(
+        &req.log,
+        &OpenOptions {
+            session: req.session,
+            ..Default::default()
+        },
+    )?;
+    let header = FirmwareTuning::from_log(&log);
+    let ax = axis_index(req.axis);
+    let mut filters = Vec::new();
+    let mut treq = TuneRequest::new(plant.clone(), req.firmware);
+    treq.extra_plants = plants[1..].to_vec();
+    treq.axis = req.axis;
+    treq.structure = req.structure;
+    treq.d_filter_tau_s = req.d_filter_tau_s;
+    treq.goals = req.goals.clone();
+    treq.maximize = req.maximize;
+    treq.starts = req.starts;
+    let mut current_gains: Option<CurrentGains> = None;
+    match (&header, req.firmware) {
+        (Some(FirmwareTuning::Betaflight(b)), Firmware::Betaflight) => {
+            let mut dterm = Vec::new();
+            for (l, name) in [
+                (&b.dterm_lowpass, "dterm_lowpass"),
+                (&b.dterm_lowpass2, "dterm_lowpass2"),
+            ] {
+                if let Some(l) = l {
+                    if let Some(lp) = lowpass_of(l, &mut notes, name) {
+                        filters.push(format!(
+                            "{name}: {} at {} Hz (in the controller)",
+                            l.kind,
+                            lp.cutoff_hz()
+                        ));
+                        dterm.push(lp);
+                    }
+                }
+            }
+            for (l, name) in [(&b.gyro_lowpass, "gyro_lowpass"), (&b.gyro_lowpass2, "gyro_lowpass2")] {
+                if let Some(l) = l {
+                    filters.push(format!(
+                        "{name}: {} at {} Hz{} (inside the identified plant: gyroADC is logged after it)",
+                        l.kind,
+                        l.cutoff_hz,
+                        l.dynamic_hz
+                            .map(|(a, c)| format!(", dynamic {a}–{c} Hz"))
+                            .unwrap_or_default()
+                    ));
+                }
+            }
+            if b.dynamic_notch.is_some() || b.rpm_filter.is_some() {
+                filters.push("dynamic notch / RPM filter: inside the identified plant (on the gyro)".into());
+            }
+            let loop_hz = b.pid_rate_hz.unwrap_or_else(|| {
+                notes.push("the header has no loop time: a 4 kHz PID loop is assumed".into());
+                4000.0
+            });
+            filters.push(format!("PID loop {loop_hz} Hz"));
+            treq.betaflight = betaflight::Filters {
+                gyro: Vec::new(),
+                dterm,
+                loop_hz,
+            };
+            if let Some(p) = b.pidf.get(ax) {
+                let to_u = |v: f64| v.round().clamp(0.0, 1000.0) as u32;
+                let g = betaflight::Gains {
+                    p: to_u(p.p),
+                    i: to_u(p.i),
+                    d: to_u(p.d),
+                    f: to_u(p.f.unwrap_or(0.0)),
+                };
+                treq.betaflight_f = Some(g.f);
+                if p.d_min.is_some_and(|d| d > 0.0 && d < p.d) {
+                    notes.push(format!(
+                        "d_min {} < d {}: the analysis uses d (the D the firmware reaches in fast moves)",
+                        p.d_min.unwrap_or(0.0),
+                        p.d
+                    ));
+                }
+                current_gains = Some(CurrentGains::Betaflight(g));
+            }
+            notes
+                .push("not modelled: TPA, anti-gravity, I-term relax, d_min's dynamic D, feedforward smoothing".into());
+        }
+        (Some(FirmwareTuning::Px4(p)), Firmware::Px4) => {
+            let loop_hz = p.gyro_rate_max_hz.filter(|&r| r > 0.0).unwrap_or(400.0);
+            let dgyro = p.dgyro_cutoff_hz.unwrap_or(30.0);
+            filters.push(format!("IMU_DGYRO_CUTOFF {dgyro} Hz (in the controller)"));
+            if let Some(g) = p.gyro_cutoff_hz {
+                filters.push(format!(
+                    "IMU_GYRO_CUTOFF {g} Hz (inside the identified plant: vehicle_angular_velocity is logged after it)"
+                ));
+            }
+            filters.push(format!("rate loop {loop_hz} Hz"));
+            treq.px4 = px4::Filters {
+                gyro_cutoff_hz: 0.0,
+                dgyro_cutoff_hz: dgyro,
+                loop_hz,
+            };
+            if let Some(r) = p.rate.get(ax) {
+                if let (Some(pp), Some(ii), Some(dd)) = (r.p, r.i, r.d) {
+                    let g = px4::Gains {
+                        k: r.k.unwrap_or(1.0),
+                        p: pp,
+                        i: ii,
+                        d: dd,
+                        ff: r.ff.unwrap_or(0.0),
+                    };
+                    treq.px4_ff = Some(g.ff);
+                    current_gains = Some(CurrentGains::Px4(g));
+                }
+            }
+        }
+        (_, Firmware::Generic) => {
+            notes.push("generic: the current gains are not compared (their units are the firmware's)".into());
+        }
+        _ => notes.push("the log header carries no rate-controller tuning: nothing to compare".into()),
+    }
+
+    let proposed = tune(&treq)?;
+    let loop_hz = match req.firmware {
+        Firmware::Betaflight => Some(treq.betaflight.loop_hz),
+        Firmware::Px4 => Some(treq.px4.loop_hz),
+        Firmware::Generic => None,
+    };
+    let held: Vec<StateSpace> = plants.iter().map(|p| with_hold(p, loop_hz)).collect::<Result<_>>()?;
+    let wn = proposed.noise_w_rad_s;
+    let c_r_proposed = match req.firmware {
+        Firmware::Betaflight => {
+            let g: betaflight::Gains = gains_bf(&proposed.gains)?;
+            betaflight::reference_path(&g, req.axis, treq.betaflight.loop_hz)?
+        }
+        Firmware::Px4 => {
+            let names = px4::param_names(req.axis);
+            let v = |i: usize| proposed.gains[&names[i]].as_f64().unwrap_or(0.0);
+            px4::reference_path(&px4::Gains {
+                k: v(0),
+                p: v(1),
+                i: v(2),
+                d: v(3),
+                ff: v(4),
+            })?
+        }
+        Firmware::Generic => proposed.feedback_controller.clone(),
+    };
+    let proposed_analysis = analyse(
+        proposed.gains.clone(),
+        &proposed.feedback_controller,
+        &c_r_proposed,
+        &held,
+        wn,
+    )?;
+    let current = match current_gains {
+        Some(CurrentGains::Betaflight(g)) => {
+            let c = betaflight::feedback_controller(&g, req.axis, &treq.betaflight)?;
+            let cr = betaflight::reference_path(&g, req.axis, treq.betaflight.loop_hz)?;
+            Some(analyse(serde_json::to_value(g)?, &c, &cr, &held, wn)?)
+        }
+        Some(CurrentGains::Px4(g)) => {
+            let c = px4::feedback_controller(&g, &treq.px4)?;
+            let cr = px4::reference_path(&g)?;
+            let names = px4::param_names(req.axis);
+            let mut m = serde_json::Map::new();
+            for (n, v) in names.iter().zip([g.k, g.p, g.i, g.d, g.ff]) {
+                m.insert(n.clone(), json!(v));
+            }
+            Some(analyse(Value::Object(m), &c, &cr, &held, wn)?)
+        }
+        None => None,
+    };
+
+    // The measured step: setpoint (the instrument) → gyro over the airborne segments.
+    let (measured_step, measured_step_error) = match measured(&log, &id) {
+        Ok(s) => (Some(s), None),
+        Err(e) => (None, Some(e.to_string())),
+    };
+    let model_step_rms = match (&measured_step, &current) {
+        (Some(m), Some(c)) => Some(step_rms(m, c)?),
+        _ => None,
+    };
+    // The flown tune flew: a model that calls it unstable, or predicts a step far from the one
+    // measured, is wrong, and so would be gains tuned on it.
+    let mut warnings = Vec::new();
+    if let Some(c) = &current {
+        if !c.margins.stable {
+            warnings.push(
+                "the identified model predicts the flown tune to be UNSTABLE, yet it flew: the model is wrong (try another band, --fmin-hz/--fmax-hz, or another session); do not fly the proposal".to_string(),
+            );
+        }
+    }
+    if let Some(r) = model_step_rms.filter(|r| *r > MODEL_STEP_RMS_MAX) {
+        warnings.push(format!(
+            "the predicted step of the flown tune differs from the step measured in the log by {r:.3} RMS (more than {MODEL_STEP_RMS_MAX}): the model does not describe this craft well; treat the proposal with care"
+        ));
+    }
+    Ok(LogTuneOutcome {
+        params: BTreeMap::from([
+            ("K".to_string(), (k, sk)),
+            ("tau".to_string(), (tau, stau)),
+            ("Td".to_string(), (td, std_)),
+        ]),
+        identification: id,
+        plant,
+        plants,
+        filters,
+        current,
+        proposed,
+        proposed_analysis,
+        measured_step,
+        measured_step_error,
+        model_step_rms,
+        notes,
+        warnings,
+    })
+}
+
+enum CurrentGains {
+    Betaflight(betaflight::Gains),
+    Px4(px4::Gains),
+}
+
+fn gains_bf(v: &Value) -> Result<betaflight::Gains> {
+    let g = |k: &str| {
+        v[k].as_u64()
+            .map(|x| x as u32)
+            .ok_or_else(|| Error::Failed(format!("proposed gains lack {k}")))
+    };
+    Ok(betaflight::Gains {
+        p: g("p")?,
+        i: g("i")?,
+        d: g("d")?,
+        f: g("f")?,
+    })
+}
+
+fn measured(log: &Log, id: &Identification) -> Result<MeasuredStep> {
+    let r = id
+        .instrument
+        .as_deref()
+        .ok_or_else(|| Error::Input("no setpoint channel to deconvolve".into()))?;
+    let data = log.uniform(&[r, id.output.as_str()], None, None, None)?;
+    let ranges: Vec<std::ops::Range<usize>> = id
+        .segments
+        .iter()
+        .map(|s| {
+            let lo = ((s.from_s - data.t0_s) / data.dt_s).ceil().max(0.0) as usize;
+            let hi = (((s.to_s - data.t0_s) / data.dt_s).floor().max(0.0) as usize + 1).min(data.len());
+            lo..hi.max(lo)
+        })
+        .collect();
+    step_from_log(
+        &data.columns[0],
+        &data.columns[1],
+        data.dt_s,
+        &ranges,
+        &DeconvOptions::default(),
+    )
+}
+
+/// RMS of the predicted step (linearly interpolated) minus the measured one.
+fn step_rms(m: &MeasuredStep, c: &TuneAnalysis) -> Result<f64> {
+    let (t, y) = (&c.step_t_s, &c.step_y);
+    if t.len() < 2 {
+        return Err(Error::Failed("predicted step has fewer than 2 samples".into()));
+    }
+    let at = |x: f64| {
+        let dt = t[1] - t[0];
+        let i = ((x / dt).floor() as usize).min(t.len() - 2);
+        let f = (x - t[i]) / dt;
+        y[i] * (1.0 - f) + y[i + 1] * f
+    };
+    let n = m.t_s.len();
+    let s: f64 = m.t_s.iter().zip(&m.y).map(|(&x, &v)| (at(x) - v).powi(2)).sum();
+    Ok((s / n as f64).sqrt())
+}
+
+fn analyse(gains: Value, c: &StateSpace, cr: &StateSpace, held: &[StateSpace], wn: f64) -> Result<TuneAnalysis> {
+    let margins = check_loop(&held[0], c)?;
+    let mut worst = margins;
+    for p in &held[1..] {
+        let m = check_loop(p, c)?;
+        worst.stable &= m.stable;
+        worst.disk_alpha = worst.disk_alpha.min(m.disk_alpha);
+        worst.gain_margin_db = worst.gain_margin_db.min(m.gain_margin_db);
+        worst.phase_margin_deg = worst.phase_margin_deg.min(m.phase_margin_deg);
+        worst.crossover_hz = worst.crossover_hz.min(m.crossover_hz);
+        worst.ms = worst.ms.max(m.ms);
+        worst.mt = worst.mt.max(m.mt);
+    }
+    let ev = skyloop_lti::freqresp::FreqEvaluator::new(c)?;
+    let noise_gain = sampled_peak(
+        |w| {
+            ev.eval(c64::new(0.0, w))
+                .map(|m| m[(0, 0)].norm())
+                .unwrap_or(f64::INFINITY)
+        },
+        wn,
+        wn * 1e3,
+        600,
+    )
+    .1;
+    // y/r = P·C_r/(1 + P·C_fb), the delay as Padé order 6 (inside the loop it has no exact
+    // state-space form).
+    let pp = held[0].try_pade(6)?;
+    let cl = series(cr, &feedback(&pp, c, -1.0)?)?;
+    let t: Vec<f64> = (0..=500).map(|k| k as f64 * 0.001).collect();
+    let st = skyloop_lti::timeresp::step(&cl, Some(&t))?;
+    let y = st.y[0][0].clone();
+    let info = skyloop_lti::timeresp::stepinfo(&t, &y, Some(1.0));
+    Ok(TuneAnalysis {
+        gains,
+        feedback_controller: c.clone(),
+        reference_path: cr.clone(),
+        margins,
+        worst,
+        noise_gain,
+        step_t_s: t,
+        step_y: y,
+        rise_time_s: info.rise_time_s,
+        overshoot_pct: info.overshoot_pct,
+    })
+}
+
+fn margins_json(m: &LoopCheck) -> Value {
+    json!({
+        "disk_alpha": m.disk_alpha,
+        "gain_margin_db": m.gain_margin_db,
+        "phase_margin_deg": m.phase_margin_deg,
+        "crossover_hz": m.crossover_hz,
+        "ms": m.ms,
+        "mt": m.mt,
+        "stable": m.stable,
+    })
+}
+
+impl TuneAnalysis {
+    /// `{gains, margins, worst_margins, noise_gain, step: {t_s, y}, rise_time_s, overshoot_pct}`.
+    pub fn to_json(&self) -> Value {
+        json!({
+            "gains": self.gains,
+            "feedback_controller": skyloop_lti::json::LtiJson::from_ss(&self.feedback_controller),
+            "margins": margins_json(&self.margins),
+            "worst_margins": margins_json(&self.worst),
+            "noise_gain": self.noise_gain,
+            "step": {"t_s": self.step_t_s, "y": self.step_y},
+            "rise_time_s": self.rise_time_s,
+            "overshoot_pct": self.overshoot_pct,
+        })
+    }
+}
+
+impl LogTuneOutcome {
+    /// The proposal's JSON (as [`TuneOutcome::to_json`]: `gains`, `feedback_controller`,
+    /// `margins`, `goals`, `cli`, ...) plus `current` (the flown tune analysed, with `gains` of the
+    /// same keys), `proposed` (the proposal analysed likewise), `identification` (params, stderr,
+    /// fit percent, band), `measured_step` and `model_step_rms`.
+    pub fn to_json(&self) -> Value {
+        let mut v = self.proposed.to_json();
+        v["current"] = self.current.as_ref().map(TuneAnalysis::to_json).unwrap_or(Value::Null);
+        v["proposed"] = self.proposed_analysis.to_json();
+        let fit = self.identification.fit.as_ref().map(|(_, f)| f);
+        v["identification"] = json!({
+            "params": self.params.iter().map(|(k, (x, _))| (k.clone(), json!(x))).collect::<serde_json::Map<_, _>>(),
+            "stderr": self.params.iter().map(|(k, (_, s))| (k.clone(), if s.is_finite() { json!(s) } else { Value::Null })).collect::<serde_json::Map<_, _>>(),
+            "fit_percent": fit.map(|f| f.fit_percent),
+            "segments": self.identification.segments,
+            "warnings": self.identification.warnings,
+            "plants": self.plants.len(),
+        });
+        v["filters"] = json!(self.filters);
+        v["measured_step"] = match &self.measured_step {
+            Some(m) => {
+                json!({"t_s": m.t_s, "y": m.y, "y_std": m.y_std, "windows": m.windows, "windows_total": m.windows_total})
+            }
+            None => Value::Null,
+        };
+        v["measured_step_error"] = json!(self.measured_step_error);
+        v["model_step_rms"] = json!(self.model_step_rms);
+        v["warnings"] = json!(self.warnings);
+        if let Some(n) = v["notes"].as_array_mut() {
+            for x in &self.notes {
+                n.push(json!(x));
+            }
+        }
+        v
+    }
+}
