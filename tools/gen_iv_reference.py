@@ -80,7 +80,9 @@ def airborne(names, a, motor_range):
     segs = []
     n = len(ok)
     i = 0
-    dt = np.median(np.diff(t))
+    # The frames are the loop's samples, one per P interval; their timestamps jitter with the logging
+    # task, so the sample interval is the mean one (and the frames are taken as they are, uniform).
+    dt = (t[-1] - t[0]) / (len(t) - 1)
     while i < n:
         if not ok[i]:
             i += 1
