@@ -100,9 +100,9 @@ fn same_recipe_gives_the_reference_fit() {
 /// agree within the reported errors (twice the reported standard error, which already includes the
 /// jackknife's spread), and the fit is one a reviewer accepts: no parameter on a bound, each known to
 /// better than 30 %, and more of the FRF's variation explained than its mean does on the fitted
-/// points and on held-out blocks. (Measured when this was written: K 126.7 ± 12.5 against the
-/// reference's 146.6, τ 8.8 ± 1.0 ms against 10.2, Td 3.42 ± 0.15 ms against 3.46; fit 41 % over
-/// 2.1 .. 72 Hz, held-out 15 %. A complex fit percentage is dominated by the low-frequency
+/// points and on held-out blocks. (Measured when this was written: K 126.5 ± 12.6 against the
+/// reference's 146.0, τ 8.8 ± 1.0 ms against 10.2, Td 3.43 ± 0.15 ms against 3.48; fit 41 % over
+/// 2.1 .. 72 Hz, held-out 14 %. A complex fit percentage is dominated by the low-frequency
 /// points where |G| is largest and the pilot's inputs scatter most; the reference's Welch fit over
 /// 2 .. 50 Hz scores 55 %.)
 #[test]
@@ -131,8 +131,8 @@ fn the_pilots_command_agrees_with_the_reference() {
 
 /// The two halves of the flight (log time before and after 73 s, about 65 airborne seconds each)
 /// identified separately agree within three of their combined reported errors, as the issue asks.
-/// Measured when this was written: K 117.7 ± 15.4 and 159.6 ± 25.6, τ 8.3 ± 1.3 and 11.4 ± 1.6 ms,
-/// Td 3.60 ± 0.31 and 3.14 ± 0.17 ms, each difference about 1.4 combined errors.
+/// Measured when this was written: K 117.8 ± 15.5 and 159.6 ± 26.0, τ 8.3 ± 1.3 and 11.4 ± 1.6 ms,
+/// Td 3.60 ± 0.32 and 3.14 ± 0.17 ms: differences of 1.4, 1.5 and 1.3 combined errors.
 #[test]
 fn two_halves_of_the_flight_agree() {
     let half = |from: Option<f64>, to: Option<f64>| {
