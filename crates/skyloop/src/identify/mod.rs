@@ -28,7 +28,7 @@ use request::{apply_bounds, fit_options, param_specs};
 use skyloop_sysid::fit::{evaluate, fit_expr, fit_tf, DelaySpec, FitOptions, FitResult, ParamSpec};
 use skyloop_sysid::logs::flight::{airborne_segments, Axis, Span};
 use skyloop_sysid::logs::{median_rate_hz, segments_where, Condition, Log, LogFormat, OpenOptions};
-use skyloop_sysid::spectral::{default_nfft_records, estimate_records, Frf, IoData, Method, Options, Window};
+use skyloop_sysid::spectral::{default_nfft_records, estimate, estimate_records, Frf, IoData, Method, Options, Window};
 
 /// The channels a column spec (a channel, or channels joined by + and −) reads.
 fn spec_channels(spec: &str) -> Vec<String> {
@@ -313,6 +313,11 @@ pub fn identify(a: &IdentifyRequest) -> Result<Identification> {
                 dt_s: dt,
             })
             .collect();
+        // One span of a log the user chose keeps the single-record estimate (SPAFDR untapered, as
+        // a bench record that starts and ends at rest wants); flight segments are always tapered.
+        if io.len() == 1 && preset.is_none() {
+            return Ok(estimate(&io[0], &opts)?);
+        }
         Ok(estimate_records(&io, &opts)?)
     };
     let frf = frf_of(&ranges)?;
