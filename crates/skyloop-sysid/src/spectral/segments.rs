@@ -104,7 +104,7 @@ pub fn estimate_records(records: &[IoData], o: &Options) -> Result<Frf> {
             if m < 2 {
                 return Err(invalid(format!("lag window {m} must be at least 2")));
             }
-            let mut pooled: Option<(Vec<f64>, Vec<f64>, Vec<f64>, Option<spa::Closed>)> = None;
+            let mut pooled: Option<spa::Correlations> = None;
             let mut n_used = 0usize;
             for d in records.iter().filter(|d| d.u.len() > m.max(16)) {
                 let p = prepare(d, o.detrend, 16)?;

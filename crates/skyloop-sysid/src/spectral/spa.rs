@@ -37,7 +37,7 @@ fn correlation(a: &[C64], b: &[C64], nfft: usize, n: usize, m: usize) -> Result<
 
 /// The six correlation functions R_uu, R_yy, R_yu (and R_rr, R_ur, R_yr) of one record up to lag `m`,
 /// each (1/N)·Σ.
-pub(crate) fn correlations(p: &Prepared, m: usize) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>, Option<Closed>)> {
+pub(crate) fn correlations(p: &Prepared, m: usize) -> Result<Correlations> {
     let n = p.u.len();
     let nfft = (n + m + 1).next_power_of_two();
     let fft = Rfft::new(nfft);
@@ -61,6 +61,9 @@ pub(crate) fn correlations(p: &Prepared, m: usize) -> Result<(Vec<f64>, Vec<f64>
 /// R_rr, R_ur, R_yr.
 pub(crate) type Closed = (Vec<f64>, Vec<f64>, Vec<f64>);
 
+/// R_uu, R_yy, R_yu and, with an excitation, [`Closed`].
+pub(crate) type Correlations = (Vec<f64>, Vec<f64>, Vec<f64>, Option<Closed>);
+
 /// Blackman–Tukey estimate on `o.n_freq` linearly spaced frequencies in [fmin, fmax].
 pub fn spa(d: &IoData, o: &Options) -> Result<Frf> {
     let p = prepare(d, o.detrend, 16)?;
@@ -81,7 +84,7 @@ pub(crate) fn from_correlations(
     dt: f64,
     n: usize,
     m: usize,
-    (ruu, ryy, ryu, closed): (Vec<f64>, Vec<f64>, Vec<f64>, Option<Closed>),
+    (ruu, ryy, ryu, closed): Correlations,
 ) -> Result<Frf> {
     if o.n_freq < 2 {
         return Err(invalid("SPA needs at least 2 output frequencies"));
