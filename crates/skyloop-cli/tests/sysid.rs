@@ -581,3 +581,54 @@ fn log_export_and_plot() {
     assert!(String::from_utf8_lossy(&r.stderr).contains("airborne segments shaded"));
     assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
 }
+
+#[test]
+fn the_pilots_bare_command_fits_or_refuses_honestly() {
+    // btfl_all.bbl session 4, the acro flight: roll identifies in a band reaching the loop's dynamics.
+    let log = log_path("btfl_all.bbl");
+    let out = skyloop(&["identify", &log, "--axis", "roll", "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("warning:"), "{err}");
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let band = v["fit_band_hz"].as_array().unwrap();
+    let (lo, hi) = (band[0].as_f64().unwrap(), band[1].as_f64().unwrap());
+    assert!(lo >= 2.0 && hi >= 40.0, "{lo} .. {hi}");
+    assert!(v["fit"]["fit_percent"].as_f64().unwrap() > 30.0);
+    assert_eq!(v["at_bounds"].as_array().unwrap().len(), 0);
+    // Segments on both time bases, which differ by the clock origin; log export's time_s is the clock.
+    let origin = v["clock_origin_s"].as_f64().unwrap();
+    let s0 = &v["segments"][0];
+    let d = s0["from_clock_s"].as_f64().unwrap() - s0["from_s"].as_f64().unwrap();
+    assert!((d - origin).abs() < 1e-9, "{d} vs {origin}");
+    let csv = tmp("clock.csv");
+    let r = skyloop(&[
+        "log",
+        "export",
+        &log,
+        "--fields",
+        "gyroADC[0]",
+        "--out",
+        csv.to_str().unwrap(),
+    ]);
+    assert!(String::from_utf8_lossy(&r.stderr).contains("clock_origin_s"));
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let t_first: f64 = text.lines().nth(1).unwrap().split(',').next().unwrap().parse().unwrap();
+    // The first frame is at (or just after) log time 0: time_s starts at the clock origin, not at 0.
+    assert!(
+        t_first >= origin - 1e-6 && t_first < origin + 0.1,
+        "first time_s {t_first} vs clock origin {origin}"
+    );
+    // Pitch of the same flight: the setpoint supports only a band where tau and K trade off.
+    fails_with(&["identify", &log, "--axis", "pitch"], "do not determine");
+    // LOG00037.BFL: 15 s of gentle hover, too little stick to identify anything.
+    fails_with(
+        &["identify", &log_path("LOG00037.BFL"), "--axis", "roll"],
+        "does not excite the rate loop",
+    );
+    // btfl_001.bbl: armed at idle on the bench, never airborne.
+    fails_with(
+        &["identify", &log_path("btfl_001.bbl"), "--axis", "roll"],
+        "no airborne segment",
+    );
+}

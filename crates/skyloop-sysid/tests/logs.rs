@@ -196,7 +196,10 @@ fn resampled_flight_segment() {
             Some(12.0),
         )
         .unwrap();
-    assert!((u.rate_hz() - 1000.0).abs() < 1.0);
-    assert!((u.len() as f64 - 10_000.0).abs() <= 2.0, "{}", u.len());
+    // One steadily logged group: the frames as logged, at their mean rate. orangebox's timestamps put
+    // 9854 frames (8 loop iterations each) between 2 and 12 s, 1.0148 ms apart on average although
+    // the median interval is 1 ms: the loop ran below its nominal 8 kHz.
+    assert!((u.rate_hz() - 985.4).abs() < 0.5, "{}", u.rate_hz());
+    assert!((u.len() as f64 - 9854.0).abs() <= 1.0, "{}", u.len());
     assert!(log.uniform(&["gyroADC[0]"], None, Some(100.0), Some(200.0)).is_err());
 }

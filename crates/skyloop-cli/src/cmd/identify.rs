@@ -199,6 +199,9 @@ fn print_table(id: &Identification) {
     if let Some((lo, hi)) = id.coherent_band_hz {
         println!("coherent band: {lo:.2} .. {hi:.2} Hz");
     }
+    if let Some((lo, hi)) = id.fit_band_hz {
+        println!("fit band: {lo:.2} .. {hi:.2} Hz");
+    }
     if let Some(v) = &id.validation {
         println!(
             "validation (held-out blocks {:?}): fit {:.1} %, FRF residual {:.3} (training fit {:.1} %)",

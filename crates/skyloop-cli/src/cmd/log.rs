@@ -84,7 +84,11 @@ pub fn run(a: Args) -> skyloop::Result<()> {
         } => {
             let log = open(&file, session)?;
             let rows = export_csv(&log, &fields, &out)?;
-            eprintln!("wrote {} ({rows} rows)", out.display());
+            eprintln!(
+                "wrote {} ({rows} rows; time_s is the flight controller's clock: log time + {:.6} s, as identify's clock_origin_s)",
+                out.display(),
+                log.clock_origin_s
+            );
             Ok(())
         }
         Action::Plot {
@@ -119,6 +123,7 @@ fn info(file: &Path, session: Option<usize>, json: bool) -> skyloop::Result<()> 
             "file": file.display().to_string(),
             "format": format!("{:?}", log.format).to_lowercase(),
             "duration_s": log.duration_s(),
+            "clock_origin_s": log.clock_origin_s,
             "notes": log.notes,
             "groups": groups,
             "sessions": sessions,

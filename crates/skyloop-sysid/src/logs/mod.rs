@@ -225,7 +225,8 @@ impl Log {
     }
 
     /// The named columns resampled onto one uniform grid over the time span they share, restricted to
-    /// [from_s, to_s]; `rate_hz = None` uses the highest median rate of the columns.
+    /// [from_s, to_s]; `rate_hz = None` uses the highest median rate of the columns, or, for columns
+    /// of one group logged at a steady rate, the samples as logged (see `uniform::resample`).
     pub fn uniform(
         &self,
         specs: &[&str],

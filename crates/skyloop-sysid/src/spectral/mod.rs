@@ -8,11 +8,13 @@
 
 mod cross;
 pub mod etfe;
+mod segments;
 pub mod spa;
 pub mod spafdr;
 pub mod welch;
 pub mod window;
 
+pub use segments::{default_nfft_records, estimate_records};
 pub use window::Window;
 
 use num_complex::Complex64 as C64;

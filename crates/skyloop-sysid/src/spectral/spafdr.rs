@@ -31,6 +31,11 @@ impl Dft {
     /// Hann-weighted sums of the periodograms over a window of full width `width_hz` centred on
     /// `f_hz` (DC excluded), with the equivalent number of averaged bins (Σw)²/Σw².
     pub fn smooth(&self, f_hz: f64, width_hz: f64) -> Option<(Cross, f64)> {
+        self.smooth_sums(f_hz, width_hz).map(|(c, sw, sw2)| (c, sw * sw / sw2))
+    }
+
+    /// As [`Dft::smooth`], with the sums Σw and Σw² of the window's taps in place of the average count.
+    pub fn smooth_sums(&self, f_hz: f64, width_hz: f64) -> Option<(Cross, f64, f64)> {
         let half = 0.5 * width_hz;
         let last = self.u.len() - 1;
         let lo = (((f_hz - half) / self.df).ceil().max(1.0)) as usize;
@@ -56,12 +61,12 @@ impl Dft {
             sw += w;
             sw2 += w * w;
         }
-        (sw > 0.0).then(|| (c, sw * sw / sw2))
+        (sw > 0.0).then_some((c, sw, sw2))
     }
 }
 
 /// Narrowest smoothing window, in bins, so that even the lowest frequency averages a few bins.
-const MIN_WIDTH_BINS: f64 = 6.0;
+pub(crate) const MIN_WIDTH_BINS: f64 = 6.0;
 
 /// SPAFDR estimate on `o.n_freq` log-spaced frequencies in [fmin, fmax]; the Hann window's full width
 /// is max(`o.resolution`·f, 6 bins).

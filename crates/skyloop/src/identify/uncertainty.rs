@@ -4,7 +4,6 @@
 //! errors of the model's form), and a held-out validation predicts blocks the fit did not see.
 
 use std::collections::BTreeMap;
-use std::ops::Range;
 
 use serde::Serialize;
 
@@ -24,7 +23,7 @@ pub struct Uncertainty {
 /// A fit to part of the data judged on the rest.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Validation {
-    /// Blocks fitted (0-based, in time order of the joined segments).
+    /// Blocks fitted (0-based, in time order over the segments).
     pub train_blocks: Vec<usize>,
     /// Blocks predicted.
     pub test_blocks: Vec<usize>,
@@ -35,18 +34,6 @@ pub struct Validation {
     /// RMS log error |ln(G_model/G_heldout)| over the held-out FRF's fitted band (dimensionless; 0.1
     /// is about 0.9 dB or 5.7°).
     pub frf_residual: f64,
-}
-
-/// `n` samples cut into `count` contiguous blocks of (nearly) equal length.
-pub(crate) fn blocks(n: usize, count: usize) -> Vec<Range<usize>> {
-    (0..count).map(|b| b * n / count..(b + 1) * n / count).collect()
-}
-
-/// The columns restricted to `keep` (joined in order).
-pub(crate) fn pick(cols: &[Vec<f64>], keep: &[Range<usize>]) -> Vec<Vec<f64>> {
-    cols.iter()
-        .map(|c| keep.iter().flat_map(|r| c[r.clone()].iter().copied()).collect())
-        .collect()
 }
 
 /// Delete-one jackknife standard error of each parameter over leave-one-out estimates.
@@ -87,6 +74,5 @@ mod tests {
         let mean = x.iter().sum::<f64>() / n;
         let s = (x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
         assert!((jackknife(&loo)["m"] - s / n.sqrt()).abs() < 1e-12);
-        assert_eq!(blocks(10, 3), vec![0..3, 3..6, 6..10]);
     }
 }
