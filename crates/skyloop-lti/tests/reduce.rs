@@ -290,7 +290,7 @@ fn reduction_of_a_1000_state_model_matches_slicot() {
             hsv[k]
         );
     }
-    let r = balred(&sys, 10, Method::Balanced).unwrap();
+    let r = balred(&sys, 10, Method::Balanced).unwrap().sys;
     assert_eq!(r.nx(), 10);
     assert!(eigs(&r).iter().all(|p| p.re < 0.0));
     let bound = 2.0 * hsv[10..].iter().sum::<f64>();
