@@ -421,6 +421,7 @@ fn _from_json(py: Python<'_>, text: String) -> PyResult<PyStateSpace> {
 /// (0: continuous); delays in s per input / output.
 #[pyfunction]
 #[pyo3(signature = (a, b, c, d, dt=0.0, input_delay=None, output_delay=None))]
+#[allow(clippy::too_many_arguments)]
 fn _ss(
     py: Python<'_>,
     a: PyReadonlyArray2<'_, f64>,
