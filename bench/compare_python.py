@@ -7,7 +7,9 @@ Usage:  pip install ./python control slycot scipy && python3 bench/compare_pytho
         [--only NAME] [--repeat R]
 
 Each timing is the best of R calls (default 5) after one warm-up call. The Monte Carlo line is the
-1000-flight, 20 s SSI-PI quadrotor study of bench/montecarlo.py on 2 threads vs 1 (wall time).
+1000-flight, 20 s SSI-PI quadrotor study of bench/montecarlo.py on 2 threads vs 1 (best wall time of
+min(R, 3) alternating runs each), with the CPU time ratio that tells a busy machine from a
+serial bottleneck.
 This file defines no `comparisons()`, so bench/compare.py (which imports every compare_*.py)
 skips it; everything runs under `main()`.
 """
@@ -119,17 +121,31 @@ def main():
             text = f.read()
         text = re.sub(r"(?m)^duration_s = .*$", "duration_s = 20.0", text)
         text = re.sub(r"(?m)^runs = .*$", f"runs = {a.runs}", text)
-        t0 = time.perf_counter()
-        one = sk.montecarlo(text, threads=1)
-        t1 = time.perf_counter() - t0
-        c0, t0 = resource.getrusage(resource.RUSAGE_SELF), time.perf_counter()
-        two = sk.montecarlo(text, threads=2)
-        t2, c1 = time.perf_counter() - t0, resource.getrusage(resource.RUSAGE_SELF)
-        cpu2 = (c1.ru_utime - c0.ru_utime) + (c1.ru_stime - c0.ru_stime)
-        assert one == two, "the Monte Carlo result depends on the thread count"
+        # Alternating 1- and 2-thread runs, best wall time of each: a burst of load from another
+        # process then spoils one sample, not the ratio. CPU time (user + sys) is reported too: on
+        # a busy machine the wall-clock ratio says how many cores the OS gave us, while CPU(2) /
+        # CPU(1) near 1 says the parallel run does no extra work (no lock spinning, no contention).
+        def timed(threads):
+            c0, t0 = resource.getrusage(resource.RUSAGE_SELF), time.perf_counter()
+            out = sk.montecarlo(text, threads=threads)
+            t, c1 = time.perf_counter() - t0, resource.getrusage(resource.RUSAGE_SELF)
+            return out, t, (c1.ru_utime - c0.ru_utime) + (c1.ru_stime - c0.ru_stime)
+
+        best_t = {1: float("inf"), 2: float("inf")}
+        best_c = {1: float("inf"), 2: float("inf")}
+        results = {}
+        for _ in range(max(1, min(a.repeat, 3))):
+            for threads in (1, 2):
+                out, t, c = timed(threads)
+                results[threads] = out
+                best_t[threads] = min(best_t[threads], t)
+                best_c[threads] = min(best_c[threads], c)
+        assert results[1] == results[2], "the Monte Carlo result depends on the thread count"
+        t1, t2 = best_t[1], best_t[2]
         print(f"{'montecarlo ' + str(a.runs) + ' flights x 20 s':<34} 2 threads {t2:8.2f} s   1 thread {t1:8.2f} s"
               f"   speed-up {t1 / t2:5.2f}x  (target >= 1.8x: {'ok' if t1 / t2 >= 1.8 else 'BELOW TARGET'}); "
-              f"cores used on 2 threads {cpu2 / t2:4.2f}")
+              f"cores used on 2 threads {best_c[2] / t2:4.2f}, CPU time 2 threads / 1 thread "
+              f"{best_c[2] / best_c[1]:5.3f}")
     if not have_slycot:
         print("slycot not installed: the hinf_norm, hinfsyn and balred comparisons were skipped")
     print(f"load average at the end: {os.getloadavg()[0]:.1f} (ratios are only meaningful near 0)")

@@ -64,7 +64,7 @@ __all__ = [
     "StateSpace", "ss", "tf", "from_control", "feedback", "lft", "subsystem",
     "freqresp", "bode", "margins", "allmargin", "diskmargin", "hinf_norm", "h2_norm", "poles",
     "zeros", "dcgain", "step", "c2d", "balred", "hsvd", "minreal",
-    "hinfsyn", "ncfsyn", "mixsyn", "mu", "musyn", "musyn_spec",
+    "hinfsyn", "hinfstruct", "tune", "ncfsyn", "mixsyn", "mu", "musyn", "musyn_spec",
     "identify", "read_log", "simulate", "montecarlo", "summarize", "scenario_text", "reproduce",
     "ducted_fan_plants",
 ]
@@ -179,6 +179,58 @@ def musyn(P, blocks: str, nmeas: int, ncon: int, omega=None, max_iter: int = 6, 
     w = None if omega is None else [float(x) for x in _vec(omega, "omega")]
     return _skyloop._musyn(_as_sys(P), blocks, int(nmeas), int(ncon), w, int(max_iter), int(d_order),
                            float(tol), reduce_order)
+
+
+def _count(x, name: str) -> int:
+    """A non-negative integer argument, or InputError naming it (never a bare OverflowError from
+    the conversion); the library checks the allowed range and names it."""
+    if isinstance(x, bool) or not isinstance(x, (int, _np.integer)):
+        raise InputError(f"{name} must be a non-negative integer, got {x!r}")
+    if not 0 <= int(x) < 1 << 63:
+        raise InputError(f"{name} must be a non-negative integer, got {int(x)}")
+    return int(x)
+
+
+def hinfstruct(P, nmeas: int, ncon: int, order: int, starts: int = 8, seed: int = 1) -> dict:
+    """Fixed-order H-infinity synthesis by nonsmooth optimization (``skyloop hinfstruct``).
+
+    MATLAB conventions as :func:`hinfsyn`: the last ``nmeas`` outputs of ``P`` are the measurements
+    y, the last ``ncon`` inputs the controls u, u = K y. ``order`` is the controller's number of
+    states (0..=50; 0 is a static gain, P's order is hinfsyn's full-order problem); ``starts``
+    random starts (1..=1000) run in parallel, start k seeded with ``seed + k``. Returns the CLI's
+    ``--json`` fields: {gamma (the H-infinity norm of lft(P, K), recomputed), controller
+    (StateSpace K), stabilized_starts}. A fixed-order gamma is never below hinfsyn's optimum.
+    """
+    return _skyloop._hinfstruct(_as_sys(P), _count(nmeas, "nmeas"), _count(ncon, "ncon"), _count(order, "order"),
+                                _count(starts, "starts"), _count(seed, "seed"))
+
+
+def tune(plant, firmware: str, goals: Iterable[str] = (), structure: str = "pid",
+         d_filter_tau: Optional[float] = None, maximize: str = "integral_gain", axis: str = "roll",
+         starts: int = 8, out: Optional[Union[str, "_os.PathLike[str]"]] = None) -> dict:
+    """Rate-loop gains for the flight controller, tuned against margin goals (``skyloop tune --plant``).
+
+    ``plant``: the continuous SISO rate-loop plant in the firmware's units (Betaflight: PID sum ->
+    gyro deg/s; PX4: normalized torque -> rad/s; generic: any), exact delays allowed. ``firmware``
+    ``"betaflight"``, ``"px4"`` or ``"generic"`` (C = kp + ki/s + kd s/(tf s + 1), ``structure``
+    ``"pi"`` or ``"pid"``; ``d_filter_tau`` fixes tf in s). ``goals`` like ``"ms<=1.4"``,
+    ``"mt<=1.3"``, ``"disk_margin>=0.6"``, ``"gain_margin_db>=6"``, ``"phase_margin_deg>=45"``,
+    ``"crossover_hz>=20"``; a disk-margin floor (0.5) and a noise limit are added unless given.
+    ``maximize`` ``"integral_gain"`` or ``"crossover"``; ``axis`` roll / pitch / yaw; ``starts``
+    1..=64; ``out`` a directory to also write the CLI's files (tune.json, report.html, ...).
+
+    Returns the CLI's ``--json`` fields: {gains (the firmware's keys and units), feedback_controller
+    (StateSpace C_fb, y -> u, continuous, of the rounded gains), discrete_controller (C_fb at the
+    loop rate, None for generic), margins {disk_alpha, gain_margin_db (dB), phase_margin_deg (deg),
+    crossover_hz (Hz), ms, mt, stable}, goals [{goal, value, met, active}], cli, defaults, notes},
+    plus ``loop_plant`` (the plant the margins were checked with: ``plant`` with the firmware's
+    sample-and-hold delay added), so ``margins(loop_plant * feedback_controller)`` re-derives them.
+    """
+    if isinstance(goals, str):
+        goals = [goals]
+    return _skyloop._tune(_as_sys(plant), str(firmware), [str(g) for g in goals], str(structure),
+                          None if d_filter_tau is None else float(d_filter_tau), str(maximize), str(axis),
+                          _count(starts, "starts"), None if out is None else _os.fspath(out))
 
 
 def identify(data, input: Optional[str] = None, output: Optional[str] = None, **options) -> dict:

@@ -85,6 +85,14 @@ def minreal(sys: StateSpace, tol: Optional[float] = None) -> StateSpace: ...
 
 def hinfsyn(P: StateSpace, nmeas: int, ncon: int, gamma_min: float = 0.0, gamma_max: Optional[float] = None,
             tol: float = 1e-4, full: bool = False) -> Any: ...
+def hinfstruct(P: _Model, nmeas: int, ncon: int, order: int, starts: int = 8, seed: int = 1) -> dict:
+    """Fixed-order H-infinity synthesis: {gamma, controller (StateSpace, u = K y), stabilized_starts}."""
+def tune(plant: _Model, firmware: str, goals: Iterable[str] = (), structure: str = "pid",
+         d_filter_tau: Optional[float] = None, maximize: str = "integral_gain", axis: str = "roll",
+         starts: int = 8, out: Optional[Union[str, PathLike]] = None) -> dict:
+    """Firmware gains tuned against margin goals: {gains, feedback_controller, discrete_controller,
+    margins {disk_alpha, gain_margin_db, phase_margin_deg, crossover_hz, ms, mt, stable}, goals,
+    cli, defaults, notes, loop_plant}; d_filter_tau in s."""
 def ncfsyn(P: StateSpace, W1: Optional[StateSpace] = None, W2: Optional[StateSpace] = None,
            factor: float = 1.1, pade: int = 3) -> dict: ...
 def mixsyn(G: StateSpace, W1: Optional[StateSpace] = None, W2: Optional[StateSpace] = None,

@@ -421,6 +421,7 @@ fn _from_json(py: Python<'_>, text: String) -> PyResult<PyStateSpace> {
 /// (0: continuous); delays in s per input / output.
 #[pyfunction]
 #[pyo3(signature = (a, b, c, d, dt=0.0, input_delay=None, output_delay=None))]
+#[allow(clippy::too_many_arguments)]
 fn _ss(
     py: Python<'_>,
     a: PyReadonlyArray2<'_, f64>,
@@ -617,33 +618,7 @@ fn fin(x: f64) -> serde_json::Value {
 #[pyfunction]
 fn margins(py: Python<'_>, sys: &Bound<'_, PyAny>) -> PyResult<PyObject> {
     let s = sys_of(sys)?;
-    let (all, m, dm) = guarded(py, move || {
-        let all = skyloop::lti::margins::allmargin(&s)?;
-        let m = skyloop::lti::margins::margin_from(&all);
-        let dm = skyloop::lti::margins::diskmargin(&s)?;
-        Ok::<_, skyloop::lti::LtiError>((all, m, dm))
-    })?;
-    let v = serde_json::json!({
-        "gain_margin_db": fin(m.gm_db),
-        "gain_margin_freq_hz": fin(hz(m.gm_w_rad_s)),
-        "phase_margin_deg": fin(m.pm_deg),
-        "phase_margin_freq_hz": fin(hz(m.pm_w_rad_s)),
-        "delay_margin_s": fin(m.delay_margin_s),
-        "disk_margin": {
-            "alpha": fin(dm.alpha),
-            "gain_db": [fin(dm.gain_db[0]), fin(dm.gain_db[1])],
-            "phase_deg": fin(dm.phase_deg),
-            "freq_hz": fin(hz(dm.w_rad_s)),
-        },
-        "closed_loop_stable": all.stable,
-        "unit_gain_band_hz": all.unit_gain_band_rad_s.map(|(a, b)| [hz(a), hz(b)]),
-        "all_gain_margins": all.gain_margins.iter()
-            .map(|g| serde_json::json!({"gm_db": fin(g.gm_db), "freq_hz": hz(g.w_rad_s)}))
-            .collect::<Vec<_>>(),
-        "all_phase_margins": all.phase_margins.iter()
-            .map(|p| serde_json::json!({"pm_deg": p.pm_deg, "freq_hz": hz(p.w_rad_s)}))
-            .collect::<Vec<_>>(),
-    });
+    let v = guarded(py, move || skyloop::json_out::margins_json(&s))?;
     json_to_py(py, &v)
 }
 
@@ -884,6 +859,86 @@ fn mixsyn(
         skyloop::robust::mixsyn::mixsyn(&g, w1.as_ref(), w2.as_ref(), w3.as_ref(), &o)
     })?;
     Ok((wrap(sol.controller), wrap(sol.closed_loop), sol.gamma))
+}
+
+/// Fixed-order H∞ synthesis by nonsmooth optimization (MATLAB conventions, as :func:`hinfsyn`: the
+/// last ``nmeas`` outputs of P are y, the last ``ncon`` inputs are u, u = K·y), a controller of
+/// ``order`` states (0..=50; P's order is hinfsyn's full-order problem) from ``starts`` random starts
+/// (1..=1000, run in parallel; start k uses ``seed`` + k). Dict as ``skyloop hinfstruct --json``:
+/// {gamma (‖lft(P, K)‖∞ re-verified), controller (StateSpace K), stabilized_starts}.
+#[pyfunction]
+#[pyo3(signature = (P, nmeas, ncon, order, starts=8, seed=1))]
+#[allow(non_snake_case)]
+fn _hinfstruct(
+    py: Python<'_>,
+    P: &Bound<'_, PyAny>,
+    nmeas: usize,
+    ncon: usize,
+    order: usize,
+    starts: usize,
+    seed: u64,
+) -> PyResult<PyObject> {
+    use skyloop::robust::structured::hinfstruct::{hinfstruct, HinfstructOptions};
+    let p = sys_of(P)?;
+    let o = HinfstructOptions {
+        starts,
+        seed,
+        ..Default::default()
+    };
+    let sol = guarded(py, move || hinfstruct(&p, nmeas, ncon, order, &o))?;
+    let d = PyDict::new(py);
+    d.set_item("gamma", sol.gamma)?;
+    d.set_item("controller", wrap(sol.controller))?;
+    d.set_item("stabilized_starts", sol.stabilized_starts)?;
+    d.into_py_any(py)
+}
+
+/// Firmware gains tuned against margin goals (``skyloop tune --plant``): the rate-loop ``plant`` in
+/// the firmware's units, ``firmware`` betaflight / px4 / generic, the other arguments the CLI's
+/// flags (``d_filter_tau`` in s). Dict as ``tune --json`` {gains, feedback_controller,
+/// discrete_controller, margins {disk_alpha, gain_margin_db (dB), phase_margin_deg (deg),
+/// crossover_hz (Hz), ms, mt, stable}, goals [{goal, value, met, active}], cli, defaults, notes},
+/// the controllers as StateSpace objects, plus ``loop_plant`` (the plant the margins were checked
+/// with, the firmware's sample-and-hold delay included). ``out``: also write the CLI's files there.
+#[pyfunction]
+#[pyo3(signature = (plant, firmware, goals=Vec::new(), structure="pid", d_filter_tau=None,
+    maximize="integral_gain", axis="roll", starts=8, out=None))]
+#[allow(clippy::too_many_arguments)]
+fn _tune(
+    py: Python<'_>,
+    plant: &Bound<'_, PyAny>,
+    firmware: &str,
+    goals: Vec<String>,
+    structure: &str,
+    d_filter_tau: Option<f64>,
+    maximize: &str,
+    axis: &str,
+    starts: usize,
+    out: Option<PathBuf>,
+) -> PyResult<PyObject> {
+    use skyloop::tune::{report::write_outputs, tune, Firmware, GenericStructure, Maximize, TuneRequest};
+    let p = sys_of(plant)?;
+    // The same parsers as the CLI, so a bad name raises the CLI's message.
+    let mut req = TuneRequest::new(p, Firmware::parse(firmware).map_err(py_err)?);
+    req.structure = GenericStructure::parse(structure).map_err(py_err)?;
+    req.d_filter_tau_s = d_filter_tau;
+    req.goals = goals;
+    req.maximize = Maximize::parse(maximize).map_err(py_err)?;
+    req.axis = skyloop::firmware::betaflight::Axis::parse(axis).map_err(py_err)?;
+    req.starts = starts;
+    let o = guarded(py, move || {
+        let o = tune(&req)?;
+        if let Some(dir) = &out {
+            write_outputs(&o, dir)?;
+        }
+        Ok::<_, skyloop::Error>(o)
+    })?;
+    let d = json_to_py(py, &o.to_json())?;
+    let dict = d.bind(py);
+    dict.set_item("feedback_controller", wrap(o.feedback_controller))?;
+    dict.set_item("discrete_controller", o.discrete_controller.map(wrap))?;
+    dict.set_item("loop_plant", wrap(o.loop_plant))?;
+    Ok(d)
 }
 
 fn blocks_of(text: &str) -> PyResult<skyloop::robust::uncertainty::BlockStructure> {
@@ -1272,6 +1327,8 @@ fn _skyloop(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(hinfsyn, m)?)?;
     m.add_function(wrap_pyfunction!(ncfsyn, m)?)?;
     m.add_function(wrap_pyfunction!(mixsyn, m)?)?;
+    m.add_function(wrap_pyfunction!(_hinfstruct, m)?)?;
+    m.add_function(wrap_pyfunction!(_tune, m)?)?;
     m.add_function(wrap_pyfunction!(_mu, m)?)?;
     m.add_function(wrap_pyfunction!(_musyn, m)?)?;
     m.add_function(wrap_pyfunction!(musyn_spec, m)?)?;

@@ -145,6 +145,62 @@ def test_margins_with_exact_delay():
     assert m1["phase_margin_deg"] < m0["phase_margin_deg"]
 
 
+def skyloop_cli():
+    """The skyloop binary: $SKYLOOP_CLI, else one cargo built in the repository (.ci/run's cargo test
+    builds target/debug/skyloop before the Python stage), else one on PATH."""
+    import os
+    import shutil
+
+    from conftest import ROOT
+
+    cands = [os.environ.get("SKYLOOP_CLI", "")] + [os.path.join(ROOT, "target", p, "skyloop")
+                                                   for p in ("release", "debug")]
+    for c in cands:
+        if c and os.path.isfile(c) and os.access(c, os.X_OK):
+            return c
+    return shutil.which("skyloop")
+
+
+def same_json(a, b, where, rtol=1e-7):
+    """Equal keys, lengths, types, booleans and nulls; floats to rtol. Not bit for bit: the CLI found
+    is usually a debug/test-profile build and the package a release build, and the two differ in
+    the last bits (the disk margin's frequency, where an optimizer stops, by ~1e-9)."""
+    if isinstance(a, dict):
+        assert isinstance(b, dict) and sorted(a) == sorted(b), (where, sorted(a), b)
+        for k in a:
+            same_json(a[k], b[k], f"{where}.{k}", rtol)
+    elif isinstance(a, list):
+        assert isinstance(b, list) and len(a) == len(b), (where, a, b)
+        for i, (x, y) in enumerate(zip(a, b)):
+            same_json(x, y, f"{where}[{i}]", rtol)
+    elif isinstance(a, float) and isinstance(b, (int, float)) and not isinstance(b, bool):
+        assert abs(a - b) <= rtol * max(abs(a), abs(b)) + 1e-300, (where, a, b)
+    else:
+        assert type(a) is type(b) and a == b, (where, a, b)
+
+
+@pytest.mark.skipif(skyloop_cli() is None, reason="no skyloop binary built (cargo build -p skyloop-cli)")
+def test_margins_dict_is_the_cli_json(tmp_path):
+    # One library function (skyloop::json_out) builds both; delayed loops: several phase
+    # crossovers, an unstable closed loop, no gain crossover (null margins where infinite).
+    import json
+    import subprocess
+
+    loops = ["4*exp(-0.1*s)/(s*(s+2))",
+             "0.0887*exp(-0.032*s)/(0.0256*s+1) * (42^2-s^2)/s * 2.221e5/(s^2+666.4*s+2.221e5)"
+             " * 24.02*(s+54.01)*(s+0.2474)*(s^2+139.3*s+2.624e4) / (s*(s^2+24.14*s+8544)*(s^2+232.4*s+7.041e4))",
+             "30*exp(-0.2*s)/((s+1)*(0.1*s+1))",
+             "0.5*exp(-0.05*s)/(s+1)"]
+    for expr in loops:
+        path = tmp_path / "l.json"
+        path.write_text(sk.tf(expr).to_json())
+        out = subprocess.run([skyloop_cli(), "margins", str(path), "--json"], capture_output=True, text=True,
+                             check=True).stdout
+        cli = json.loads(out)
+        same_json(sk.margins(sk.tf(str(path))), cli, expr)
+        same_json(sk.margins(sk.tf(expr)), cli, expr)
+
+
 @needs_slycot
 def test_hinf_norm_matches_ab13dd(rng):
     for dt in (0.0, 0.02):

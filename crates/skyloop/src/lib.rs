@@ -80,6 +80,7 @@ pub mod figures;
 pub mod firmware;
 pub mod flightlog;
 pub mod identify;
+pub mod json_out;
 pub mod model;
 pub mod papers;
 pub mod prelude;

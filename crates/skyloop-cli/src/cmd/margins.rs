@@ -2,7 +2,6 @@
 //! exact with delays, and closed-loop stability.
 
 use crate::output;
-use serde_json::{json, Value};
 use skyloop::lti::margins::{allmargin, diskmargin, margin_from};
 use std::f64::consts::PI;
 
@@ -17,14 +16,6 @@ pub struct Args {
     json: bool,
 }
 
-fn fin(x: f64) -> Value {
-    if x.is_finite() {
-        json!(x)
-    } else {
-        Value::Null
-    }
-}
-
 fn hz(w: f64) -> f64 {
     w / (2.0 * PI)
 }
@@ -36,27 +27,7 @@ pub fn run(a: Args) -> skyloop::Result<()> {
     let m = margin_from(&all);
     let dm = diskmargin(&sys)?;
     if a.json {
-        return output::print_json(&json!({
-            "gain_margin_db": fin(m.gm_db),
-            "gain_margin_freq_hz": fin(hz(m.gm_w_rad_s)),
-            "phase_margin_deg": fin(m.pm_deg),
-            "phase_margin_freq_hz": fin(hz(m.pm_w_rad_s)),
-            "delay_margin_s": fin(m.delay_margin_s),
-            "disk_margin": {
-                "alpha": fin(dm.alpha),
-                "gain_db": [fin(dm.gain_db[0]), fin(dm.gain_db[1])],
-                "phase_deg": fin(dm.phase_deg),
-                "freq_hz": fin(hz(dm.w_rad_s)),
-            },
-            "closed_loop_stable": all.stable,
-            "unit_gain_band_hz": all.unit_gain_band_rad_s.map(|(a, b)| [hz(a), hz(b)]),
-            "all_gain_margins": all.gain_margins.iter()
-                .map(|g| json!({"gm_db": fin(g.gm_db), "freq_hz": hz(g.w_rad_s)}))
-                .collect::<Vec<_>>(),
-            "all_phase_margins": all.phase_margins.iter()
-                .map(|p| json!({"pm_deg": p.pm_deg, "freq_hz": hz(p.w_rad_s)}))
-                .collect::<Vec<_>>(),
-        }));
+        return output::print_json(&skyloop::json_out::margins_to_json(&all, &m, &dm));
     }
     let opt = |x: f64, unit: &str| {
         if x.is_finite() {
