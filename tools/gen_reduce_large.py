@@ -7,22 +7,17 @@ Run: python3 tools/gen_reduce_large.py  (numpy, slycot)
 """
 import json
 import os
+import sys
 
 import numpy as np
 import slycot
 
+# The LCG of skyloop_fixtures::lcg_matrix, as bench/compare.py reproduces it.
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "bench"))
+from compare import lcg  # noqa: E402
+
 OUT = os.path.join(os.path.dirname(__file__), "..", "crates", "skyloop-lti", "tests", "fixtures", "reduce",
                    "lcg_n1000.json")
-
-
-def lcg(rows, cols, seed):
-    mask = (1 << 64) - 1
-    state = seed
-    out = np.empty(rows * cols)
-    for k in range(rows * cols):
-        state = (state * 6364136223846793005 + 1442695040888963407) & mask
-        out[k] = ((state >> 11) / float(1 << 53)) * 2.0 - 1.0
-    return out.reshape(cols, rows).T.copy()
 
 
 def main():

@@ -14,21 +14,7 @@ use skyloop_linalg::lyapunov::{lyap, lyap_chol};
 use skyloop_linalg::riccati::{care, dare};
 use skyloop_linalg::schur::real_schur;
 
-/// Seconds of CPU time consumed by this thread (wall time where that clock is unavailable).
-#[allow(unsafe_code)] // one libc call; std has no per-thread CPU clock
-fn now() -> f64 {
-    #[cfg(unix)]
-    {
-        let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
-        // SAFETY: clock_gettime only writes the timespec it is given.
-        if unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) } == 0 {
-            return ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9;
-        }
-    }
-    use std::sync::OnceLock;
-    static T0: OnceLock<std::time::Instant> = OnceLock::new();
-    T0.get_or_init(std::time::Instant::now).elapsed().as_secs_f64()
-}
+use skyloop_fixtures::thread_cpu_seconds as now;
 
 fn mat(v: &Value) -> Option<Mat<f64>> {
     let rows = v.as_array()?;
