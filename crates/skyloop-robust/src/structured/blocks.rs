@@ -35,6 +35,9 @@ impl RealizationGrad {
 }
 
 /// The derivative filter of a PID's D term, kd·s·F(s).
+// A problem holds a handful of blocks, built once: boxing the fixed filters would only make the
+// user's construction noisier.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, PartialEq)]
 pub enum DerivativeFilter {
     /// F(s) = 1/(tf·s + 1) with the time constant tf (s) tuned.
@@ -46,6 +49,7 @@ pub enum DerivativeFilter {
 
 /// A tunable block. Parameters (θ) in order, in the units of the loop (controller output per
 /// measured unit):
+#[allow(clippy::large_enum_variant)] // as DerivativeFilter: few blocks, built once
 #[derive(Debug, Clone, PartialEq)]
 pub enum Block {
     /// K = k. θ = \[k\].

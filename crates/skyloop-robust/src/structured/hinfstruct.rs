@@ -16,6 +16,9 @@ use skyloop_linalg::riccati::care;
 use skyloop_lti::freqresp::dynamics_range;
 use skyloop_lti::StateSpace;
 
+/// A nonsmooth objective of the scaled parameters: its value and a (sub)gradient.
+type Objective<'a> = dyn Fn(&[f64]) -> (f64, Vec<f64>) + 'a;
+
 /// Options of [`hinfstruct`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HinfstructOptions {
@@ -182,7 +185,7 @@ fn run(gp: &GenPlant, s: &Structure, th0: Vec<f64>, w0: f64, max_iter: usize) ->
         _ => (f64::INFINITY, Vec::new()),
     };
     // BFGS on x = θ/scale.
-    let round = |f: &dyn Fn(&[f64]) -> (f64, Vec<f64>), th: &[f64], o: &BfgsOptions| -> (f64, Vec<f64>) {
+    let round = |f: &Objective, th: &[f64], o: &BfgsOptions| -> (f64, Vec<f64>) {
         let sc = scaled(th);
         let x0: Vec<f64> = th.iter().zip(&sc).map(|(a, b)| a / b).collect();
         let r = bfgs(
