@@ -243,7 +243,7 @@ fn header_numbers(log: &str, key: &str) -> Vec<u64> {
 
 #[test]
 fn tune_from_a_betaflight_log_compares_the_flown_gains() {
-    let log = format!("{}/../../testdata/logs/LOG00037.BFL", env!("CARGO_MANIFEST_DIR"));
+    let log = format!("{}/../../testdata/logs/btfl_all.bbl", env!("CARGO_MANIFEST_DIR"));
     let dir = std::env::temp_dir().join(format!("skyloop-tune-log-{}", std::process::id()));
     let v = json(&[
         "tune",
@@ -296,7 +296,7 @@ fn tune_from_a_betaflight_log_compares_the_flown_gains() {
 #[test]
 fn tune_from_a_log_rejects_bad_requests() {
     let logs = format!("{}/../../testdata/logs", env!("CARGO_MANIFEST_DIR"));
-    let bf = format!("{logs}/LOG00037.BFL");
+    let bf = format!("{logs}/btfl_all.bbl");
     let idle = format!("{logs}/btfl_001.bbl");
     let cases: [(Vec<&str>, &str); 4] = [
         (
