@@ -37,7 +37,7 @@ pub fn default_nfft_records(lengths: &[usize]) -> usize {
 /// method, the records' spectra averaged with weights proportional to their lengths:
 /// - Welch: the windows of every record at least `nfft` long (default [`default_nfft_records`]);
 ///   ν is the sum of the records' equivalent averages;
-/// - SPAFDR: each record tapered at both ends (cosine ramps of [`TAPER_S`], at most a tenth of the
+/// - SPAFDR: each record tapered at both ends (cosine ramps of `TAPER_S`, at most a tenth of the
 ///   record each): an untapered record's periodogram leaks the power of the jump between its last
 ///   and first sample (a flight's rates wander by hundreds of deg/s) as a 1/f² floor that buries a
 ///   pilot's weak high-frequency setpoint. Its periodograms are then smoothed with the same Hann

@@ -23,7 +23,7 @@ pub struct Units {
     pub params: BTreeMap<String, String>,
 }
 
-/// What [`identify`] found.
+/// What [`identify`](super::identify) found.
 #[derive(Debug, Clone)]
 pub struct Identification {
     /// "input → output", the plot's title.

@@ -12,7 +12,7 @@ pub struct IdentifyRequest {
     /// Log file: CSV with a time_s column, PX4 ULog, or Betaflight blackbox.
     pub data: PathBuf,
     /// roll, pitch or yaw: the firmware's rate-loop channels, all airborne segments, the setpoint as
-    /// instrument and the model [`RATE_LOOP_MODEL`] (see [`axis_preset`]); every other field given
+    /// instrument and the model [`RATE_LOOP_MODEL`](super::RATE_LOOP_MODEL) (see [`axis_preset`](super::axis_preset)); every other field given
     /// overrides its part of the preset.
     pub axis: Option<String>,
     /// Plant input column (e.g. `axisP[0]+axisI[0]+axisD[0]+axisF[0]`, `actuator_controls_0.control[0]`);
