@@ -110,12 +110,23 @@ pub fn hinfstruct(
     // near-optimal basin the random and LQG starts often miss (a local minimum of the
     // realization's entries far above γ_opt). Several levels, because the controller at γ_opt
     // itself is ill conditioned (its gains grow without bound as γ → γ_opt).
-    seeds.splice(0..0, hinfsyn_starts(p, nmeas, ncon, order, w0));
-    let runs: Vec<Option<(f64, Vec<f64>)>> = (0..opts.starts)
+    // At full order they lead the seeds (and their perturbed copies follow); below it they run
+    // in addition to the random starts, which a static or low-order problem still needs (a
+    // truncated central controller rarely stabilizes at order 0).
+    let central = hinfsyn_starts(p, nmeas, ncon, order, w0);
+    let extra = if order == p.nx() {
+        seeds.splice(0..0, central);
+        Vec::new()
+    } else {
+        central
+    };
+    let runs: Vec<Option<(f64, Vec<f64>)>> = (0..opts.starts + extra.len())
         .into_par_iter()
         .map(|k| {
             let seed = opts.seed + k as u64;
-            let x0 = if k < seeds.len() {
+            let x0 = if k >= opts.starts {
+                extra[k - opts.starts].clone()
+            } else if k < seeds.len() {
                 seeds[k].clone()
             } else if k < 2 * seeds.len() {
                 let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
