@@ -587,26 +587,14 @@ fn analyse(gains: Value, c: &StateSpace, cr: &StateSpace, held: &[StateSpace], w
     })
 }
 
-fn margins_json(m: &LoopCheck) -> Value {
-    json!({
-        "disk_alpha": m.disk_alpha,
-        "gain_margin_db": m.gain_margin_db,
-        "phase_margin_deg": m.phase_margin_deg,
-        "crossover_hz": m.crossover_hz,
-        "ms": m.ms,
-        "mt": m.mt,
-        "stable": m.stable,
-    })
-}
-
 impl TuneAnalysis {
     /// `{gains, margins, worst_margins, noise_gain, step: {t_s, y}, rise_time_s, overshoot_pct}`.
     pub fn to_json(&self) -> Value {
         json!({
             "gains": self.gains,
             "feedback_controller": skyloop_lti::json::LtiJson::from_ss(&self.feedback_controller),
-            "margins": margins_json(&self.margins),
-            "worst_margins": margins_json(&self.worst),
+            "margins": super::margins_json(&self.margins),
+            "worst_margins": super::margins_json(&self.worst),
             "noise_gain": self.noise_gain,
             "step": {"t_s": self.step_t_s, "y": self.step_y},
             "rise_time_s": self.rise_time_s,

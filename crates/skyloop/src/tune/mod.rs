@@ -516,15 +516,7 @@ impl TuneOutcome {
             "gains": self.gains,
             "feedback_controller": LtiJson::from_ss(&self.feedback_controller),
             "discrete_controller": self.discrete_controller.as_ref().map(LtiJson::from_ss),
-            "margins": {
-                "disk_alpha": m.disk_alpha,
-                "gain_margin_db": m.gain_margin_db,
-                "phase_margin_deg": m.phase_margin_deg,
-                "crossover_hz": m.crossover_hz,
-                "ms": m.ms,
-                "mt": m.mt,
-                "stable": m.stable,
-            },
+            "margins": margins_json(m),
             "goals": self.goals.iter().map(|g| json!({
                 "goal": g.label, "value": g.value, "met": g.met, "active": g.active,
             })).collect::<Vec<_>>(),
@@ -533,4 +525,17 @@ impl TuneOutcome {
             "notes": self.notes,
         })
     }
+}
+
+/// The re-verified margins of a tuned loop as the `margins` object of `tune --json`.
+pub(crate) fn margins_json(m: &LoopCheck) -> serde_json::Value {
+    json!({
+        "disk_alpha": m.disk_alpha,
+        "gain_margin_db": m.gain_margin_db,
+        "phase_margin_deg": m.phase_margin_deg,
+        "crossover_hz": m.crossover_hz,
+        "ms": m.ms,
+        "mt": m.mt,
+        "stable": m.stable,
+    })
 }
