@@ -1025,6 +1025,10 @@ fn note<DB: DrawingBackend>(
     Ok(())
 }
 
+/// A candidate place of a note: anchor (px), alignment, covered rectangle (left, top, right,
+/// bottom px) and score.
+type NotePlace = ((i32, i32), HPos, VPos, (i32, i32, i32, i32), usize);
+
 fn draw_markers<DB: DrawingBackend>(
     p: &Panel,
     f: &Frame,
@@ -1114,7 +1118,7 @@ fn draw_markers<DB: DrawingBackend>(
                 // Of the places around the point (four quadrants, near then farther out), the one
                 // inside the frame that hides the least of the curves and no earlier note: a note
                 // must not cover the response it describes, nor another trace's note.
-                let mut best: Option<((i32, i32), HPos, VPos, (i32, i32, i32, i32), usize)> = None;
+                let mut best: Option<NotePlace> = None;
                 for gap in [6, 22, 40] {
                     for (dx, dy) in [(1, -1), (1, 1), (-1, -1), (-1, 1)] {
                         let x0 = if dx > 0 { q.0 + gap } else { q.0 - gap - tw };
