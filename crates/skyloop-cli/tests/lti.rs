@@ -24,6 +24,43 @@ fn malformed_expression_exits_2_with_column() {
 }
 
 #[test]
+fn a_huge_bad_expression_is_quoted_short() {
+    // 5,000 nested parentheses: refused at the nesting limit, and the message quotes the input's ends
+    // (not all 10,001 characters) next to the column.
+    let text = format!("{}s{}", "(".repeat(5000), ")".repeat(5000));
+    let (code, _, err) = skyloop(&["poles", &text]);
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("nests deeper") && err.contains("10001 characters"),
+        "{}",
+        &err[..err.len().min(400)]
+    );
+    assert!(err.len() < 600, "{} bytes of message", err.len());
+}
+
+#[test]
+fn an_empty_log_is_named_as_empty_not_as_csv() {
+    let dir = std::env::temp_dir().join(format!("skyloop-empty-log-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join("flight.ulg");
+    std::fs::write(&path, b"").expect("write");
+    let (code, _, err) = skyloop(&["log", "info", path.to_str().expect("utf-8 path")]);
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("flight.ulg") && err.contains("empty") && !err.contains("CSV"),
+        "{err}"
+    );
+}
+
+#[test]
+fn ill_posed_feedback_is_said() {
+    // (1−s)/(1+s): 1 + L(∞) = 0, the closed loop (1−s)/2 is improper.
+    let (code, _, err) = skyloop(&["margins", "(1-s)/(1+s)"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("ill-posed"), "{err}");
+}
+
+#[test]
 fn c2d_json_matches_closed_form() {
     // 1/(s+1) with zoh at 0.1 s: a = e^{-0.1} (closed form).
     let (code, out, err) = skyloop(&["c2d", "1/(s+1)", "--dt", "0.1", "--method", "zoh", "--json"]);

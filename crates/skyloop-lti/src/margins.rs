@@ -594,6 +594,14 @@ fn nyquist_counted(l: &StateSpace) -> Result<(bool, usize)> {
             w_end *= 10.0;
         }
     }
+    if (1.0 + l.d[(0, 0)]).abs() <= 1e-12 * l.d[(0, 0)].abs().max(1.0) {
+        // 1 + L(∞) = 0: the closed loop L/(1 + L) is improper (e.g. (1−s)/(1+s) gives (1−s)/2), so
+        // "stable" has no meaning for it; saying UNSTABLE would be as wrong as saying stable.
+        return Err(LtiError::Unsupported(format!(
+            "the feedback loop is ill-posed: L(∞) = {} so 1 + L(∞) = 0 and the closed loop L/(1 + L) is improper",
+            l.d[(0, 0)]
+        )));
+    }
     if dt == 0.0 && l.has_delay() && l.d[(0, 0)].abs() >= 1.0 {
         return Err(LtiError::Unsupported(
             "a delayed loop with |D| >= 1 is a neutral system; its Nyquist test is not decided".into(),
@@ -900,6 +908,11 @@ mod tests {
             a <= all.w_range_rad_s.0 * 1.01 && b >= all.w_range_rad_s.1 * 0.99,
             "{a} {b}"
         );
+        // (1−s)/(1+s) has L(∞) = −1: the feedback is ill-posed, which is said rather than a verdict.
+        let err = nyquist_stable(&tf1(&[-1.0, 1.0], &[1.0, 1.0], 0.0))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("ill-posed"), "{err}");
         // An ordinary loop has none.
         assert!(allmargin(&tf1(&[3.0], &[1.0, 3.0, 2.0, 0.0], 0.0))
             .unwrap()

@@ -218,7 +218,16 @@ fn linf_continuous(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
     };
     let eig0: Vec<c64> = eig.iter().map(|p| p / w0).collect();
     let a = &sys.a * (1.0 / w0);
-    let b = &sys.b * (1.0 / w0);
+    // The factor 1/ω0 is split between B and C (both powers of two): on B alone it overflows for a
+    // pole at 1e-300 and B = 1e150 although the gain (B·C/ω0) may still be in range.
+    let half = 2f64.powi((-w0.log2() / 2.0).round() as i32);
+    let b = &sys.b * half;
+    let c_in = &sys.c * (1.0 / w0 / half);
+    if !(b.norm_max().is_finite() && c_in.norm_max().is_finite()) {
+        return Err(LtiError::Numerical(format!(
+            "the model's gain at its slowest pole ({w0:.1e} rad/s) overflows the floating-point range: the norm is out of range"
+        )));
+    }
     // A uniform state scaling (B/σ, C·σ with σ² ≈ ‖B‖/‖C‖) first: the imbalance may exceed what
     // the per-state balancing moves (its factors are capped at 1e±100).
     let uniform = |b: &Mat<f64>, c: &Mat<f64>| {
@@ -229,8 +238,8 @@ fn linf_continuous(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
             1.0
         }
     };
-    let sig = uniform(&b, &sys.c);
-    let fs = StateSpace::new(a, &b * (1.0 / sig), &sys.c * sig, sys.d.clone(), 0.0)?;
+    let sig = uniform(&b, &c_in);
+    let fs = StateSpace::new(a, &b * (1.0 / sig), &c_in * sig, sys.d.clone(), 0.0)?;
     // One evaluator serves the whole computation: the model the Hamiltonian is built on below
     // differs from `fs` only by exact power-of-two scalings (outputs by 1/k, states), so its gain is
     // σ_max(G_fs)/k. A few hundred evaluations at most: the Hessenberg set-up pays off over Schur.
@@ -579,15 +588,18 @@ pub fn h2_norm(sys: &StateSpace) -> Result<f64> {
         return Ok(f64::INFINITY);
     }
     let continuous = sys.dt == 0.0;
-    let d_energy: f64 = (0..sys.ny())
-        .flat_map(|i| (0..sys.nu()).map(move |j| (i, j)))
-        .map(|(i, j)| sys.d[(i, j)] * sys.d[(i, j)])
-        .sum();
-    if continuous && d_energy > 0.0 {
+    // ‖D‖_F, scaled so that entries near 1e±300 neither overflow nor underflow when squared.
+    let d_max = sys.d.norm_max();
+    let d_norm = if d_max > 0.0 {
+        d_max * (&sys.d * faer::Scale(1.0 / d_max)).norm_l2()
+    } else {
+        0.0
+    };
+    if continuous && d_norm > 0.0 {
         return Ok(f64::INFINITY);
     }
     if sys.nx() == 0 {
-        return Ok(if continuous { 0.0 } else { d_energy.sqrt() });
+        return Ok(if continuous { 0.0 } else { d_norm });
     }
     // The norm is invariant under state scaling; the Lyapunov solve is far more accurate on the
     // balanced realization (D⁻¹AD, D⁻¹B, CD) of a badly scaled model.
@@ -596,20 +608,45 @@ pub fn h2_norm(sys: &StateSpace) -> Result<f64> {
     let a = Mat::from_fn(n, n, |i, j| sys.a[(i, j)] * d[j] / d[i]);
     let b = Mat::from_fn(n, sys.nu(), |i, j| sys.b[(i, j)] / d[i]);
     let c = Mat::from_fn(sys.ny(), n, |i, j| sys.c[(i, j)] * d[j]);
-    let bbt = &b * b.transpose();
-    let p = if continuous {
-        skyloop_linalg::lyapunov::lyap(a.as_ref(), bbt.as_ref())?
+    // ‖G‖₂ is linear in B and in C: solve with both at unit size and scale the root back, so that
+    // coefficients such as 1e300 give 7.07e299 for 1e300/(s+1) instead of an overflowed square.
+    let (b_max, c_max) = (b.norm_max(), c.norm_max());
+    let strictly_proper_norm = if b_max == 0.0 || c_max == 0.0 {
+        0.0
     } else {
-        skyloop_linalg::lyapunov::dlyap(a.as_ref(), bbt.as_ref())?
+        let b = Mat::from_fn(n, sys.nu(), |i, j| b[(i, j)] / b_max);
+        let c = Mat::from_fn(sys.ny(), n, |i, j| c[(i, j)] / c_max);
+        let bbt = &b * b.transpose();
+        // Continuous time: A → A/α rescales time, P → α·P, so ‖G‖₂ = ‖G_α‖₂/√α; with α = max|A| a
+        // pole at −1e-300 is solved at −1 (an absolute singularity test would refuse it).
+        let alpha = if continuous { a.norm_max() } else { 1.0 };
+        let p = if continuous {
+            let a = &a * faer::Scale(1.0 / alpha);
+            skyloop_linalg::lyapunov::lyap(a.as_ref(), bbt.as_ref())?
+        } else {
+            skyloop_linalg::lyapunov::dlyap(a.as_ref(), bbt.as_ref())?
+        };
+        let cpct = &c * &p * c.transpose();
+        let tr: f64 = (0..sys.ny()).map(|i| cpct[(i, i)]).sum();
+        if tr < 0.0 {
+            return Err(LtiError::Numerical(format!(
+                "H2 norm: trace(C·P·Cᵀ) = {tr} < 0 (gramian lost definiteness; poles too close to the boundary?)"
+            )));
+        }
+        b_max * c_max * (tr / alpha).sqrt()
     };
-    let cpct = &c * &p * c.transpose();
-    let tr: f64 = (0..sys.ny()).map(|i| cpct[(i, i)]).sum::<f64>() + if continuous { 0.0 } else { d_energy };
-    if tr < 0.0 {
+    let norm = if continuous {
+        strictly_proper_norm
+    } else {
+        strictly_proper_norm.hypot(d_norm)
+    };
+    if !norm.is_finite() {
         return Err(LtiError::Numerical(format!(
-            "H2 norm: trace(C·P·Cᵀ) = {tr} < 0 (gramian lost definiteness; poles too close to the boundary?)"
+            "the H2 norm exceeds the floating-point range ({:.3e}·{:.3e} before the gramian): the norm is out of range",
+            b_max, c_max
         )));
     }
-    Ok(tr.sqrt())
+    Ok(norm)
 }
 
 #[cfg(test)]
@@ -663,6 +700,32 @@ mod edge_tests {
     }
 
     #[test]
+    fn h2_norm_of_extreme_gains_is_scaled_not_overflowed() {
+        // ‖k/(s+1)‖₂ = k/√2 for any k the format can hold; the gramian sees B and C at unit size.
+        for k in [1e300, 1e-300, 1e150, 3.0] {
+            let sys = StateSpace::from_rows(&[vec![-1.0]], &[vec![k]], &[vec![1.0]], &[vec![0.0]], 0.0).unwrap();
+            let h2 = h2_norm(&sys).unwrap();
+            let want = k / 2f64.sqrt();
+            assert!((h2 - want).abs() <= 1e-12 * want, "k = {k:e}: {h2:e} vs {want:e}");
+        }
+        let sys = parse_model("1e300/(s+1)").unwrap();
+        let h2 = h2_norm(&sys).unwrap();
+        assert!((h2 - 1e300 / 2f64.sqrt()).abs() <= 1e-10 * h2, "{h2:e}");
+        // Discrete: ‖D + C(zI−A)⁻¹B‖₂² = D² + C²B²/(1−a²) with a = 0.5, D = 1e300, C·B = 1e300.
+        let sys = StateSpace::from_rows(&[vec![0.5]], &[vec![1e300]], &[vec![1.0]], &[vec![1e300]], 0.1).unwrap();
+        let want = 1e300 * (1.0 + 1.0 / 0.75f64).sqrt();
+        assert!((h2_norm(&sys).unwrap() - want).abs() <= 1e-12 * want);
+        // A very slow stable pole: ‖1/(s+1e-300)‖₂ = 1/√(2e-300).
+        let sys = parse_model("1/(s+1e-300)").unwrap();
+        let want = 1.0 / 2e-300f64.sqrt();
+        assert!((h2_norm(&sys).unwrap() - want).abs() <= 1e-12 * want);
+        // A norm beyond f64 is an error that says so, not inf or NaN.
+        let sys = StateSpace::from_rows(&[vec![-1.0]], &[vec![1e300]], &[vec![1e300]], &[vec![0.0]], 0.0).unwrap();
+        let err = h2_norm(&sys).unwrap_err().to_string();
+        assert!(err.contains("out of range"), "{err}");
+    }
+
+    #[test]
     fn extreme_gains_give_the_right_norm() {
         for (text, want) in [
             ("1e300/(s+1)", 1e300),
@@ -680,6 +743,7 @@ mod edge_tests {
             (-1e-300, 1e-300, 1.0, 1.0),
             (-1.0, 1e300, 1e-300, 1.0),
             (-1e150, 1e150, 1e150, 1e150),
+            (-1e-300, 1e150, 1e-200, 1e250),
         ] {
             let sys = StateSpace::from_rows(&[vec![a]], &[vec![b]], &[vec![c]], &[vec![0.0]], 0.0).unwrap();
             match hinf_norm(&sys) {
@@ -687,6 +751,14 @@ mod edge_tests {
                 Err(e) => assert!(e.to_string().contains("range"), "a={a:e}: {e}"),
             }
         }
+        // In range although B/ω0 alone would overflow: ‖1e150·1e-200/(s+1e-300)‖∞ = 1e250.
+        let sys = StateSpace::from_rows(&[vec![-1e-300]], &[vec![1e150]], &[vec![1e-200]], &[vec![0.0]], 0.0).unwrap();
+        let (n, _) = hinf_norm(&sys).unwrap();
+        assert!((n - 1e250).abs() <= 1e-8 * 1e250, "{n:e}");
+        let e = hinf_norm(&parse_model("1e300/(s+1e-300)").unwrap())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("out of range"), "{e}");
         // Beyond the range: a clear error, never inf for a stable model.
         let sys = parse_model("1e300/((s+1e-10)*(s+1))").unwrap();
         let e = hinf_norm(&sys).unwrap_err().to_string();

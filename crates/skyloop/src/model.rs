@@ -29,7 +29,19 @@ pub fn load_model(arg: &str) -> Result<StateSpace> {
         return Err(Error::Input(format!("no such file: {arg}")));
     }
     skyloop_lti::expr::parse_model(arg)
-        .map_err(|e| Error::Input(format!("'{arg}' is not a file; as an expression: {e}")))
+        .map_err(|e| Error::Input(format!("'{}' is not a file; as an expression: {e}", abbreviate(arg))))
+}
+
+/// `arg` as quoted in a message: long inputs (a generated expression can be megabytes) keep their
+/// first and last 40 characters, since the parse error names the column.
+fn abbreviate(arg: &str) -> String {
+    let chars: Vec<char> = arg.chars().collect();
+    if chars.len() <= 100 {
+        return arg.to_string();
+    }
+    let head: String = chars[..40].iter().collect();
+    let tail: String = chars[chars.len() - 40..].iter().collect();
+    format!("{head}…{tail} ({} characters)", chars.len())
 }
 
 /// Loads a model named relative to `base` (a spec file's directory) when such a file exists, else

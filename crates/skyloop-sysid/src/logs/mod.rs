@@ -109,6 +109,11 @@ impl Log {
     pub fn open(path: &Path, opts: &OpenOptions) -> Result<Log> {
         let bytes = std::fs::read(path).map_err(|e| SysidError::Io(format!("cannot read {}: {e}", path.display())))?;
         let name = path.display().to_string();
+        if bytes.is_empty() {
+            // Detection reads the first bytes; with none, the CSV reader's "empty CSV file" would
+            // misname a truncated .ulg or .bbl download.
+            return Err(SysidError::Log(format!("{name}: the file is empty (0 bytes)")));
+        }
         match detect(&bytes) {
             LogFormat::Ulog => ulog::read_bytes(&bytes, &name),
             LogFormat::Blackbox => blackbox::read_bytes(&bytes, &name, opts.session),
