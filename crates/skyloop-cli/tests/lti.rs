@@ -53,6 +53,28 @@ fn an_empty_log_is_named_as_empty_not_as_csv() {
 }
 
 #[test]
+fn inverted_ranges_and_unwritable_outputs_are_named() {
+    for (args, want) in [
+        (
+            &["identify", "no-such-log.bbl", "--from", "10", "--to", "5"][..],
+            "--from 10 must be below --to 5",
+        ),
+        (
+            &["identify", "no-such-log.bbl", "--fmin-hz", "50", "--fmax-hz", "5"][..],
+            "--fmin-hz 50 must be below --fmax-hz 5",
+        ),
+        (
+            &["bode", "1/(s+1)", "--out", "/nonexistent-skyloop-dir/x.png"][..],
+            "No such file or directory",
+        ),
+    ] {
+        let (code, _, err) = skyloop(args);
+        assert_eq!(code, 2, "{args:?}");
+        assert!(err.contains(want) && !err.contains("Os {"), "{args:?}: {err}");
+    }
+}
+
+#[test]
 fn ill_posed_feedback_is_said() {
     // (1−s)/(1+s): 1 + L(∞) = 0, the closed loop (1−s)/2 is improper.
     let (code, _, err) = skyloop(&["margins", "(1-s)/(1+s)"]);

@@ -48,20 +48,41 @@ fn block(m: &Mat<f64>, r0: usize, c0: usize, r: usize, c: usize) -> Mat<f64> {
     Mat::from_fn(r, c, |i, j| m[(r0 + i, c0 + j)])
 }
 
-/// (e^{A s}, ∫₀ˢ e^{Aη} dη · B) from one exponential of the block matrix [[A, B], [0, 0]]·s.
+/// (e^{A s}, ∫₀ˢ e^{Aη} dη · B): the exponential of the block matrix [[A, B], [0, 0]]·s/2^k at a
+/// norm ≤ 1, then k doublings Φ ← Φ², Γ ← Φ·Γ + Γ. Squaring the whole block matrix (as a plain expm
+/// does) would carry the Padé rounding of its identity block, 1 − ε, into (1 − ε)^(2^k): at
+/// s·‖A‖ = 1e20 that drove Γ of 1/(s+1) to 0 instead of 1. Here the identity stays exact.
 fn zoh_pair(a: &Mat<f64>, b: &Mat<f64>, s: f64) -> Result<(Mat<f64>, Mat<f64>)> {
     let (n, m) = (a.nrows(), b.ncols());
+    let norm1 = |j0: usize, j1: usize, m: &Mat<f64>| {
+        (j0..j1)
+            .map(|j| m.col(j).iter().map(|v| v.abs()).sum::<f64>())
+            .fold(0.0, f64::max)
+    };
+    let size = (norm1(0, n, a) + norm1(0, m, b)) * s;
+    if !size.is_finite() {
+        return Err(LtiError::InvalidArgument(format!(
+            "sample time {s} s times the model's coefficients overflows the floating-point range"
+        )));
+    }
+    let k = if size > 1.0 { size.log2().ceil() as i32 } else { 0 };
+    let h = s * 2f64.powi(-k);
     let em = Mat::<f64>::from_fn(n + m, n + m, |i, j| {
         if i < n && j < n {
-            a[(i, j)] * s
+            a[(i, j)] * h
         } else if i < n {
-            b[(i, j - n)] * s
+            b[(i, j - n)] * h
         } else {
             0.0
         }
     });
     let e = expm(em.as_ref())?;
-    Ok((block(&e, 0, 0, n, n), block(&e, 0, n, n, m)))
+    let (mut phi, mut gamma) = (block(&e, 0, 0, n, n), block(&e, 0, n, n, m));
+    for _ in 0..k {
+        gamma = &phi * &gamma + &gamma;
+        phi = &phi * &phi;
+    }
+    Ok((phi, gamma))
 }
 
 /// Number of whole samples in `t_s` when it is a multiple of `dt` (to 1e-9 relative), else None.
@@ -374,6 +395,22 @@ fn zoh_fractional(sys: &StateSpace, dt: f64) -> Result<StateSpace> {
 mod tests {
     use super::*;
     use crate::expr::parse_model;
+
+    #[test]
+    fn zoh_with_a_huge_sample_time_keeps_the_input_gain() {
+        // 1/(s+1) held for dt: x⁺ = e^{−dt}·x + (1 − e^{−dt})·u, so b → 1 as dt grows.
+        for dt in [10.0, 1e5, 1e10, 1e20, 1e100] {
+            let g = crate::expr::parse_model("1/(s+1)").unwrap();
+            let d = c2d(&g, dt, Method::Zoh).unwrap();
+            let want_b = -(-dt).exp_m1();
+            assert!(
+                (d.b[(0, 0)] * d.c[(0, 0)] - want_b).abs() < 1e-12,
+                "dt {dt:e}: b {}",
+                d.b[(0, 0)]
+            );
+            assert!((d.a[(0, 0)] - (-dt).exp()).abs() < 1e-12);
+        }
+    }
 
     #[test]
     fn zoh_first_order_closed_form() {

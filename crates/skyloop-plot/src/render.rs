@@ -70,6 +70,11 @@ pub(crate) fn save(fig: &Figure, path: &Path) -> Result<()> {
         path: name.clone(),
         message: e,
     };
+    if matches!(ext.as_deref(), Some("svg" | "png")) {
+        // The backends report a missing folder or a read-only file as a Debug dump of their nested
+        // error at present() time; checking first gives the operating system's own words.
+        std::fs::File::create(path).map_err(|e| draw_err(format!("cannot create the file: {e}")))?;
+    }
     match ext.as_deref() {
         Some("svg") => {
             let root = SVGBackend::new(path, size).into_drawing_area();

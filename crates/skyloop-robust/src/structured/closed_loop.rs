@@ -133,7 +133,7 @@ impl GenPlant {
         }
         if nmeas == 0 || ncon == 0 || nmeas >= p.ny() || ncon >= p.nu() {
             return Err(RobustError::Dimension(format!(
-                "nmeas must be in 1..={} and ncon in 1..={} for a plant with {} outputs and {} inputs, got {nmeas} and {ncon}",
+                "nmeas must be in 1..={} and ncon in 1..={} for a generalized plant with {} outputs and {} inputs (it needs at least one performance output z and one disturbance input w besides the measurements and controls), got nmeas = {nmeas}, ncon = {ncon}",
                 p.ny().saturating_sub(1),
                 p.nu().saturating_sub(1),
                 p.ny(),

@@ -108,6 +108,16 @@ pub fn identify(a: &IdentifyRequest) -> Result<Identification> {
             return Err(Error::Input(format!("{name} must be a finite number")));
         }
     }
+    for (lo_name, lo, hi_name, hi) in [
+        ("--from", a.from, "--to", a.to),
+        ("--fmin-hz", a.fmin_hz, "--fmax-hz", a.fmax_hz),
+    ] {
+        if let (Some(lo), Some(hi)) = (lo, hi) {
+            if lo >= hi {
+                return Err(Error::Input(format!("{lo_name} {lo} must be below {hi_name} {hi}")));
+            }
+        }
+    }
     if a.blocks == 1 || a.blocks > 64 {
         return Err(Error::Input(format!(
             "--blocks {} is outside 2..=64 (0 turns the jackknife off)",
