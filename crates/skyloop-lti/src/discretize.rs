@@ -48,41 +48,56 @@ fn block(m: &Mat<f64>, r0: usize, c0: usize, r: usize, c: usize) -> Mat<f64> {
     Mat::from_fn(r, c, |i, j| m[(r0 + i, c0 + j)])
 }
 
-/// (e^{A s}, ∫₀ˢ e^{Aη} dη · B): the exponential of the block matrix [[A, B], [0, 0]]·s/2^k at a
-/// norm ≤ 1, then k doublings Φ ← Φ², Γ ← Φ·Γ + Γ. Squaring the whole block matrix (as a plain expm
-/// does) would carry the Padé rounding of its identity block, 1 − ε, into (1 − ε)^(2^k): at
-/// s·‖A‖ = 1e20 that drove Γ of 1/(s+1) to 0 instead of 1. Here the identity stays exact.
-fn zoh_pair(a: &Mat<f64>, b: &Mat<f64>, s: f64) -> Result<(Mat<f64>, Mat<f64>)> {
-    let (n, m) = (a.nrows(), b.ncols());
-    let norm1 = |j0: usize, j1: usize, m: &Mat<f64>| {
-        (j0..j1)
-            .map(|j| m.col(j).iter().map(|v| v.abs()).sum::<f64>())
-            .fold(0.0, f64::max)
-    };
-    let size = (norm1(0, n, a) + norm1(0, m, b)) * s;
+/// e^M for a block upper-triangular M = [[M₁₁, M₁₂], [0, N]] whose n×n block M₁₁ comes first and
+/// whose trailing block N is nilpotent with N² = 0 (the hold blocks of zoh and foh), so e^{Nt} =
+/// I + N·t exactly. M is scaled to norm ≤ 1, exponentiated, and squared back with the trailing block
+/// reset to its exact value after each squaring: a plain expm carries the Padé rounding of that block
+/// (1 − ε on its diagonal) into (1 − ε)^(2^k), which at dt·‖A‖ = 1e20 drove the zoh input matrix
+/// of 1/(s+1) to 0 instead of 1.
+fn expm_hold(m: &Mat<f64>, n: usize) -> Result<Mat<f64>> {
+    let size = (0..m.ncols())
+        .map(|j| m.col(j).iter().map(|v| v.abs()).sum::<f64>())
+        .fold(0.0, f64::max);
     if !size.is_finite() {
-        return Err(LtiError::InvalidArgument(format!(
-            "sample time {s} s times the model's coefficients overflows the floating-point range"
-        )));
+        return Err(LtiError::InvalidArgument(
+            "the sample time times the model's coefficients overflows the floating-point range".into(),
+        ));
     }
     let k = if size > 1.0 { size.log2().ceil() as i32 } else { 0 };
-    let h = s * 2f64.powi(-k);
+    let mut t = 2f64.powi(-k);
+    let mut e = expm((m * faer::Scale(t)).as_ref())?;
+    let r = m.nrows() - n;
+    for _ in 0..k {
+        e = &e * &e;
+        t *= 2.0;
+        for i in 0..r {
+            for j in 0..m.ncols() {
+                let exact = if j < n {
+                    0.0
+                } else {
+                    f64::from(u8::from(i == j - n)) + m[(n + i, j)] * t
+                };
+                e[(n + i, j)] = exact;
+            }
+        }
+    }
+    Ok(e)
+}
+
+/// (e^{A s}, ∫₀ˢ e^{Aη} dη · B) from the exponential of the block matrix [[A, B], [0, 0]]·s.
+fn zoh_pair(a: &Mat<f64>, b: &Mat<f64>, s: f64) -> Result<(Mat<f64>, Mat<f64>)> {
+    let (n, m) = (a.nrows(), b.ncols());
     let em = Mat::<f64>::from_fn(n + m, n + m, |i, j| {
         if i < n && j < n {
-            a[(i, j)] * h
+            a[(i, j)] * s
         } else if i < n {
-            b[(i, j - n)] * h
+            b[(i, j - n)] * s
         } else {
             0.0
         }
     });
-    let e = expm(em.as_ref())?;
-    let (mut phi, mut gamma) = (block(&e, 0, 0, n, n), block(&e, 0, n, n, m));
-    for _ in 0..k {
-        gamma = &phi * &gamma + &gamma;
-        phi = &phi * &phi;
-    }
-    Ok((phi, gamma))
+    let e = expm_hold(&em, n)?;
+    Ok((block(&e, 0, 0, n, n), block(&e, 0, n, n, m)))
 }
 
 /// Number of whole samples in `t_s` when it is a multiple of `dt` (to 1e-9 relative), else None.
@@ -184,7 +199,7 @@ fn foh(sys: &StateSpace, dt: f64) -> Result<StateSpace> {
             0.0
         }
     });
-    let e = expm(em.as_ref())?;
+    let e = expm_hold(&em, n)?;
     let ms11 = block(&e, 0, 0, n, n);
     let ms12 = block(&e, 0, n, n, m);
     let ms13 = block(&e, 0, n + m, n, m);
@@ -409,6 +424,15 @@ mod tests {
                 d.b[(0, 0)]
             );
             assert!((d.a[(0, 0)] - (-dt).exp()).abs() < 1e-12);
+            // Triangle hold: Γ₁ = 1 − e^{−T}, Γ₂ = (T − 1 + e^{−T})/T, b = Γ₁ − Γ₂ + e^{−T}·Γ₂, d = Γ₂.
+            let f = c2d(&g, dt, Method::Foh).unwrap();
+            let (g1, g2) = (-(-dt).exp_m1(), (dt + (-dt).exp_m1()) / dt);
+            let (bd, dd) = (f.b[(0, 0)] * f.c[(0, 0)], f.d[(0, 0)]);
+            let want_b = g1 - g2 + (-dt).exp() * g2;
+            assert!(
+                (dd - g2).abs() < 1e-12 && (bd - want_b).abs() < 1e-12,
+                "foh dt {dt:e}: {bd} {dd}"
+            );
         }
     }
 
