@@ -22,6 +22,9 @@ pub struct FrfEstimate {
     pub phase_band_deg: (Vec<f64>, Vec<f64>),
     /// Squared coherence in [0, 1]; empty for none.
     pub coherence: Vec<f64>,
+    /// The band the parametric fit used, Hz (low, high): shaded so a reader sees which part of the
+    /// estimate the model answers to; `None` for none.
+    pub fit_band_hz: Option<(f64, f64)>,
 }
 
 /// Builds the figure: magnitude and phase with bands and fitted models, and coherence when present.
@@ -72,6 +75,31 @@ pub fn frf_figure(title: &str, est: &FrfEstimate, fits: &[BodeData]) -> Figure {
             series: vec![Series::line("", f.clone(), est.coherence.clone()).colored(2)],
             ..Panel::frequency("coherence")
         });
+    }
+    if let Some((lo, hi)) = est
+        .fit_band_hz
+        .filter(|(lo, hi)| lo.is_finite() && hi.is_finite() && lo < hi)
+    {
+        // On the coherence panel when there is one (fixed 0..1 range), else under the magnitude.
+        let (panel, y0, y1) = if est.coherence.is_empty() {
+            let (a, b) = est
+                .mag_db
+                .iter()
+                .filter(|v| v.is_finite())
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+            (0, a, b)
+        } else {
+            (2, 0.0, 1.05)
+        };
+        if y0 < y1 {
+            panels[panel].bands.push(Band {
+                label: format!("fit band {lo:.3} to {hi:.3} Hz"),
+                x: vec![lo, hi],
+                lower: vec![y0; 2],
+                upper: vec![y1; 2],
+                color: 3,
+            });
+        }
     }
     Figure::new(title, panels)
 }

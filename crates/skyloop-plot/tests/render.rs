@@ -174,10 +174,12 @@ fn nyquist_step_sigma_hsv_mu_frf_render() {
         ),
         phase_band_deg: (vec![], vec![]),
         coherence: vec![0.9; l.freq_hz.len()],
+        fit_band_hz: Some((1.0, 10.0)),
     };
     plot_frf(&p, "FRF", &est, std::slice::from_ref(&l)).expect("frf");
     let s = svg_text(&p);
     assert!(s.contains("coherence") && s.contains("measured"));
+    assert!(s.contains("fit band 1.000 to 10.000 Hz"), "the fit band is labelled");
 }
 
 #[test]

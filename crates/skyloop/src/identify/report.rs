@@ -205,6 +205,7 @@ pub fn plot_identification(path: &std::path::Path, id: &Identification) -> Resul
         mag_band_db: frf.mag_band_db(1.96),
         phase_band_deg: frf.phase_band_deg(1.96),
         coherence: frf.coherence.clone(),
+        fit_band_hz: id.fit_band_hz,
     };
     let mut fits = Vec::new();
     let s_of = |f: f64| C64::new(0.0, 2.0 * std::f64::consts::PI * f);
