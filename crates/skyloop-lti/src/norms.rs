@@ -312,11 +312,36 @@ fn linf_scaled(sys: &StateSpace, eig: &[c64], gain: &Gain, init: (f64, f64)) -> 
         // singular and the Hamiltonian's imaginary eigenvalues unreliable, so a peak well above D
         // could be missed (seen on a closed loop with a near-double pole): sample a coarse grid
         // over the poles' frequencies first, which lifts γ off σ(D) whenever the peak is not tiny.
+        // The grid alone missed a bump 3e-7 above σ(D) between two of its points (a closed loop from
+        // hinfstruct), so each of its local maxima is then climbed by Brent's method between its
+        // neighbours: O(n²) evaluations, far cheaper than one more Hamiltonian solve.
         let big = eig.iter().map(|p| p.norm()).fold(0.0, f64::max).max(1.0);
         let small = eig.iter().map(|p| p.norm()).filter(|&m| m > 0.0).fold(big, f64::min);
-        let grid = crate::freqresp::logspace((small * 1e-2).log10(), (big * 1e2).log10(), 64);
-        for w in grid {
-            try_w(w, &mut gamma, &mut w_peak)?;
+        let (lo, hi) = ((small * 1e-2).log10(), (big * 1e2).log10());
+        let points = (((hi - lo) * 16.0).ceil() as usize).clamp(64, 640);
+        let grid = crate::freqresp::logspace(lo, hi, points);
+        let values = grid.iter().map(|&w| sigma_at(w)).collect::<Result<Vec<f64>>>()?;
+        let mut maxima: Vec<usize> = (1..grid.len() - 1)
+            .filter(|&k| values[k] >= values[k - 1] && values[k] >= values[k + 1])
+            .collect();
+        maxima.sort_by(|&a, &b| values[b].total_cmp(&values[a]));
+        for (k, &v) in grid.iter().zip(&values) {
+            if v > gamma {
+                gamma = v;
+                w_peak = *k;
+            }
+        }
+        for &k in maxima.iter().take(8) {
+            let (x, fx) = skyloop_linalg::scalar_search::brent_max(
+                |w| sigma_at(w).unwrap_or(0.0),
+                grid[k - 1],
+                grid[k + 1],
+                1e-12,
+            );
+            if fx > gamma {
+                gamma = fx;
+                w_peak = x;
+            }
         }
     }
     if gamma == 0.0 {
@@ -723,6 +748,39 @@ mod edge_tests {
         let sys = StateSpace::from_rows(&[vec![-1.0]], &[vec![1e300]], &[vec![1e300]], &[vec![0.0]], 0.0).unwrap();
         let err = h2_norm(&sys).unwrap_err().to_string();
         assert!(err.contains("out of range"), "{err}");
+    }
+
+    #[test]
+    fn a_peak_just_above_the_feedthrough_is_found() {
+        // A closed loop hinfstruct returned: |G(jω)| peaks 3e-7 above |D| near 0.378 rad/s (numpy
+        // and slycot's ab13dd agree to 1e-12); the norm once came back as |D|.
+        let sys = StateSpace::from_rows(
+            &[
+                vec![-1.04587772197857, 2.5770488881106024, -1.174130497499393],
+                vec![-25.791167393325566, 1.6950369398322218, -23.78013273766823],
+                vec![-4.911907605784793, 0.39954559919877997, -4.93374691646352],
+            ],
+            &[
+                vec![2.7714076333658633],
+                vec![30.033071580938337],
+                vec![5.719527638799711],
+            ],
+            &[vec![-0.005351262050479422, 0.19165953636086458, -1.0608614567975168]],
+            &[vec![1.3615528522615936]],
+            0.0,
+        )
+        .unwrap();
+        let ev = FreqEvaluator::new(&sys).unwrap();
+        let reference = (0..=20000)
+            .map(|k| sigma_max(&ev, 10f64.powf(-1.0 + k as f64 / 20000.0)).unwrap())
+            .fold(0.0, f64::max);
+        assert!(reference > 1.3615528522615936 * (1.0 + 1e-7));
+        let (n, w) = hinf_norm(&sys).unwrap();
+        assert!(
+            n >= reference * (1.0 - 1e-8) && n <= reference * (1.0 + 1e-8),
+            "{n} vs {reference} at {w}"
+        );
+        assert!((w - 0.378).abs() < 0.01, "peak at {w} rad/s");
     }
 
     #[test]
