@@ -288,6 +288,12 @@ fn tune_from_a_betaflight_log_compares_the_flown_gains() {
     assert!(ms["windows"].as_u64().unwrap() >= 5, "{ms}");
     assert!(v["model_step_rms"].as_f64().unwrap().is_finite());
     assert!(v["cli"][0].as_str().unwrap().starts_with("set p_roll = "));
+    // The flown tune is analysed with the D the firmware applied in flight, d_min 27 (the log's
+    // axisD follows it: skyloop/tests/betaflight_log_scales.rs), not d 35, which gave disk
+    // α 0.08 for a tune a pilot flew; the proposal turns d_min off so its constant D is what flies.
+    assert!(v["notes"].to_string().contains("analysed with D = d_min"), "{}", v["notes"]);
+    assert!(v["current"]["margins"]["disk_alpha"].as_f64().unwrap() > 0.15, "{}", v["current"]);
+    assert!(v["cli"].as_array().unwrap().iter().any(|l| l == "set d_min_roll = 0"), "{}", v["cli"]);
     assert!(dir.join("report.html").exists() && dir.join("step.svg").exists());
     let cli = std::fs::read_to_string(dir.join("cli.txt")).unwrap();
     assert!(cli.starts_with(v["cli"][0].as_str().unwrap()));

@@ -336,17 +336,25 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
                     f: to_u(p.f.unwrap_or(0.0)),
                 };
                 treq.betaflight_f = Some(g.f);
-                if p.d_min.is_some_and(|d| d > 0.0 && d < p.d) {
-                    notes.push(format!(
-                        "d_min {} < d {}: the analysis uses d (the D the firmware reaches in fast moves)",
-                        p.d_min.unwrap_or(0.0),
-                        p.d
-                    ));
-                }
-                current_gains = Some(CurrentGains::Betaflight(g));
+                // With d_min active (0 < d_min < d) Betaflight applies d_min and raises D towards d
+                // only in fast stick moves and prop wash: on the testdata acro flight the logged
+                // axisD follows DTERM_SCALE·d_min from gyroADC (tests/betaflight_log_scales.rs),
+                // 23 % below DTERM_SCALE·d. The flown tune is analysed with d_min.
+                let d_applied = match p.d_min {
+                    Some(dm) if dm > 0.0 && dm < p.d => {
+                        notes.push(format!(
+                            "d_min {dm} < d {}: the flown tune is analysed with D = d_min (what the firmware applies away from fast stick moves and prop wash; D rises towards d only there)",
+                            p.d
+                        ));
+                        to_u(dm)
+                    }
+                    _ => g.d,
+                };
+                current_gains = Some(CurrentGains::Betaflight(g, d_applied));
             }
-            notes
-                .push("not modelled: TPA, anti-gravity, I-term relax, d_min's dynamic D, feedforward smoothing".into());
+            notes.push(
+                "not modelled: TPA, anti-gravity, I-term relax, d_min's boost towards d, feedforward smoothing".into(),
+            );
         }
         (Some(FirmwareTuning::Px4(p)), Firmware::Px4) => {
             let loop_hz = p.gyro_rate_max_hz.filter(|&r| r > 0.0).unwrap_or(400.0);
@@ -383,7 +391,17 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
         _ => notes.push("the log header carries no rate-controller tuning: nothing to compare".into()),
     }
 
-    let proposed = tune(&treq)?;
+    let mut proposed = tune(&treq)?;
+    if matches!(current_gains, Some(CurrentGains::Betaflight(g, d)) if d != g.d) {
+        // The proposal is analysed with a constant D; with d_min left active the firmware would
+        // fly d_min instead whenever d_min < d.
+        let line = format!("set d_min_{} = 0", req.axis.name());
+        let at = proposed.cli.len().saturating_sub(1);
+        proposed.cli.insert(at, line.clone());
+        proposed.notes.push(format!(
+            "`{line}`: the proposed D is meant constant (d_min would otherwise replace it away from fast moves)"
+        ));
+    }
     let loop_hz = match req.firmware {
         Firmware::Betaflight => Some(treq.betaflight.loop_hz),
         Firmware::Px4 => Some(treq.px4.loop_hz),
@@ -417,9 +435,19 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
         wn,
     )?;
     let current = match current_gains {
-        Some(CurrentGains::Betaflight(g)) => {
-            let c = betaflight::feedback_controller(&g, req.axis, &treq.betaflight)?;
+        Some(CurrentGains::Betaflight(g, d_applied)) => {
+            let applied = betaflight::Gains { d: d_applied, ..g };
+            let c = betaflight::feedback_controller(&applied, req.axis, &treq.betaflight)?;
             let cr = betaflight::reference_path(&g, req.axis, treq.betaflight.loop_hz)?;
+            if d_applied != g.d {
+                // The same tune at its D maximum, for comparison.
+                let cmax = betaflight::feedback_controller(&g, req.axis, &treq.betaflight)?;
+                let m = check_loop(&held[0], &cmax)?;
+                notes.push(format!(
+                    "the flown tune with D at its maximum d = {}: disk alpha {:.3}, PM {:.1} deg at {:.2} Hz, GM {:.2} dB, Ms {:.3}",
+                    g.d, m.disk_alpha, m.phase_margin_deg, m.crossover_hz, m.gain_margin_db, m.ms
+                ));
+            }
             Some(analyse(serde_json::to_value(g)?, &c, &cr, &held, wn)?)
         }
         Some(CurrentGains::Px4(g)) => {
@@ -481,7 +509,8 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
 }
 
 enum CurrentGains {
-    Betaflight(betaflight::Gains),
+    /// The header's gains and the D the firmware applies (d_min when active).
+    Betaflight(betaflight::Gains, u32),
     Px4(px4::Gains),
 }
 
