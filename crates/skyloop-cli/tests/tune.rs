@@ -291,9 +291,21 @@ fn tune_from_a_betaflight_log_compares_the_flown_gains() {
     // The flown tune is analysed with the D the firmware applied in flight, d_min 27 (the log's
     // axisD follows it: skyloop/tests/betaflight_log_scales.rs), not d 35, which gave disk
     // α 0.08 for a tune a pilot flew; the proposal turns d_min off so its constant D is what flies.
-    assert!(v["notes"].to_string().contains("analysed with D = d_min"), "{}", v["notes"]);
-    assert!(v["current"]["margins"]["disk_alpha"].as_f64().unwrap() > 0.15, "{}", v["current"]);
-    assert!(v["cli"].as_array().unwrap().iter().any(|l| l == "set d_min_roll = 0"), "{}", v["cli"]);
+    assert!(
+        v["notes"].to_string().contains("analysed with D = d_min"),
+        "{}",
+        v["notes"]
+    );
+    assert!(
+        v["current"]["margins"]["disk_alpha"].as_f64().unwrap() > 0.15,
+        "{}",
+        v["current"]
+    );
+    assert!(
+        v["cli"].as_array().unwrap().iter().any(|l| l == "set d_min_roll = 0"),
+        "{}",
+        v["cli"]
+    );
     assert!(dir.join("report.html").exists() && dir.join("step.svg").exists());
     let cli = std::fs::read_to_string(dir.join("cli.txt")).unwrap();
     assert!(cli.starts_with(v["cli"][0].as_str().unwrap()));

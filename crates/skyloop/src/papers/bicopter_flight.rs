@@ -61,8 +61,13 @@ fn rate_hf_rms(tr: &[Sample], from_s: f64) -> f64 {
 
 /// Largest |roll| from `from_s` on, rad.
 fn roll_max(tr: &[Sample], from_s: f64) -> f64 {
+    roll_max_between(tr, from_s, f64::INFINITY)
+}
+
+/// Largest |roll| over [from_s, to_s), rad.
+fn roll_max_between(tr: &[Sample], from_s: f64, to_s: f64) -> f64 {
     tr.iter()
-        .filter(|s| s.t >= from_s)
+        .filter(|s| s.t >= from_s && s.t < to_s)
         .fold(0.0, |m, s| m.max(s.euler[0].abs()))
 }
 
@@ -191,7 +196,11 @@ pub fn fly_tests(c: &mut Reproduction, pid: [f64; 4], out: &Path) -> Result<Vec<
         .collect::<Result<_>>()?;
     let fmt = |f: &Flight| match f.crash_s {
         Some(t) => format!("crashed at {t:.2} s"),
-        None => format!("flies, |roll| ≤ {:.4} rad over the last 5 s", roll_max(&f.trace, 15.0)),
+        None => format!(
+            "flies, |roll| ≤ {:.4} rad over the last 5 s (≤ {:.4} rad over 5–10 s)",
+            roll_max(&f.trace, 15.0),
+            roll_max_between(&f.trace, 5.0, 10.0)
+        ),
     };
     c.note(format!(
         "  C ({BOTTLE_KG} kg at {BOTTLE_OFFSET_M} m to the side: {:.3} N·m, roll inertia +{:.4} kg·m²): H∞ {}; PID {}",
