@@ -8,7 +8,11 @@
 //! `vehicle_angular_velocity` after `IMU_GYRO_CUTOFF`), so the gyro filters are already inside
 //! the plant and are not applied a second time; the D-term lowpass chain (Betaflight
 //! `dterm_lowpass*`, PX4 `IMU_DGYRO_CUTOFF`) is part of the controller, as flown. A dynamic
-//! lowpass is taken at the low end of its range (hover throttle: the most lag).
+//! lowpass is taken at the low end of its range (hover throttle: the most lag). With Betaflight's
+//! d_min active (0 < d_min < d) the flown tune is analysed with D = d_min, the D the firmware
+//! applies away from fast stick moves and prop wash (the testdata acro log's axisD follows
+//! DTERM_SCALE·d_min within a few %, 23 % below DTERM_SCALE·d); the proposal's CLI lines set
+//! d_min to 0 so that its constant D is what flies.
 //!
 //! Uncertainty. The identification gives one model with standard errors (never smaller than its
 //! jackknife spread), not per-segment models; the goals must hold for the nominal fit and for
