@@ -145,6 +145,10 @@ pub struct LogTuneOutcome {
 /// passes the model check without a warning.
 pub const MODEL_STEP_RMS_MAX: f64 = 0.3;
 
+/// Largest share of the deconvolved impulse response at negative lag
+/// ([`MeasuredStep::acausal_fraction`]) for which the measured step is taken as unbiased.
+pub const ACAUSAL_MAX: f64 = 0.1;
+
 fn lowpass_of(l: &fw::Lowpass, notes: &mut Vec<String>, name: &str) -> Option<Lowpass> {
     let f = match l.dynamic_hz {
         Some((lo, _)) => lo,
@@ -486,10 +490,20 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
             );
         }
     }
+    let acausal = measured_step.as_ref().map_or(0.0, |m| m.acausal_fraction);
     if let Some(r) = model_step_rms.filter(|r| *r > MODEL_STEP_RMS_MAX) {
-        warnings.push(format!(
-            "the predicted step of the flown tune differs from the step measured in the log by {r:.3} RMS (more than {MODEL_STEP_RMS_MAX}): the model does not describe this craft well; treat the proposal with care"
-        ));
+        if acausal > ACAUSAL_MAX {
+            warnings.push(format!(
+                "the predicted step of the flown tune differs from the step measured in the log by {r:.3} RMS (more than {MODEL_STEP_RMS_MAX}), \
+                 but the measured step is itself biased: {:.0} % of the deconvolved impulse response lies before the setpoint moves \
+                 (typically a pilot correcting what the craft just did, so the setpoint depends on past gyro), so it comes out short; the check cannot tell whether the model is wrong",
+                100.0 * acausal
+            ));
+        } else {
+            warnings.push(format!(
+                "the predicted step of the flown tune differs from the step measured in the log by {r:.3} RMS (more than {MODEL_STEP_RMS_MAX}): the model does not describe this craft well; treat the proposal with care"
+            ));
+        }
     }
     Ok(LogTuneOutcome {
         params: BTreeMap::from([
@@ -657,7 +671,7 @@ impl LogTuneOutcome {
         v["filters"] = json!(self.filters);
         v["measured_step"] = match &self.measured_step {
             Some(m) => {
-                json!({"t_s": m.t_s, "y": m.y, "y_std": m.y_std, "windows": m.windows, "windows_total": m.windows_total})
+                json!({"t_s": m.t_s, "y": m.y, "y_std": m.y_std, "windows": m.windows, "windows_total": m.windows_total, "acausal_fraction": m.acausal_fraction})
             }
             None => Value::Null,
         };
