@@ -44,6 +44,8 @@ pub struct ComparisonPid {
     pub controller: StateSpace,
     /// Margins of P·C, exact delay.
     pub margins: LoopMargins,
+    /// Every goal (given and default) met in `tune`'s re-verification.
+    pub goals_met: bool,
 }
 
 /// A local maximum of a curve in dB: (frequency Hz, height dB, prominence dB).
@@ -83,9 +85,14 @@ fn peak_near(f_hz: &[f64], t_db: &[f64]) -> Option<(f64, f64, f64)> {
 /// # Errors
 /// A tuning that fails or a loop that cannot be analysed.
 pub fn tune_pid(plant: &StateSpace) -> Result<ComparisonPid> {
+    tune_pid_with(plant, &GOALS)
+}
+
+/// [`tune_pid`] with other goals.
+fn tune_pid_with(plant: &StateSpace, goals: &[&str]) -> Result<ComparisonPid> {
     let mut req = TuneRequest::new(plant.clone(), Firmware::Generic);
     req.structure = GenericStructure::Pid;
-    req.goals = GOALS.iter().map(|g| g.to_string()).collect();
+    req.goals = goals.iter().map(|g| g.to_string()).collect();
     req.maximize = Maximize::IntegralGain;
     req.starts = 8;
     let out = tune(&req)?;
@@ -93,6 +100,7 @@ pub fn tune_pid(plant: &StateSpace) -> Result<ComparisonPid> {
     let margins = loop_margins(plant, &out.feedback_controller)?;
     Ok(ComparisonPid {
         gains: [g("kp"), g("ki"), g("kd"), g("tf")],
+        goals_met: out.goals.iter().all(|g| g.met),
         controller: out.feedback_controller,
         margins,
     })
@@ -118,7 +126,14 @@ pub fn compare(
          ki maximized (MIGO). Not given: the GM, |T| and |S|",
         GOALS.join(", ")
     ));
-    c.note(format!("  kp = {kp:.5}, ki = {ki:.5}, kd = {kd:.6}, tf = {tf:.5} s"));
+    c.note(format!(
+        "  kp = {kp:.5}, ki = {ki:.5}, kd = {kd:.6}, tf = {tf:.5} s; {}",
+        if pid.goals_met {
+            "every goal met"
+        } else {
+            "NOT every goal met"
+        }
+    ));
     let m = &pid.margins;
     c.number("Step 4 PID: phase margin, deg (a goal)", 64.9, m.phase_margin_deg, 0.05);
     c.number("Step 4 PID: gain crossover, Hz (a goal)", 1.58, m.crossover_hz, 0.005);
@@ -250,6 +265,37 @@ pub fn compare(
             if gmax < 0.0 { "; the MIGO PID attenuates more" } else { "" }
         ),
     });
+    // Side analysis (a note, not a claim): the PID with all three printed margins as goals.
+    let mut all3 = GOALS.to_vec();
+    all3.push("gain_margin_db>=6.9");
+    match tune_pid_with(plant, &all3) {
+        Ok(p3) => {
+            let s3 = s_of(&p3.controller)?;
+            let g3 = s3
+                .iter()
+                .zip(&s_hinf)
+                .map(|(a, b)| a - b)
+                .fold(f64::NEG_INFINITY, f64::max);
+            c.note(format!(
+                "  with the printed GM as a third goal ({}): {}; ki = {:.5}, PM {:.1}° at {:.3} Hz, GM {:.2} dB; |S_PID| − |S_H∞| at most {g3:.1} dB over {}–{} Hz",
+                all3.join(", "),
+                if p3.goals_met {
+                    "all goals met"
+                } else {
+                    "tune found no PID meeting all of them (best found below)"
+                },
+                p3.gains[1],
+                p3.margins.phase_margin_deg,
+                p3.margins.crossover_hz,
+                p3.margins.gain_margin_db,
+                S_BAND_HZ.0,
+                S_BAND_HZ.1
+            ));
+        }
+        Err(e) => c.note(format!(
+            "  with the printed GM as a third goal too, tune found no PID: {e}"
+        )),
+    }
     c.measure("pid_kp", kp);
     c.measure("pid_ki", ki);
     c.measure("pid_kd", kd);
