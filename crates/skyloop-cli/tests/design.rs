@@ -139,11 +139,17 @@ fn table_output_and_reproduce() {
     let (code, stdout, err) = skyloop(&["reproduce", "bicopter", "--out", &out.to_string_lossy()]);
     assert_eq!(code, 0, "{stdout}\n{err}");
     let last = stdout.lines().last().unwrap_or_default();
+    // "all M claims reproduced" or "N of M claims reproduced, K not reproduced (see above)".
     assert!(
-        last.starts_with("all ") && last.ends_with(" claims reproduced"),
+        (last.starts_with("all ") && last.ends_with(" claims reproduced"))
+            || (last.contains(" claims reproduced, ") && last.ends_with(" not reproduced (see above)")),
         "{stdout}"
     );
-    assert!(!stdout.contains("[not reproduced]"), "{stdout}");
+    // The H∞ design's numbers all hold; only the comparison PID's outcomes and Section V's
+    // flights may not.
+    for line in stdout.lines().filter(|l| l.contains("[not reproduced]")) {
+        assert!(line.contains("PID") || line.contains("Sec. V"), "{line}");
+    }
 }
 
 fn bad_spec(name: &str, text: &str) -> String {

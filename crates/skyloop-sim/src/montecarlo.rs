@@ -106,7 +106,7 @@ pub fn run_one(scn: &Scenario, mc: &MonteCarloSpec, i: usize) -> Result<Metrics>
         .collect();
     for d in &dist {
         if let DisturbanceSpec::Payload { mass_kg, position_m } = d {
-            spec.body_mut().add_point_mass(*mass_kg, *position_m);
+            spec.add_point_mass(*mass_kg, *position_m);
         }
     }
     let mut sim = Simulation::with_vehicle(scn, spec.build()?, &nominal.build()?, &dist, seed)?;

@@ -111,7 +111,7 @@ impl Simulation {
         let mut spec = nominal;
         for d in &scn.disturbance {
             if let DisturbanceSpec::Payload { mass_kg, position_m } = d {
-                spec.body_mut().add_point_mass(*mass_kg, *position_m);
+                spec.add_point_mass(*mass_kg, *position_m);
             }
         }
         Self::with_vehicle(scn, spec.build()?, &nominal_vehicle, &scn.disturbance, seed)

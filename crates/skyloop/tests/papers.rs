@@ -22,26 +22,66 @@ fn value(r: &Reproduction, name: &str) -> f64 {
 }
 
 #[test]
-fn bicopter_section_iv_reproduces_every_printed_number() {
+fn bicopter_section_iv_reproduces_the_hinf_design_and_checks_the_pid() {
     let out = tmp("bicopter");
     let r = reproduce("bicopter", &out, false).expect("runs");
-    let failed: Vec<&str> = r.not_reproduced().map(|c| c.line.as_str()).collect();
+    // Every number of the H∞ design holds; the comparison PID's outcomes (GM, |T| peak, |S| gap)
+    // and Section V's flights are reported with their verdicts, whichever they are.
+    let is_pid = |w: &str| w.starts_with("Step 4 PID") || w.starts_with("Fig. 1") || w.starts_with("Sec. V");
+    let failed: Vec<&str> = r
+        .not_reproduced()
+        .filter(|c| !is_pid(&c.what))
+        .map(|c| c.line.as_str())
+        .collect();
     assert!(failed.is_empty(), "{failed:?}");
-    assert!(r.claims.len() >= 15, "{} claims", r.claims.len());
+    assert!(r.claims.len() >= 20, "{} claims", r.claims.len());
     let g = r.claim("Step 2: γ of ncfsyn").expect("γ claim");
     assert_eq!(g.paper, Some(1.748));
     assert!((g.ours.expect("ours") - 1.748).abs() <= 5e-4);
-    assert_eq!(r.summary_line(), format!("all {} claims reproduced", r.claims.len()));
+    let n_ok = r.reproduced_count();
+    if n_ok == r.claims.len() {
+        assert_eq!(r.summary_line(), format!("all {} claims reproduced", r.claims.len()));
+    } else {
+        assert!(r
+            .summary_line()
+            .starts_with(&format!("{n_ok} of {} claims reproduced", r.claims.len())));
+    }
+    // The PID was tuned to the printed PM and crossover (its goals), and the checks ran.
+    assert!(held(&r, "Step 4 PID: phase margin"));
+    assert!(held(&r, "Step 4 PID: gain crossover"));
+    for prefix in [
+        "Step 4 PID: gain margin",
+        "Fig. 11: the PID's |T|",
+        "Fig. 11: the H∞",
+        "Fig. 12: H∞",
+    ] {
+        assert!(r.claim(prefix).is_some(), "no claim {prefix}");
+    }
+    assert!(value(&r, "pid_ki") > 0.0 && value(&r, "pid_kp") > 0.0);
+    for prefix in [
+        "Sec. V-A: both",
+        "Sec. V-A: the PID",
+        "Sec. V-B",
+        "Sec. V-C: with the bottle H∞",
+        "Sec. V-C: with the bottle the PID",
+    ] {
+        assert!(r.claim(prefix).is_some(), "no claim {prefix}");
+    }
     for f in [
         "bicopter_summary.json",
         "report.html",
         "design/loop.svg",
         "design/controller_reduced.json",
+        "pid_vs_hinf_loop.svg",
+        "pid_vs_hinf_sensitivity.svg",
+        "sec5a_nominal.svg",
+        "sec5b_pendulum.svg",
+        "sec5c_bottle.svg",
     ] {
         assert!(out.join(f).is_file(), "missing {f}");
     }
     let html = std::fs::read_to_string(out.join("report.html")).expect("report");
-    assert!(html.contains("Step 4: phase margin") && html.matches("<svg").count() >= 5);
+    assert!(html.contains("Step 4: phase margin") && html.contains("Step 4 PID") && html.matches("<svg").count() >= 7);
     let _ = std::fs::remove_dir_all(&out);
 }
 

@@ -181,8 +181,8 @@ fn print_log_outcome(out: &LogTuneOutcome) {
     });
     match (&out.measured_step, out.model_step_rms) {
         (Some(m), Some(r)) => println!(
-            "model check: predicted step of the current tune vs the step deconvolved from the log ({} of {} windows): RMS difference {r:.3}",
-            m.windows, m.windows_total
+            "model check: predicted step of the current tune vs the step deconvolved from the log ({} of {} windows): RMS difference {r:.3}; {:.0} % of the deconvolved impulse response at negative lag",
+            m.windows, m.windows_total, 100.0 * m.acausal_fraction
         ),
         (Some(m), None) => println!("measured step from {} windows (no current tune to compare)", m.windows),
         (None, _) => println!(

@@ -12,7 +12,8 @@
 //! the feedback controller y → u is therefore
 //! C_fb(s) = (Kp + Ki/s)·F_gyro(s) + Kd·s·F_gyro(s)·F_dterm(s), and the reference path
 //! C_r(s) = Kp + Ki/s + Kf·s/(T·s + 1) with T the loop period (the backward difference's roll-off).
-//! Not modelled: TPA, anti-gravity, I-term relax, d_min's dynamic D, feedforward smoothing.
+//! Not modelled: TPA, anti-gravity, I-term relax, d_min's dynamic D (a flown tune with d_min is
+//! analysed at D = d_min by [`crate::tune::log`]), feedforward smoothing.
 
 use super::{chain, derivative_rolloff, Lowpass};
 use crate::error::{Error, Result};

@@ -1,5 +1,6 @@
 //! Li, Qin, Xu & Zhang, bicopter roll-rate H∞ loop shaping ("Modeling, Identification, and Control of Non-minimum Phase Dynamics of Bi-copter UAVs",
-//! Section IV): runs examples/bicopter.toml and sets every number the section prints beside ours.
+//! Section IV): runs examples/bicopter.toml and sets every number the section prints beside ours,
+//! including the comparison PID's ([`super::bicopter_pid`]).
 
 use super::Reproduction;
 use crate::design::design;
@@ -99,6 +100,10 @@ pub fn run(out: &Path) -> Result<Reproduction> {
             d.vs_warped.max_rel_error
         ));
     }
+    // Step 4's comparison PID (Fig. 10–12), tuned on the same plant with its exact delay.
+    let (pid, mut pid_figures) = super::bicopter_pid::compare(&mut c, &r.plant, reduced, out)?;
+    // Section V's flight tests in the nonlinear model, both controllers.
+    pid_figures.extend(super::bicopter_flight::fly_tests(&mut c, pid.gains, out)?);
     std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
     let path = out.join("bicopter_summary.json");
     let text = serde_json::to_string_pretty(s)?;
@@ -110,6 +115,9 @@ pub fn run(out: &Path) -> Result<Reproduction> {
     crate::design::report::write_outputs(&r, &design_dir)?;
     for name in ["controller", "loop", "sensitivity", "uncertainty", "step"] {
         c.artifact(&design_dir.join(format!("{name}.svg")));
+    }
+    for p in &pid_figures {
+        c.artifact(p);
     }
     super::write_report(
         &mut c,

@@ -6,12 +6,15 @@
 //! does not hold is reported as not reproduced; a reproduction never says "all" unless all held.
 //!
 //! - [`bicopter`]: Li, Qin, Xu & Zhang, "Modeling, Identification, and Control of Non-minimum Phase
-//!   Dynamics of Bi-copter UAVs", Section IV (H∞ loop shaping of the roll rate).
+//!   Dynamics of Bi-copter UAVs", Section IV (H∞ loop shaping of the roll rate), with its comparison
+//!   PID in [`bicopter_pid`] and Section V's flight tests in [`bicopter_flight`].
 //! - [`quadrotor_ssi`]: Tai, Phang & Hoo (2018), "Steady-State Integral PI controller for the inner
 //!   loop of multirotors".
 //! - [`ducted_fan`]: Pross, "H∞ and μ-synthesis of a ducted-fan VTOL micro-UAV".
 
 pub mod bicopter;
+pub mod bicopter_flight;
+pub mod bicopter_pid;
 pub mod ducted_fan;
 pub mod quadrotor_ssi;
 

@@ -63,6 +63,12 @@ pub struct MeasuredStep {
     pub windows: usize,
     /// Windows available (before the input-activity test).
     pub windows_total: usize,
+    /// Share of the deconvolved impulse response's mass that lies at negative lag (gyro moving
+    /// before the setpoint), over the response's length before 0: |Σ h(t < 0)| / (|Σ h(t < 0)| +
+    /// |Σ h(0 ≤ t < response_s)|), averaged over windows. A causal loop gives ≈ 0; a pilot whose
+    /// stick corrects what the craft just did closes a loop around the rate loop, the setpoint then
+    /// depends on past gyro, and the step (which starts at t = 0) comes out short by this share.
+    pub acausal_fraction: f64,
 }
 
 /// The averaged step response of `output` to `input` (uniformly sampled at `dt_s`) over the
@@ -141,6 +147,7 @@ pub fn step_from_log(
     };
     let mut sum = vec![0.0; m];
     let mut sum2 = vec![0.0; m];
+    let mut neg_sum = 0.0;
     let (mut used, mut total) = (0usize, 0usize);
     for r in ranges {
         let mut start = r.start;
@@ -202,6 +209,8 @@ pub fn step_from_log(
                 sum[k] += acc;
                 sum2[k] += acc * acc;
             }
+            // The circular buffer's last m samples are lags −m·dt … −dt.
+            neg_sum += imp[nfft - m..].iter().sum::<f64>() / nfft as f64;
             used += 1;
         }
     }
@@ -218,12 +227,15 @@ pub fn step_from_log(
         .zip(&y)
         .map(|(s2, mu)| (s2 / k - mu * mu).max(0.0).sqrt())
         .collect();
+    let (neg, pos) = ((neg_sum / k).abs(), y.last().copied().unwrap_or(0.0).abs());
+    let acausal_fraction = if neg + pos > 0.0 { neg / (neg + pos) } else { 0.0 };
     Ok(MeasuredStep {
         t_s: (0..m).map(|i| i as f64 * dt_s).collect(),
         y,
         y_std,
         windows: used,
         windows_total: total,
+        acausal_fraction,
     })
 }
 
@@ -231,6 +243,37 @@ pub fn step_from_log(
 mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
+
+    /// The same first-order loop, but with a "pilot" whose stick corrects the output of 50 ms
+    /// ago: the setpoint now depends on past output, the deconvolution puts mass at negative lag,
+    /// the step comes out short, and `acausal_fraction` says so.
+    #[test]
+    fn a_pilot_in_the_loop_shows_as_acausal_mass() {
+        let dt: f64 = 0.002;
+        let a = (-dt / 0.01f64).exp();
+        let n = 60_000;
+        let mut state = 99u64;
+        let mut rnd = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+        };
+        let (mut w, mut u, mut y) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        for k in 1..n {
+            w[k] = 0.995 * w[k - 1] + 20.0 * rnd();
+            u[k] = w[k] - if k >= 25 { 0.9 * y[k - 25] } else { 0.0 };
+            y[k] = a * y[k - 1] + (1.0 - a) * u[k - 1];
+        }
+        let st = step_from_log(&u, &y, dt, std::slice::from_ref(&(0..n)), &DeconvOptions::default()).unwrap();
+        let last = *st.y.last().unwrap();
+        assert!(
+            st.acausal_fraction > 0.1,
+            "{} (step ends at {last})",
+            st.acausal_fraction
+        );
+        assert!(last < 0.95, "{last}");
+    }
 
     /// A known discrete system y[k] = a·y[k−1] + (1 − a)·u[k−1] (unit DC gain, time constant
     /// −dt/ln a) driven by a random-walk setpoint: the deconvolved step equals its exact step
@@ -268,6 +311,7 @@ mod tests {
                 assert!((st.y[i] - exact).abs() < 0.04, "t {t}: {} vs {exact}", st.y[i]);
             }
         }
+        assert!(st.acausal_fraction < 0.05, "{}", st.acausal_fraction);
         let quiet = vec![0.0; n];
         let e = step_from_log(&quiet, &y, dt, std::slice::from_ref(&(0..n)), &o).unwrap_err();
         assert!(e.to_string().contains("setpoint RMS"), "{e}");

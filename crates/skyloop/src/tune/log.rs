@@ -8,7 +8,11 @@
 //! `vehicle_angular_velocity` after `IMU_GYRO_CUTOFF`), so the gyro filters are already inside
 //! the plant and are not applied a second time; the D-term lowpass chain (Betaflight
 //! `dterm_lowpass*`, PX4 `IMU_DGYRO_CUTOFF`) is part of the controller, as flown. A dynamic
-//! lowpass is taken at the low end of its range (hover throttle: the most lag).
+//! lowpass is taken at the low end of its range (hover throttle: the most lag). With Betaflight's
+//! d_min active (0 < d_min < d) the flown tune is analysed with D = d_min, the D the firmware
+//! applies away from fast stick moves and prop wash (the testdata acro log's axisD follows
+//! DTERM_SCALE·d_min within a few %, 23 % below DTERM_SCALE·d); the proposal's CLI lines set
+//! d_min to 0 so that its constant D is what flies.
 //!
 //! Uncertainty. The identification gives one model with standard errors (never smaller than its
 //! jackknife spread), not per-segment models; the goals must hold for the nominal fit and for
@@ -140,6 +144,10 @@ pub struct LogTuneOutcome {
 /// Largest RMS difference between the predicted and the measured step (per unit step) that
 /// passes the model check without a warning.
 pub const MODEL_STEP_RMS_MAX: f64 = 0.3;
+
+/// Largest share of the deconvolved impulse response at negative lag
+/// ([`MeasuredStep::acausal_fraction`]) for which the measured step is taken as unbiased.
+pub const ACAUSAL_MAX: f64 = 0.1;
 
 fn lowpass_of(l: &fw::Lowpass, notes: &mut Vec<String>, name: &str) -> Option<Lowpass> {
     let f = match l.dynamic_hz {
@@ -336,17 +344,25 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
                     f: to_u(p.f.unwrap_or(0.0)),
                 };
                 treq.betaflight_f = Some(g.f);
-                if p.d_min.is_some_and(|d| d > 0.0 && d < p.d) {
-                    notes.push(format!(
-                        "d_min {} < d {}: the analysis uses d (the D the firmware reaches in fast moves)",
-                        p.d_min.unwrap_or(0.0),
-                        p.d
-                    ));
-                }
-                current_gains = Some(CurrentGains::Betaflight(g));
+                // With d_min active (0 < d_min < d) Betaflight applies d_min and raises D towards d
+                // only in fast stick moves and prop wash: on the testdata acro flight the logged
+                // axisD follows DTERM_SCALE·d_min from gyroADC (tests/betaflight_log_scales.rs),
+                // 23 % below DTERM_SCALE·d. The flown tune is analysed with d_min.
+                let d_applied = match p.d_min {
+                    Some(dm) if dm > 0.0 && dm < p.d => {
+                        notes.push(format!(
+                            "d_min {dm} < d {}: the flown tune is analysed with D = d_min (what the firmware applies away from fast stick moves and prop wash; D rises towards d only there)",
+                            p.d
+                        ));
+                        to_u(dm)
+                    }
+                    _ => g.d,
+                };
+                current_gains = Some(CurrentGains::Betaflight(g, d_applied));
             }
-            notes
-                .push("not modelled: TPA, anti-gravity, I-term relax, d_min's dynamic D, feedforward smoothing".into());
+            notes.push(
+                "not modelled: TPA, anti-gravity, I-term relax, d_min's boost towards d, feedforward smoothing".into(),
+            );
         }
         (Some(FirmwareTuning::Px4(p)), Firmware::Px4) => {
             let loop_hz = p.gyro_rate_max_hz.filter(|&r| r > 0.0).unwrap_or(400.0);
@@ -383,7 +399,17 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
         _ => notes.push("the log header carries no rate-controller tuning: nothing to compare".into()),
     }
 
-    let proposed = tune(&treq)?;
+    let mut proposed = tune(&treq)?;
+    if matches!(current_gains, Some(CurrentGains::Betaflight(g, d)) if d != g.d) {
+        // The proposal is analysed with a constant D; with d_min left active the firmware would
+        // fly d_min instead whenever d_min < d.
+        let line = format!("set d_min_{} = 0", req.axis.name());
+        let at = proposed.cli.len().saturating_sub(1);
+        proposed.cli.insert(at, line.clone());
+        proposed.notes.push(format!(
+            "`{line}`: the proposed D is meant constant (d_min would otherwise replace it away from fast moves)"
+        ));
+    }
     let loop_hz = match req.firmware {
         Firmware::Betaflight => Some(treq.betaflight.loop_hz),
         Firmware::Px4 => Some(treq.px4.loop_hz),
@@ -417,9 +443,19 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
         wn,
     )?;
     let current = match current_gains {
-        Some(CurrentGains::Betaflight(g)) => {
-            let c = betaflight::feedback_controller(&g, req.axis, &treq.betaflight)?;
+        Some(CurrentGains::Betaflight(g, d_applied)) => {
+            let applied = betaflight::Gains { d: d_applied, ..g };
+            let c = betaflight::feedback_controller(&applied, req.axis, &treq.betaflight)?;
             let cr = betaflight::reference_path(&g, req.axis, treq.betaflight.loop_hz)?;
+            if d_applied != g.d {
+                // The same tune at its D maximum, for comparison.
+                let cmax = betaflight::feedback_controller(&g, req.axis, &treq.betaflight)?;
+                let m = check_loop(&held[0], &cmax)?;
+                notes.push(format!(
+                    "the flown tune with D at its maximum d = {}: disk alpha {:.3}, PM {:.1} deg at {:.2} Hz, GM {:.2} dB, Ms {:.3}",
+                    g.d, m.disk_alpha, m.phase_margin_deg, m.crossover_hz, m.gain_margin_db, m.ms
+                ));
+            }
             Some(analyse(serde_json::to_value(g)?, &c, &cr, &held, wn)?)
         }
         Some(CurrentGains::Px4(g)) => {
@@ -454,10 +490,20 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
             );
         }
     }
+    let acausal = measured_step.as_ref().map_or(0.0, |m| m.acausal_fraction);
     if let Some(r) = model_step_rms.filter(|r| *r > MODEL_STEP_RMS_MAX) {
-        warnings.push(format!(
-            "the predicted step of the flown tune differs from the step measured in the log by {r:.3} RMS (more than {MODEL_STEP_RMS_MAX}): the model does not describe this craft well; treat the proposal with care"
-        ));
+        if acausal > ACAUSAL_MAX {
+            warnings.push(format!(
+                "the predicted step of the flown tune differs from the step measured in the log by {r:.3} RMS (more than {MODEL_STEP_RMS_MAX}), \
+                 but the measured step is itself biased: {:.0} % of the deconvolved impulse response lies before the setpoint moves \
+                 (typically a pilot correcting what the craft just did, so the setpoint depends on past gyro), so it comes out short; the check cannot tell whether the model is wrong",
+                100.0 * acausal
+            ));
+        } else {
+            warnings.push(format!(
+                "the predicted step of the flown tune differs from the step measured in the log by {r:.3} RMS (more than {MODEL_STEP_RMS_MAX}): the model does not describe this craft well; treat the proposal with care"
+            ));
+        }
     }
     Ok(LogTuneOutcome {
         params: BTreeMap::from([
@@ -481,7 +527,8 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
 }
 
 enum CurrentGains {
-    Betaflight(betaflight::Gains),
+    /// The header's gains and the D the firmware applies (d_min when active).
+    Betaflight(betaflight::Gains, u32),
     Px4(px4::Gains),
 }
 
@@ -624,7 +671,7 @@ impl LogTuneOutcome {
         v["filters"] = json!(self.filters);
         v["measured_step"] = match &self.measured_step {
             Some(m) => {
-                json!({"t_s": m.t_s, "y": m.y, "y_std": m.y_std, "windows": m.windows, "windows_total": m.windows_total})
+                json!({"t_s": m.t_s, "y": m.y, "y_std": m.y_std, "windows": m.windows, "windows_total": m.windows_total, "acausal_fraction": m.acausal_fraction})
             }
             None => Value::Null,
         };

@@ -264,10 +264,11 @@ pub fn write_log_outputs(out: &super::log::LogTuneOutcome, dir: &Path) -> Result
             "model check",
             match (&out.measured_step, out.model_step_rms) {
                 (Some(ms), Some(r)) => format!(
-                    "RMS(predicted current step − deconvolved step) = {r:.3} over {:.2} s, {} of {} windows",
+                    "RMS(predicted current step − deconvolved step) = {r:.3} over {:.2} s, {} of {} windows; {:.0} % of the deconvolved impulse response at negative lag",
                     ms.t_s.last().copied().unwrap_or(0.0),
                     ms.windows,
-                    ms.windows_total
+                    ms.windows_total,
+                    100.0 * ms.acausal_fraction
                 ),
                 (Some(ms), None) => format!("deconvolved step from {} windows; no current tune", ms.windows),
                 (None, _) => format!(
