@@ -190,7 +190,8 @@ pub fn write_report(rep: &mut Reproduction, title: &str, out: &Path) -> Result<(
                     c.what.clone(),
                     num(c.paper),
                     num(c.ours),
-                    c.tolerance.map_or(String::new(), |t| format!("±{t}")),
+                    // 6 significant digits: a tolerance derived as 0.5 % of 139.3 prints 0.6965, not 0.6965000000000001.
+                    c.tolerance.map_or(String::new(), |t| format!("±{}", significant(t, 6))),
                     if c.reproduced { "reproduced" } else { "NOT reproduced" }.to_string(),
                 ]
             })
@@ -235,5 +236,25 @@ pub fn reproduce(name: &str, out: &Path, quick: bool) -> Result<Reproduction> {
             "unknown reproduction '{other}' (known: {})",
             NAMES.join(", ")
         ))),
+    }
+}
+
+/// `x` rounded to `digits` significant digits, without trailing zeros (`0.6965000000000001` → `0.6965`).
+fn significant(x: f64, digits: i32) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return x.to_string();
+    }
+    let scale = 10f64.powi(digits - 1 - x.abs().log10().floor() as i32);
+    ((x * scale).round() / scale).to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn tolerances_print_with_six_significant_digits() {
+        assert_eq!(super::significant(0.005 * 139.3, 6), "0.6965");
+        assert_eq!(super::significant(0.005 * 232.4, 6), "1.162");
+        assert_eq!(super::significant(352.05, 6), "352.05");
+        assert_eq!(super::significant(0.0005, 6), "0.0005");
     }
 }
