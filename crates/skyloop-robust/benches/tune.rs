@@ -1,6 +1,7 @@
 //! PID tuning on a 10-state plant with restarts (MIGO: max ki under Ms <= 1.4 and a disk margin),
 //! and hinfstruct on the 12-state bench plant at order 2.
 #![allow(clippy::unwrap_used)] // a panic is how a bench reports failure
+#![allow(missing_docs)] // criterion_group! generates undocumented functions
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use skyloop_lti::expr::parse_model;
