@@ -70,18 +70,27 @@ pub fn best_cpu_seconds<T>(repeats: usize, mut f: impl FnMut() -> T) -> f64 {
     best
 }
 
-/// A `rows`×`cols` matrix (as rows) uniform in [−1, 1), filled column by column from the 64-bit
-/// LCG x ← 6364136223846793005·x + 1442695040888963407 (top 53 bits), starting from `seed`.
-/// `bench/compare.py` reproduces it bit for bit, so both sides of a timing see the same matrix.
-pub fn lcg_matrix(rows: usize, cols: usize, seed: u64) -> Vec<Vec<f64>> {
+/// The 64-bit LCG x ← 6364136223846793005·x + 1442695040888963407 from `seed`: each call gives the
+/// next state's top 53 bits as a number uniform in [0, 1).
+pub fn lcg(seed: u64) -> impl FnMut() -> f64 {
     let mut state = seed;
+    move || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// A `rows`×`cols` matrix (as rows) uniform in [−1, 1), filled column by column from [`lcg`]
+/// starting at `seed`. `bench/compare.py` reproduces it bit for bit, so both sides of a timing see
+/// the same matrix.
+pub fn lcg_matrix(rows: usize, cols: usize, seed: u64) -> Vec<Vec<f64>> {
+    let mut next = lcg(seed);
     let mut out = vec![vec![0.0; cols]; rows];
     for j in 0..cols {
         for row in out.iter_mut() {
-            state = state
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            row[j] = ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0;
+            row[j] = next() * 2.0 - 1.0;
         }
     }
     out

@@ -806,16 +806,7 @@ fn realize_fact(f: &Fact) -> Result<StateSpace> {
     let mut open_quadratics: Vec<(Poly, Den)> = Vec::new();
     for r in z {
         if r.degree() == 2 {
-            let den = if !pairs.is_empty() {
-                let m = r.mag();
-                let i = (0..pairs.len())
-                    .min_by(|&a, &b| {
-                        (pairs[a].0.hypot(pairs[a].1) - m)
-                            .abs()
-                            .total_cmp(&(pairs[b].0.hypot(pairs[b].1) - m).abs())
-                    })
-                    .unwrap_or(0);
-                let (s, w) = pairs.remove(i);
+            let den = if let Some((s, w)) = take_nearest_pair(&mut pairs, r.mag()) {
                 Den::Pair(s, w)
             } else {
                 match (

@@ -578,6 +578,15 @@ pub fn nyquist_stable(l: &StateSpace) -> Result<bool> {
 /// [`nyquist_stable`] and the number of evaluations of L it took.
 fn nyquist_counted(l: &StateSpace) -> Result<(bool, usize)> {
     let mut lp = Loop::new(l)?;
+    // Loop::new has checked that L is SISO.
+    if (1.0 + l.d[(0, 0)]).abs() <= 1e-12 * l.d[(0, 0)].abs().max(1.0) {
+        // 1 + L(∞) = 0: the closed loop L/(1 + L) is improper (e.g. (1−s)/(1+s) gives (1−s)/2), so
+        // "stable" has no meaning for it; saying UNSTABLE would be as wrong as saying stable.
+        return Err(LtiError::Unsupported(format!(
+            "the feedback loop is ill-posed: L(∞) = {} so 1 + L(∞) = 0 and the closed loop L/(1 + L) is improper",
+            l.d[(0, 0)]
+        )));
+    }
     let dt = lp.dt;
     let poles = pole_summary(l)?;
     let unstable = poles.unstable;
@@ -593,14 +602,6 @@ fn nyquist_counted(l: &StateSpace) -> Result<(bool, usize)> {
             }
             w_end *= 10.0;
         }
-    }
-    if (1.0 + l.d[(0, 0)]).abs() <= 1e-12 * l.d[(0, 0)].abs().max(1.0) {
-        // 1 + L(∞) = 0: the closed loop L/(1 + L) is improper (e.g. (1−s)/(1+s) gives (1−s)/2), so
-        // "stable" has no meaning for it; saying UNSTABLE would be as wrong as saying stable.
-        return Err(LtiError::Unsupported(format!(
-            "the feedback loop is ill-posed: L(∞) = {} so 1 + L(∞) = 0 and the closed loop L/(1 + L) is improper",
-            l.d[(0, 0)]
-        )));
     }
     if dt == 0.0 && l.has_delay() && l.d[(0, 0)].abs() >= 1.0 {
         return Err(LtiError::Unsupported(

@@ -41,6 +41,11 @@ fn hold(t_s: f64, roll: f64) -> RefStep {
     }
 }
 
+/// Root mean square of `v` (0 for none).
+fn rms(v: &[f64]) -> f64 {
+    (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt()
+}
+
 /// RMS of the roll-rate tracking error (rate setpoint − true roll rate) from `from_s` on, rad/s.
 fn rate_rms(tr: &[Sample], from_s: f64) -> f64 {
     let v: Vec<f64> = tr
@@ -48,7 +53,7 @@ fn rate_rms(tr: &[Sample], from_s: f64) -> f64 {
         .filter(|s| s.t >= from_s)
         .map(|s| s.rate_sp[0] - s.rates[0])
         .collect();
-    (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt()
+    rms(&v)
 }
 
 /// RMS of the roll rate's content near the logging Nyquist frequency: (−p[i−1] + 2p[i] − p[i+1])/4,
@@ -56,7 +61,7 @@ fn rate_rms(tr: &[Sample], from_s: f64) -> f64 {
 fn rate_hf_rms(tr: &[Sample], from_s: f64) -> f64 {
     let p: Vec<f64> = tr.iter().filter(|s| s.t >= from_s).map(|s| s.rates[0]).collect();
     let h: Vec<f64> = p.windows(3).map(|w| (2.0 * w[1] - w[0] - w[2]) / 4.0).collect();
-    (h.iter().map(|x| x * x).sum::<f64>() / h.len().max(1) as f64).sqrt()
+    rms(&h)
 }
 
 /// Largest |roll| from `from_s` on, rad.

@@ -252,13 +252,8 @@ mod tests {
         let dt: f64 = 0.002;
         let a = (-dt / 0.01f64).exp();
         let n = 60_000;
-        let mut state = 99u64;
-        let mut rnd = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5
-        };
+        let mut uniform = skyloop_fixtures::lcg(99u64);
+        let mut rnd = || uniform() - 0.5;
         let (mut w, mut u, mut y) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         for k in 1..n {
             w[k] = 0.995 * w[k - 1] + 20.0 * rnd();
@@ -283,13 +278,8 @@ mod tests {
         let dt: f64 = 0.001;
         let a = (-dt / 0.02f64).exp();
         let n = 20_000;
-        let mut state = 12345u64;
-        let mut rnd = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5
-        };
+        let mut uniform = skyloop_fixtures::lcg(12345u64);
+        let mut rnd = || uniform() - 0.5;
         let mut u = vec![0.0; n];
         for k in 1..n {
             // Low-passed noise, like a pilot's sticks.
