@@ -16,7 +16,9 @@
 //! Search range: from two decades below to two decades above the model's characteristic frequencies
 //! (poles, 1/delay), widened until no gain crossover can lie outside; for delayed continuous loops the
 //! phase crossovers (infinitely many) are listed up to one decade above the fastest dynamics or
-//! gain crossover. Discrete loops are searched up to the Nyquist frequency π/dt.
+//! gain crossover, and not beyond one decade above the last frequency where |L| ≥ 0.01
+//! ([`TAIL_MAGNITUDE`]: above it no crossing can decide stability and every gain margin exceeds
+//! 40 dB). Discrete loops are searched up to the Nyquist frequency π/dt.
 
 use crate::error::{LtiError, Result};
 use crate::freqresp::{dynamics_range, pole_summary, FreqEvaluator, Workspace};
@@ -208,8 +210,40 @@ fn search_range(sys: &StateSpace, lp: &mut Loop) -> Result<(f64, f64)> {
             }
         }
     }
+    if delayed {
+        w_hi = quiet_tail(lp, w_lo.max(lo / 100.0), w_hi);
+    }
     check_delay(sys, w_hi)?;
     Ok((w_lo, w_hi))
+}
+
+/// |L| below which a delayed loop's tail is not searched (−40 dB).
+pub const TAIL_MAGNITUDE: f64 = 1e-2;
+
+/// For a delayed loop: one decade above the last frequency in [a, b] where |L| ≥
+/// [`TAIL_MAGNITUDE`] (or `b`). Above it no gain crossover and no encirclement of −1 can occur,
+/// and its phase crossovers have gain margins above 40 dB; searching it only makes the delay's
+/// phase turn (a PID's derivative filter at 1000·ω_u behind a delay of 1 s would turn 2000 times).
+fn quiet_tail(lp: &mut Loop, a: f64, b: f64) -> f64 {
+    if !(a > 0.0 && b > a) {
+        return b;
+    }
+    // |L| does not depend on the delay; 100 points per decade catch resonances down to ζ ≈ 0.01.
+    let n = ((100.0 * (b / a).log10()).ceil() as usize).clamp(2, 5000);
+    let step = (b / a).ln() / (n - 1) as f64;
+    let mut last_loud = None;
+    for k in (0..n).rev() {
+        let w = a * (step * k as f64).exp();
+        let m = lp.at_or_inf(w).norm();
+        if !(m < TAIL_MAGNITUDE) {
+            last_loud = Some(w);
+            break;
+        }
+    }
+    match last_loud {
+        Some(w) => (10.0 * w).min(b),
+        None => b.min(10.0 * a),
+    }
 }
 
 /// Refuses delays whose phase over [0, w_hi] turns more than [`MAX_DELAY_TURNS`] times.

@@ -5,7 +5,7 @@
 use crate::error::Result;
 use faer::c64;
 use skyloop_linalg::scalar_search::golden_max;
-use skyloop_lti::freqresp::{dynamics_range, logspace, FreqEvaluator};
+use skyloop_lti::freqresp::{dynamics_range, logspace, pole_summary, FreqEvaluator};
 use skyloop_lti::interconnect::series;
 use skyloop_lti::margins::{allmargin, diskmargin, margin_from};
 use skyloop_lti::StateSpace;
@@ -54,10 +54,21 @@ pub fn sampled_peak(mut f: impl FnMut(f64) -> f64, w_lo: f64, w_hi: f64, n: usiz
     }
 }
 
-/// The band over which a loop's closed-loop peaks are searched: four decades beyond its dynamics
-/// (and the delay's corner) on either side.
+/// The band over which a loop's closed-loop peaks are searched: three decades beyond every
+/// non-zero pole magnitude (and the delay's corner) on either side, at most 30 decades wide.
+///
+/// Unlike [`dynamics_range`], no pole is left out: a plant at 1 rad/s behind a derivative filter
+/// at 1e10 rad/s has its sensitivity peak among the slow poles, which that range drops as an
+/// outlier cluster (a peak search over 1e7–1e13 rad/s then reports Ms = 1).
 pub fn loop_band(l: &StateSpace) -> Result<(f64, f64)> {
-    let (lo, hi) = dynamics_range(l)?;
+    let (_, top) = dynamics_range(l)?;
+    let mut lo = top;
+    let mut hi = top;
+    for m in pole_summary(l)?.mags.into_iter().filter(|&m| m > 0.0 && m.is_finite()) {
+        lo = lo.min(m);
+        hi = hi.max(m);
+    }
+    let lo = lo.max(hi * 1e-24);
     Ok((lo * 1e-3, hi * 1e3))
 }
 
@@ -78,8 +89,10 @@ pub fn check_loop(g: &StateSpace, c: &StateSpace) -> Result<LoopCheck> {
                 .map(|m| m[(0, 0)])
                 .unwrap_or(c64::new(f64::INFINITY, 0.0))
         };
-        let ms = sampled_peak(|w| (1.0 / (1.0 + at(w))).norm(), lo, hi, 4000).1;
-        let mt = sampled_peak(|w| (at(w) / (1.0 + at(w))).norm(), lo, hi, 4000).1;
+        // 200 points per decade, at least 4000 (the band is at most 30 decades wide).
+        let n = ((200.0 * (hi / lo).log10()).ceil() as usize).max(4000);
+        let ms = sampled_peak(|w| (1.0 / (1.0 + at(w))).norm(), lo, hi, n).1;
+        let mt = sampled_peak(|w| (at(w) / (1.0 + at(w))).norm(), lo, hi, n).1;
         (ms, mt)
     } else {
         (f64::INFINITY, f64::INFINITY)
