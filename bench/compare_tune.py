@@ -23,6 +23,8 @@ import os
 import subprocess
 import time
 
+import warnings
+
 import numpy as np
 
 from workflow_times import ROOT
@@ -72,6 +74,7 @@ def check(x, wu):
 
 
 def scipy_tune(wu, ku):
+    warnings.filterwarnings("ignore", message="delta_grad == 0.0")
     from scipy.optimize import NonlinearConstraint, differential_evolution
 
     w = np.logspace(math.log10(wu) - 3, math.log10(wu) + 5, 481)

@@ -56,6 +56,18 @@ pub enum RateLaw {
         #[serde(default)]
         hanus: bool,
     },
+    /// A two-degree-of-freedom discrete law u = C_r(z)·r − C_fb(z)·y, as flight firmware runs its
+    /// PID (P and I on the error, D on the measurement, feedforward on the setpoint, filters on
+    /// the gyro only); its output times `output_scale` is torque, clipped at the axis' torque limit.
+    TwoDof {
+        /// C_fb: measured rate (rad/s) → output.
+        feedback: DiscreteSiso,
+        /// C_r: rate setpoint (rad/s) → output.
+        reference: DiscreteSiso,
+        /// Output → N·m factor.
+        #[serde(default = "one")]
+        output_scale: f64,
+    },
     /// A controller given as a transfer-function expression or an LTI JSON path (relative to the
     /// working directory); continuous models are discretized by Tustin at the rate-loop sample time.
     LtiModel {
@@ -140,6 +152,7 @@ enum RateCtl {
     Pid(Pid<f64>),
     Ssi(SsiPi<f64>),
     Lti(Box<SsController<f64, LTI_MAX_ORDER, 1, 1>>, f64),
+    TwoDof(Box<[SsController<f64, LTI_MAX_ORDER, 1, 1>; 2]>, f64),
 }
 
 /// The running cascade.
@@ -194,30 +207,21 @@ fn build_rate(law: &RateLaw, j_axis: f64, dt: f64, lim: f64) -> Result<RateCtl> 
             output_scale,
             hanus,
         } => {
-            let c = controller;
-            if (c.dt - dt).abs() > 1e-9 * dt {
-                return Err(SimError::Param(format!(
-                    "LTI rate controller has dt = {} s but the rate loop runs at dt = {dt} s",
-                    c.dt
-                )));
-            }
-            let n = c.a.len();
-            let flat = |m: &Vec<Vec<f64>>| m.iter().flatten().copied().collect::<Vec<f64>>();
-            let mut k = SsController::<f64, LTI_MAX_ORDER, 1, 1>::new(
-                n,
-                1,
-                1,
-                &flat(&c.a),
-                &flat(&c.b),
-                &flat(&c.c),
-                &flat(&c.d),
-            )?;
+            let mut k = ss_controller(controller, dt)?;
             if *hanus {
                 let l = lim / output_scale.abs().max(1e-300);
                 k = k.with_limits(&[-l], &[l])?.with_hanus_aw()?;
             }
             RateCtl::Lti(Box::new(k), *output_scale)
         }
+        RateLaw::TwoDof {
+            feedback,
+            reference,
+            output_scale,
+        } => RateCtl::TwoDof(
+            Box::new([ss_controller(reference, dt)?, ss_controller(feedback, dt)?]),
+            *output_scale,
+        ),
         RateLaw::LtiModel {
             model,
             output_scale,
@@ -239,6 +243,26 @@ fn build_rate(law: &RateLaw, j_axis: f64, dt: f64, lim: f64) -> Result<RateCtl> 
             return build_rate(&law, j_axis, dt, lim);
         }
     })
+}
+
+/// The runtime form of a discrete SISO controller running at `dt` (s).
+fn ss_controller(c: &DiscreteSiso, dt: f64) -> Result<SsController<f64, LTI_MAX_ORDER, 1, 1>> {
+    if (c.dt - dt).abs() > 1e-9 * dt {
+        return Err(SimError::Param(format!(
+            "LTI rate controller has dt = {} s but the rate loop runs at dt = {dt} s",
+            c.dt
+        )));
+    }
+    let flat = |m: &Vec<Vec<f64>>| m.iter().flatten().copied().collect::<Vec<f64>>();
+    Ok(SsController::<f64, LTI_MAX_ORDER, 1, 1>::new(
+        c.a.len(),
+        1,
+        1,
+        &flat(&c.a),
+        &flat(&c.b),
+        &flat(&c.c),
+        &flat(&c.d),
+    )?)
 }
 
 impl Cascade {
@@ -346,6 +370,10 @@ impl Cascade {
                 RateCtl::Pid(c) => c.step(self.rate_sp[i], gyro[i], dt),
                 RateCtl::Ssi(c) => c.step(self.rate_sp[i], gyro[i], dt),
                 RateCtl::Lti(c, k) => *k * c.step_siso(self.rate_sp[i] - gyro[i]),
+                RateCtl::TwoDof(c, k) => {
+                    let [cr, cfb] = &mut **c;
+                    *k * (cr.step_siso(self.rate_sp[i]) - cfb.step_siso(gyro[i]))
+                }
             };
             self.torque[i] = t.clamp(-lim, lim);
         }

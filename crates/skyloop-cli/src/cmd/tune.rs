@@ -179,6 +179,26 @@ fn print_log_outcome(out: &LogTuneOutcome) {
     row("step overshoot [%]", &|t| {
         t.overshoot_pct.map(|x| format!("{x:.1}")).unwrap_or_else(|| "-".into())
     });
+    for (i, label) in ["6-DOF 200 deg/s overshoot %", "6-DOF 500 deg/s overshoot %"].iter().enumerate() {
+        row(label, &|t| {
+            t.flight
+                .as_ref()
+                .map(|f| {
+                    format!(
+                        "{:.1}{}",
+                        f.doublets[i].overshoot_pct,
+                        if f.crashed { " CRASH" } else { "" }
+                    )
+                })
+                .unwrap_or_else(|| "-".into())
+        });
+    }
+    row("6-DOF RMS error 200 [deg/s]", &|t| {
+        t.flight
+            .as_ref()
+            .map(|f| format!("{:.1}", f.doublets[0].rms_error_deg_s))
+            .unwrap_or_else(|| "-".into())
+    });
     match (&out.measured_step, out.model_step_rms) {
         (Some(m), Some(r)) => println!(
             "model check: predicted step of the current tune vs the step deconvolved from the log ({} of {} windows): RMS difference {r:.3}; {:.0} % of the deconvolved impulse response at negative lag",

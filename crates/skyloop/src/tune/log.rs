@@ -24,6 +24,7 @@ use super::{tune, with_hold, Firmware, GenericStructure, Maximize, TuneOutcome, 
 use crate::error::{Error, Result};
 use crate::firmware::betaflight::{self, Axis};
 use crate::firmware::{px4, Lowpass};
+use super::flight::{fly, FlightCheck, FlightSetup};
 use crate::identify::{identify, Identification, IdentifyRequest};
 use serde_json::{json, Value};
 use skyloop_lti::interconnect::{feedback, series};
@@ -106,6 +107,9 @@ pub struct TuneAnalysis {
     pub rise_time_s: Option<f64>,
     /// Overshoot, %.
     pub overshoot_pct: Option<f64>,
+    /// The gains flown in the 6-DOF quadrotor (see [`super::flight`]); None for an unstable loop
+    /// or a log whose units are not known.
+    pub flight: Option<FlightCheck>,
 }
 
 /// The proposal from a log.
@@ -144,6 +148,9 @@ pub struct LogTuneOutcome {
 /// Largest RMS difference between the predicted and the measured step (per unit step) that
 /// passes the model check without a warning.
 pub const MODEL_STEP_RMS_MAX: f64 = 0.3;
+
+/// Overshoot (%) of the proposal's 6-DOF doublets above which a warning is printed.
+pub const FLIGHT_OVERSHOOT_MAX: f64 = 30.0;
 
 /// Largest share of the deconvolved impulse response at negative lag
 /// ([`MeasuredStep::acausal_fraction`]) for which the measured step is taken as unbiased.
@@ -416,6 +423,26 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
         Firmware::Generic => None,
     };
     let held: Vec<StateSpace> = plants.iter().map(|p| with_hold(p, loop_hz)).collect::<Result<_>>()?;
+    // The nonlinear check flies the identified axis with the log's own units and limits.
+    let flight_setup = match log_fw.as_str() {
+        "Betaflight" => Some(FlightSetup {
+            k,
+            tau_s: tau,
+            td_s: td,
+            loop_hz: loop_hz.unwrap_or(treq.betaflight.loop_hz),
+            gyro_unit_rad_s: std::f64::consts::PI / 180.0,
+            output_limit: 500.0,
+        }),
+        "PX4" => Some(FlightSetup {
+            k,
+            tau_s: tau,
+            td_s: td,
+            loop_hz: loop_hz.unwrap_or(treq.px4.loop_hz),
+            gyro_unit_rad_s: 1.0,
+            output_limit: 1.0,
+        }),
+        _ => None,
+    };
     let wn = proposed.noise_w_rad_s;
     let c_r_proposed = match req.firmware {
         Firmware::Betaflight => {
@@ -441,6 +468,7 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
         &c_r_proposed,
         &held,
         wn,
+        flight_setup.as_ref(),
     )?;
     let current = match current_gains {
         Some(CurrentGains::Betaflight(g, d_applied)) => {
@@ -456,7 +484,7 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
                     g.d, m.disk_alpha, m.phase_margin_deg, m.crossover_hz, m.gain_margin_db, m.ms
                 ));
             }
-            Some(analyse(serde_json::to_value(g)?, &c, &cr, &held, wn)?)
+            Some(analyse(serde_json::to_value(g)?, &c, &cr, &held, wn, flight_setup.as_ref())?)
         }
         Some(CurrentGains::Px4(g)) => {
             let c = px4::feedback_controller(&g, &treq.px4)?;
@@ -466,7 +494,7 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
             for (n, v) in names.iter().zip([g.k, g.p, g.i, g.d, g.ff]) {
                 m.insert(n.clone(), json!(v));
             }
-            Some(analyse(Value::Object(m), &c, &cr, &held, wn)?)
+            Some(analyse(Value::Object(m), &c, &cr, &held, wn, flight_setup.as_ref())?)
         }
         None => None,
     };
@@ -502,6 +530,21 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
         } else {
             warnings.push(format!(
                 "the predicted step of the flown tune differs from the step measured in the log by {r:.3} RMS (more than {MODEL_STEP_RMS_MAX}): the model does not describe this craft well; treat the proposal with care"
+            ));
+        }
+    }
+    if let Some(f) = &proposed_analysis.flight {
+        let worst = f.doublets.iter().map(|d| d.overshoot_pct).fold(0.0, f64::max);
+        if f.crashed {
+            warnings.push("the proposal CRASHED the 6-DOF quadrotor in the nonlinear check: do not fly it".into());
+        } else if worst > FLIGHT_OVERSHOOT_MAX {
+            let flown = current
+                .as_ref()
+                .and_then(|c| c.flight.as_ref())
+                .map(|c| c.doublets.iter().map(|d| d.overshoot_pct).fold(0.0, f64::max));
+            warnings.push(format!(
+                "in the 6-DOF check the proposal overshoots a fast stick move by {worst:.0} %{}: its margins hold, but the tracking is lively; the feedforward F is kept as flown while P and D change, and the check models no I-term relax; keep F in proportion to P, or ask for more phase margin (--goal phase_margin_deg>=45)",
+                flown.map(|v| format!(" (the flown tune: {v:.0} %)")).unwrap_or_default()
             ));
         }
     }
@@ -587,7 +630,14 @@ fn step_rms(m: &MeasuredStep, c: &TuneAnalysis) -> Result<f64> {
     Ok((s / n as f64).sqrt())
 }
 
-fn analyse(gains: Value, c: &StateSpace, cr: &StateSpace, held: &[StateSpace], wn: f64) -> Result<TuneAnalysis> {
+fn analyse(
+    gains: Value,
+    c: &StateSpace,
+    cr: &StateSpace,
+    held: &[StateSpace],
+    wn: f64,
+    flight: Option<&FlightSetup>,
+) -> Result<TuneAnalysis> {
     let margins = check_loop(&held[0], c)?;
     let mut worst = margins;
     for p in &held[1..] {
@@ -620,6 +670,11 @@ fn analyse(gains: Value, c: &StateSpace, cr: &StateSpace, held: &[StateSpace], w
     let st = skyloop_lti::timeresp::step(&cl, Some(&t))?;
     let y = st.y[0][0].clone();
     let info = skyloop_lti::timeresp::stepinfo(&t, &y, Some(1.0));
+    // An unstable loop is not flown: its verdict is already in the margins.
+    let flight = match flight {
+        Some(setup) if margins.stable => Some(fly(setup, c, cr)?),
+        _ => None,
+    };
     Ok(TuneAnalysis {
         gains,
         feedback_controller: c.clone(),
@@ -631,6 +686,7 @@ fn analyse(gains: Value, c: &StateSpace, cr: &StateSpace, held: &[StateSpace], w
         step_y: y,
         rise_time_s: info.rise_time_s,
         overshoot_pct: info.overshoot_pct,
+        flight,
     })
 }
 
@@ -646,6 +702,7 @@ impl TuneAnalysis {
             "step": {"t_s": self.step_t_s, "y": self.step_y},
             "rise_time_s": self.rise_time_s,
             "overshoot_pct": self.overshoot_pct,
+            "flight": self.flight.as_ref().map(FlightCheck::to_json),
         })
     }
 }

@@ -23,6 +23,7 @@ use skyloop_robust::structured::verify::LoopCheck;
 use std::f64::consts::PI;
 
 pub mod deconv;
+pub mod flight;
 pub mod log;
 pub mod report;
 
@@ -453,8 +454,9 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
     })
 }
 
-/// Betaflight stores integers: of the 8 floor/ceil roundings of (P, I, D), the one that meets
-/// every hard goal with the best objective (rounding can cost a margin).
+/// Betaflight stores integers: of the 8 floor/ceil roundings of (P, I, D), and the floors with I
+/// lowered by 1 to 10 units, the one that meets every hard goal with the best objective (rounding
+/// can cost a margin).
 fn betaflight_rounding(prob: &LoopTuning, th: &[f64], req: &TuneRequest) -> Result<(betaflight::Gains, Vec<f64>)> {
     let yaw = if req.axis == Axis::Yaw { 2.5 } else { 1.0 };
     let mut cands = Vec::new();
@@ -467,6 +469,25 @@ fn betaflight_rounding(prob: &LoopTuning, th: &[f64], req: &TuneRequest) -> Resu
             pick(th[0], betaflight::PTERM_SCALE, 0),
             pick(th[1], betaflight::ITERM_SCALE * yaw, 1),
             pick(th[2], betaflight::DTERM_SCALE, 2),
+            req.betaflight_f.unwrap_or(120),
+            req.axis,
+        )?;
+        let (kp, ki, kd, _) = betaflight::continuous(&bg, req.axis);
+        cands.push((bg, vec![kp, ki, kd]));
+    }
+    // When every rounding of the optimum misses an active goal by a hair (one unit of I moves
+    // the margins by more than the tightening re-tune can foresee), I lowered by up to 10 units
+    // steps back into the feasible set at the smallest cost to the objective.
+    let floor = |k: f64, scale: f64| (k / scale).floor().max(0.0);
+    for back in 1..=10u32 {
+        let i = floor(th[1], betaflight::ITERM_SCALE * yaw) - f64::from(back);
+        if i < 0.0 {
+            break;
+        }
+        let bg = betaflight::from_continuous(
+            floor(th[0], betaflight::PTERM_SCALE) * betaflight::PTERM_SCALE,
+            i * betaflight::ITERM_SCALE * yaw,
+            floor(th[2], betaflight::DTERM_SCALE) * betaflight::DTERM_SCALE,
             req.betaflight_f.unwrap_or(120),
             req.axis,
         )?;
