@@ -15,7 +15,8 @@ independently of skyloop with numpy/scipy:
    by bounded scalar search) joins the constraint grid and SLSQP runs again until Ms <= 1.4 holds
    to 1e-6 relative;
 4. every result is checked for closed-loop stability (characteristic polynomial with an order-10
-   Pade approximant of the delay); the best stable one is kept.
+   Pade approximant of the delay); the best stable one is kept. kp, ki, kd >= 0 (the plants' gains
+   are positive), as skyloop keeps PID gains at the plant's sign.
 
 Delays are exact (e^{-j w T}) in the frequency response. Writes
 crates/skyloop-robust/tests/fixtures/migo/pid_ms14.json.
@@ -53,6 +54,7 @@ PLANTS = [
     ("lag4", "1/(s+1)^4", poly([1.0]), poly([1, 1], [1, 1], [1, 1], [1, 1]), 0.0),
     ("lag8", "1/(s+1)^8", poly([1.0]), poly(*([[1, 1]] * 8)), 0.0),
     ("delay_lag2", "exp(-1*s)/(s+1)^2", poly([1.0]), poly([1, 1], [1, 1]), 1.0),
+    ("delay_dominant", "exp(-1*s)/(0.1*s+1)^2", poly([1.0]), poly([0.1, 1], [0.1, 1]), 1.0),
     ("integrator_lag3", "1/(s*(s+1)^3)", poly([1.0]), poly([1, 0], [1, 1], [1, 1], [1, 1]), 0.0),
     ("nonminimum_phase", "(1-2*s)/(s+1)^3", poly([-2, 1]), poly([1, 1], [1, 1], [1, 1]), 0.0),
     ("resonant", "9/((s+1)*(s^2+0.6*s+9))", poly([9.0]), poly([1, 1], [1, 0.6, 9]), 0.0),
@@ -61,6 +63,13 @@ PLANTS = [
     ("bench_10_states", "100/((s+1)^4*(s^2+0.4*s+100)*(0.01*s+1)^4)", poly([100.0]),
      poly([1, 1], [1, 1], [1, 1], [1, 1], [1, 0.4, 100], [0.01, 1], [0.01, 1], [0.01, 1], [0.01, 1]), 0.0),
 ]
+
+
+# Cases where skyloop is allowed further below the reference than 1 %, and why.
+KI_MIN_FRACTION = {
+    "delay_dominant": (0.96, "the optimum has kp = 0 and a slow derivative filter (tf = 0.88 s): the kp >= 0 bound "
+                             "is active there and skyloop's nonsmooth BFGS stops about 3 % below it"),
+}
 
 
 def response(num, den, delay, w):
@@ -133,7 +142,7 @@ def optimum(num, den, delay):
 
     best = None
     starts = [(fp, fi, fd, ftf) for fp in (0.2, 0.4, 0.6) for fi in (0.05,) for fd in (0.02, 0.08, 0.2)
-              for ftf in (0.0, 1.0, 2.0)]
+              for ftf in (0.0, 1.0, 2.0, 3.0)]
     # Cautious starts too (lightly damped plants): small gains are feasible.
     starts += [(fp, 0.005, fd, 1.0) for fp in (0.02, 0.1) for fd in (0.002, 0.02)]
     for fp, fi, fd, ftf in starts:
@@ -172,8 +181,11 @@ def main():
         x, wu, ku, m = optimum(num, den, delay)
         print(f"{name}: w_u {wu:.6f} K_u {ku:.6f}  kp {x[0]:.6f} ki {x[1]:.6f} kd {x[2]:.6f} "
               f"tf {math.exp(x[3]):.4e} (floor {10**-FLOOR_DECADES / wu:.4e})  Ms {m:.6f}")
-        cases.append({"name": name, "plant": expr, "ms_max": MS, "w_u": wu, "kp": x[0], "ki": x[1],
-                      "kd": x[2], "tf": math.exp(x[3]), "tf_floor": 10**-FLOOR_DECADES / wu, "ms": m})
+        case = {"name": name, "plant": expr, "ms_max": MS, "w_u": wu, "kp": x[0], "ki": x[1],
+                "kd": x[2], "tf": math.exp(x[3]), "tf_floor": 10**-FLOOR_DECADES / wu, "ms": m}
+        if name in KI_MIN_FRACTION:
+            case["ki_min_fraction"], case["why"] = KI_MIN_FRACTION[name]
+        cases.append(case)
     out = os.path.join(os.path.dirname(__file__), "..", "crates", "skyloop-robust", "tests", "fixtures", "migo")
     os.makedirs(out, exist_ok=True)
     with open(os.path.join(out, "pid_ms14.json"), "w") as f:

@@ -88,8 +88,10 @@ fn pid_integral_gain_matches_the_scipy_optimum() {
             "{name}: tf {} below the floor",
             r.params[3].exp()
         );
+        // 1 % below the optimum, or a documented case's own fraction (the fixture says why).
+        let lo = c["ki_min_fraction"].as_f64().unwrap_or(0.99);
         assert!(
-            r.params[1] >= 0.99 * ki_ref,
+            r.params[1] >= lo * ki_ref,
             "{name}: ki {} vs reference {ki_ref}",
             r.params[1]
         );

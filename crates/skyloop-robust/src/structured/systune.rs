@@ -139,6 +139,10 @@ struct Compiled<'a> {
     ki: Option<usize>,
     /// Reference frequency of the problem (ultimate frequency of the first plant), rad/s.
     w0: f64,
+    /// The first plant's ultimate gain (> 0).
+    ku: f64,
+    /// Sign of the first plant's low-frequency gain (the sign PID gains keep).
+    sign: f64,
     /// Hard bounds are tightened by this factor while optimizing, so that the exact check (after
     /// the Padé model) holds them.
     tighten: f64,
@@ -228,12 +232,15 @@ impl<'a> Compiled<'a> {
                 hinf,
             });
         }
-        let (w0, _) = ultimate(&plants[0].ev, &plants[0].rational)?;
+        let (w0, ku) = ultimate(&plants[0].ev, &plants[0].rational)?;
+        let sign = low_frequency_sign(&plants[0].ev, &plants[0].rational, w0)?;
         Ok(Compiled {
             prob,
             plants,
             ki,
             w0,
+            ku,
+            sign,
             tighten: 1.0 + 2e-4,
         })
     }
@@ -340,6 +347,7 @@ impl<'a> Compiled<'a> {
         if let Some(t) = self.filter_floor(th) {
             terms.hard.push(t);
         }
+        terms.hard.extend(self.gain_signs(th));
         terms.objective = match self.prob.objective {
             Objective::WorstGoal => None,
             Objective::MaximizeIntegralGain => {
@@ -388,6 +396,39 @@ impl<'a> Compiled<'a> {
         g[3] = -v;
         Some((v, g))
     }
+}
+
+impl Compiled<'_> {
+    /// PI and PID gains kp and kd keep the sign of the plant's low-frequency gain, as hard terms
+    /// 1 − sign·k/k_ref ≤ 1 (k_ref: the plant's ultimate gain Ku for kp, Ku/ω0 for kd).
+    ///
+    /// Why: without it, maximizing ki on a delay-dominated plant (e^(−s)/(0.1s+1)²) found
+    /// kp = −204, kd = 10211, tf = 50 s: a lag compensator in PID clothing (C(∞) ≈ 0.2), valid for
+    /// Ms but not a PID anyone would load, and not comparable with PID tuning rules.
+    fn gain_signs(&self, th: &[f64]) -> Vec<(f64, Vec<f64>)> {
+        let idx: &[(usize, f64)] = match self.prob.structure.block {
+            Block::Pi => &[(0, 1.0)],
+            Block::Pid(_) | Block::PidFiltered { .. } => &[(0, 1.0), (2, 1.0 / self.w0)],
+            _ => &[],
+        };
+        idx.iter()
+            .map(|&(i, per_w)| {
+                let k_ref = self.ku.abs().max(1e-300) * per_w;
+                let mut g = vec![0.0; th.len()];
+                g[i] = -self.sign / k_ref;
+                (1.0 - self.sign * th[i] / k_ref, g)
+            })
+            .collect()
+    }
+}
+
+/// The sign of a plant's low-frequency gain: of Re(G(jω)·(jω)^k) three decades below `w0`, with
+/// k its integrators (1/(s(s+1)³) is a positive plant although Re G(jω) → −3 as ω → 0).
+fn low_frequency_sign(ev: &FreqEvaluator, g: &StateSpace, w0: f64) -> Result<f64> {
+    let k = skyloop_lti::freqresp::pole_summary(g)?.origin;
+    let s = c64::new(0.0, w0 * 1e-3);
+    let v = ev.eval(s)?[(0, 0)] * s.powi(k as i32);
+    Ok(if v.re < 0.0 { -1.0 } else { 1.0 })
 }
 
 /// How many decades above the reference frequency a tuned derivative filter's pole may sit.
@@ -769,8 +810,7 @@ pub fn tune_loop(prob: &LoopTuning) -> Result<TunedLoop> {
         }
         None => {
             let (wu, ku) = ultimate(&c.plants[0].ev, &c.plants[0].rational)?;
-            let dc = c.plants[0].ev.eval(c64::new(0.0, wu * 1e-3))?[(0, 0)].re;
-            let sign = if dc < 0.0 { -1.0 } else { 1.0 };
+            let sign = c.sign;
             heuristic(&prob.structure.block, ku, wu, sign, prob.options.seed)
         }
     };
