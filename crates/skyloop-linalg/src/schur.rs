@@ -12,7 +12,7 @@
 
 use faer::{c64, Mat, MatRef};
 
-use crate::dense::{lanv2, larfg, lartg, Dm};
+use crate::dense::{clear_upper_simd, lanv2, larfg, lartg, Dm};
 use crate::{LinalgError, Result};
 
 /// Real Schur form `A = Q·T·Qᵀ`: `Q` orthogonal, `T` upper quasi-triangular with standardized 2×2
@@ -162,6 +162,7 @@ const FAER_HESSENBERG_MIN: usize = 32;
 fn hessenberg(h: &mut Dm, want_q: bool) -> Dm {
     let n = h.n;
     if n < FAER_HESSENBERG_MIN {
+        clear_upper_simd();
         return hessenberg_unblocked(h, want_q);
     }
     use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
@@ -189,6 +190,7 @@ fn hessenberg(h: &mut Dm, want_q: bool) -> Dm {
             stack,
         );
     }
+    clear_upper_simd();
     for j in 0..n {
         for i in j + 2..n {
             h[(i, j)] = 0.0;
@@ -261,6 +263,7 @@ pub(crate) fn lahqr_with(h: &mut Dm, z: &mut Dm, wantt: bool) -> Result<()> {
     if n <= 1 {
         return Ok(());
     }
+    clear_upper_simd();
     let wantz = z.n == n;
     const DAT1: f64 = 0.75;
     const DAT2: f64 = -0.4375;
@@ -561,6 +564,7 @@ pub fn reorder_schur(s: &mut Schur, select: impl Fn(c64) -> bool) -> Result<usiz
 
 /// [`reorder_schur`] on work matrices.
 pub(crate) fn reorder_dm(t: &mut Dm, q: &mut Dm, select: &dyn Fn(c64) -> bool) -> Result<usize> {
+    clear_upper_simd();
     let n = t.n;
     let mut ks = 0usize;
     let mut k = 0usize;
