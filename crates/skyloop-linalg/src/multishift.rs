@@ -345,7 +345,7 @@ fn standardize_2x2(h: &mut Dm, z: &mut Dm, wantz: bool, k: usize) {
 }
 
 /// `M[rows, c0..c0+w] ← M[rows, c0..c0+w]·U` by a matrix product.
-fn update_right(m: &mut Dm, rows: std::ops::Range<usize>, c0: usize, u: &Dm) {
+pub(crate) fn update_right(m: &mut Dm, rows: std::ops::Range<usize>, c0: usize, u: &Dm) {
     let (nn, w) = (m.n, u.n);
     if rows.is_empty() || w == 0 {
         return;
@@ -360,7 +360,7 @@ fn update_right(m: &mut Dm, rows: std::ops::Range<usize>, c0: usize, u: &Dm) {
 }
 
 /// `M[r0..r0+w, cols] ← Uᵀ·M[r0..r0+w, cols]` by a matrix product.
-fn update_left(m: &mut Dm, r0: usize, cols: std::ops::Range<usize>, u: &Dm) {
+pub(crate) fn update_left(m: &mut Dm, r0: usize, cols: std::ops::Range<usize>, u: &Dm) {
     let (nn, w) = (m.n, u.n);
     if cols.is_empty() || w == 0 {
         return;
