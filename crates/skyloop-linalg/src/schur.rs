@@ -599,8 +599,9 @@ pub(crate) fn reorder_unblocked(t: &mut Dm, q: &mut Dm, select: &dyn Fn(c64) -> 
 
 /// From this order on, [`reorder_dm`] moves the selected eigenvalues in windows
 /// ([`reorder_blocked`]); below it, one swap at a time over whole rows and columns. Measured with
-/// `examples/time_schur.rs` (left half-plane first, random matrices): about even at n = 100,
-/// blocked 1.4× faster at 200, 2.5× at 400 and 2.5× at 1000 (213 → 85 ms).
+/// `examples/time_schur.rs` (left half-plane first, random matrices, on a busy 2-core machine):
+/// about even at n = 100, blocked 1.2–1.4× faster at 200, 1.6–2.5× at 400 and 2.5× at 1000
+/// (213 → 85 ms).
 pub(crate) const REORDER_BLOCKED_MIN: usize = 128;
 /// Order of the diagonal window of the blocked reordering (Kressner's `nw`; 32, 48 and 64 were
 /// within the timing noise of each other, 96 and 128 slower).
