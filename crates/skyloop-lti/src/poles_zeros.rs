@@ -296,6 +296,32 @@ mod qz_tests {
     }
 
     #[test]
+    fn zeros_of_a_large_model_with_invertible_d() {
+        // With D = I the zeros are the eigenvalues of A − B·C, all n of them. (With faer's QZ
+        // this returned 4 zeros instead of 80 for an 80-state random 2×2 model.)
+        let mut state = 17u64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+        };
+        let n = 70;
+        let a = Mat::from_fn(n, n, |i, j| next() - if i == j { 9.0 } else { 0.0 });
+        let b = Mat::from_fn(n, 2, |_, _| next());
+        let c = Mat::from_fn(2, n, |_, _| next());
+        let sys = StateSpace::new(a.clone(), b.clone(), c.clone(), Mat::identity(2, 2), 0.0).unwrap();
+        let z = zeros(&sys).unwrap();
+        assert_eq!(z.len(), n);
+        let mut want = (&a - &b * &c).eigenvalues().unwrap();
+        for v in z {
+            let pos = want.iter().position(|w| (w - v).norm() < 1e-8 * (1.0 + w.norm()));
+            assert!(pos.is_some(), "{v} not an eigenvalue of A − BC");
+            want.remove(pos.unwrap_or(0));
+        }
+    }
+
+    #[test]
     fn pencil_eigenvalues_match_dense() {
         let a = Mat::from_fn(3, 3, |i, j| {
             [[-1.0, 2.0, 0.5], [-4.0, -2.0, 1.0], [0.3, 0.1, -3.0]][i][j]
