@@ -67,6 +67,7 @@ fn identity_balanced(a: MatRef<f64>) -> Balanced {
 
 /// Balance `a` doing only the parts selected in `job`.
 pub fn try_balance_with(a: MatRef<f64>, job: BalanceJob) -> Result<Balanced> {
+    crate::dense::clear_upper_simd(); // scalar sweeps, often right after faer products
     let n = a.nrows();
     if a.ncols() != n {
         return Err(LinalgError::Dimension(format!(

@@ -102,6 +102,7 @@ fn square_reduce(a: MatRef<f64>, g: MatRef<f64>, q: MatRef<f64>) -> Result<Dm> {
         let mut ym = MatMut::from_column_major_slice_mut(&mut y.d, n, n);
         matmul(ym.as_mut(), Accum::Replace, qv, av, 1.0, Par::Seq);
     }
+    crate::dense::clear_upper_simd();
     // AG − (AG)ᵀ and QA − (QA)ᵀ, exactly skew-symmetric.
     for m in [&mut x, &mut y] {
         for j in 0..n {

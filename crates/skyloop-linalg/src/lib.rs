@@ -1,6 +1,7 @@
 //! Dense numerics on faer: balancing, real Schur form and reordering, Sylvester, Lyapunov
 //! (also in Cholesky-factor form), CARE and DARE, eigenvalues of Hamiltonian matrices, matrix
-//! exponential, bounded Levenberg–Marquardt, the top eigenpairs of small Hermitian matrices, and
+//! exponential, eigenvalues of real matrix pencils (QZ), bounded Levenberg–Marquardt, the top
+//! eigenpairs of small Hermitian matrices, and
 //! scalar root finding and maximization.
 //!
 //! Ported from the published algorithms (LAPACK dgebal/dlahqr/dlaqr0–5/dtrexc/dlaexc/dlasy2/dtrsyl,
@@ -19,6 +20,7 @@ pub mod lm;
 pub mod logm;
 pub mod lyapunov;
 mod multishift;
+pub mod qz;
 pub mod riccati;
 pub mod scalar_search;
 pub mod schur;

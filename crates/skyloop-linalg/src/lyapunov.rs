@@ -266,6 +266,8 @@ fn hammarling(t: MatRef<f64>, b: MatRef<f64>, kind: Kind) -> Result<Mat<f64>> {
     let mut u = Mat::<f64>::zeros(n, n);
     let bl = blocks(t);
     for &(k0, s) in bl.iter().rev() {
+        // The loop is scalar code between faer calls (see `clear_upper_simd`).
+        crate::dense::clear_upper_simd();
         let mut sm = [[0.0; 2]; 2];
         let mut gam = [[0.0; 2]; 2];
         for i in 0..s {

@@ -13,7 +13,7 @@
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, MatMut, MatRef, Par};
 
-use crate::dense::{lanv2, larfg, Dm};
+use crate::dense::{clear_upper_simd, lanv2, larfg, Dm};
 use crate::schur::{lahqr, trexc_up};
 use crate::Result;
 
@@ -68,6 +68,7 @@ pub(crate) fn laqr0(h: &mut Dm, z: &mut Dm) -> Result<()> {
     if n < NMIN {
         return lahqr(h, z);
     }
+    clear_upper_simd();
     let wantz = z.n == n;
     let ulp = f64::EPSILON;
     let smlnum = f64::MIN_POSITIVE * (n as f64 / ulp);
@@ -344,7 +345,7 @@ fn standardize_2x2(h: &mut Dm, z: &mut Dm, wantz: bool, k: usize) {
 }
 
 /// `M[rows, c0..c0+w] ← M[rows, c0..c0+w]·U` by a matrix product.
-fn update_right(m: &mut Dm, rows: std::ops::Range<usize>, c0: usize, u: &Dm) {
+pub(crate) fn update_right(m: &mut Dm, rows: std::ops::Range<usize>, c0: usize, u: &Dm) {
     let (nn, w) = (m.n, u.n);
     if rows.is_empty() || w == 0 {
         return;
@@ -355,10 +356,11 @@ fn update_right(m: &mut Dm, rows: std::ops::Range<usize>, c0: usize, u: &Dm) {
     let tmp: Mat<f64> = blk.as_ref().to_owned();
     let uref = MatRef::from_column_major_slice(&u.d, w, w);
     matmul(blk.as_mut(), Accum::Replace, tmp.as_ref(), uref, 1.0, Par::Seq);
+    clear_upper_simd();
 }
 
 /// `M[r0..r0+w, cols] ← Uᵀ·M[r0..r0+w, cols]` by a matrix product.
-fn update_left(m: &mut Dm, r0: usize, cols: std::ops::Range<usize>, u: &Dm) {
+pub(crate) fn update_left(m: &mut Dm, r0: usize, cols: std::ops::Range<usize>, u: &Dm) {
     let (nn, w) = (m.n, u.n);
     if cols.is_empty() || w == 0 {
         return;
@@ -376,6 +378,7 @@ fn update_left(m: &mut Dm, r0: usize, cols: std::ops::Range<usize>, u: &Dm) {
         1.0,
         Par::Seq,
     );
+    clear_upper_simd();
 }
 
 /// Aggressive early deflation on the trailing `nw`×`nw` window of the active block

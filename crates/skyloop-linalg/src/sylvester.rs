@@ -68,6 +68,8 @@ pub fn solve_quasi_triangular(ta: MatRef<f64>, tb: MatRef<f64>, c: MatRef<f64>, 
             c.ncols()
         )));
     }
+    // Scalar block recurrences follow, often right after faer products (see `clear_upper_simd`).
+    crate::dense::clear_upper_simd();
     let ba = blocks(ta);
     let bb = blocks(tb);
     let smin = smallest_pivot(ta, tb);
