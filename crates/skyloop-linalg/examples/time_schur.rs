@@ -11,13 +11,8 @@ use skyloop_fixtures::thread_cpu_seconds as now;
 
 /// Same deterministic matrix as `benches/riccati.rs`.
 fn random(n: usize, seed: u64) -> Mat<f64> {
-    let mut state = seed;
-    Mat::from_fn(n, n, |_, _| {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-    })
+    let mut next = skyloop_fixtures::lcg(seed);
+    Mat::from_fn(n, n, |_, _| 2.0 * next() - 1.0)
 }
 
 fn main() {

@@ -311,13 +311,8 @@ mod tests {
     use faer::Mat;
 
     fn lcg(n: usize, seed: u64) -> Mat<f64> {
-        let mut state = seed;
-        Mat::from_fn(n, n, |_, _| {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-        })
+        let mut next = skyloop_fixtures::lcg(seed);
+        Mat::from_fn(n, n, |_, _| 2.0 * next() - 1.0)
     }
 
     /// Matches every finite eigenvalue of (A, B) with one of `want` (removing it), to `tol`
