@@ -219,22 +219,25 @@ fn print_tuning(t: &FirmwareTuning) {
             );
         }
         FirmwareTuning::Px4(p) => {
+            // Each parameter under its own name; "not in the log" where the firmware version has
+            // none (older PX4 has no MC_*RATE_K, i.e. K = 1).
+            let named = |name: String, v: Option<f64>, unit: &str| match v {
+                Some(x) => format!("{name} = {x}{unit}"),
+                None => format!("{name} not in the log"),
+            };
             println!("tuning (PX4 parameters):");
             for (axis, g) in ["ROLL", "PITCH", "YAW"].iter().zip(&p.rate) {
-                println!(
-                    "  MC_{axis}RATE_  K {} P {} I {} D {} FF {}",
-                    opt(g.k),
-                    opt(g.p),
-                    opt(g.i),
-                    opt(g.d),
-                    opt(g.ff)
-                );
+                let items: Vec<String> = [("K", g.k), ("P", g.p), ("I", g.i), ("D", g.d), ("FF", g.ff)]
+                    .into_iter()
+                    .map(|(k, v)| named(format!("MC_{axis}RATE_{k}"), v, ""))
+                    .collect();
+                println!("  {}", items.join(", "));
             }
             println!(
-                "  IMU_GYRO_CUTOFF {} Hz, IMU_DGYRO_CUTOFF {} Hz, IMU_GYRO_RATEMAX {} Hz",
-                opt(p.gyro_cutoff_hz),
-                opt(p.dgyro_cutoff_hz),
-                opt(p.gyro_rate_max_hz)
+                "  {}, {}, {}",
+                named("IMU_GYRO_CUTOFF".into(), p.gyro_cutoff_hz, " Hz"),
+                named("IMU_DGYRO_CUTOFF".into(), p.dgyro_cutoff_hz, " Hz"),
+                named("IMU_GYRO_RATEMAX".into(), p.gyro_rate_max_hz, " Hz")
             );
         }
     }
