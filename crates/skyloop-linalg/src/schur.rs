@@ -1055,7 +1055,9 @@ mod tests {
         let selections: [(&str, &dyn Fn(c64) -> bool); 3] = [
             ("left half-plane", &|z: c64| z.re < 0.0),
             ("right half-plane", &|z: c64| z.re > 0.0),
-            ("every other band", &|z: c64| (z.re * 3.0).floor().rem_euclid(2.0) == 0.0),
+            ("every other band", &|z: c64| {
+                (z.re * 3.0).floor().rem_euclid(2.0) == 0.0
+            }),
         ];
         for (n, seed, decades) in [(40, 1, 0.0), (150, 2, 0.0), (150, 3, 8.0), (400, 4, 0.0), (400, 5, 6.0)] {
             let a = lcg_matrix(n, seed, decades);

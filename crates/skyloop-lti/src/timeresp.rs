@@ -300,7 +300,9 @@ pub fn lsim(sys: &StateSpace, u: &[Vec<f64>], t_s: &[f64], x0: Option<&[f64]>) -
         x[..sys.nx()].copy_from_slice(x0);
     }
     let by_output = dm.run(t_s.len(), &x, |k, j| u[k][j]);
-    let y = (0..t_s.len()).map(|k| by_output.iter().map(|yi| yi[k]).collect()).collect();
+    let y = (0..t_s.len())
+        .map(|k| by_output.iter().map(|yi| yi[k]).collect())
+        .collect();
     Ok(SimResponse { t_s: t_s.to_vec(), y })
 }
 

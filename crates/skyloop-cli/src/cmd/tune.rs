@@ -179,7 +179,10 @@ fn print_log_outcome(out: &LogTuneOutcome) {
     row("step overshoot [%]", &|t| {
         t.overshoot_pct.map(|x| format!("{x:.1}")).unwrap_or_else(|| "-".into())
     });
-    for (i, label) in ["6-DOF 200 deg/s overshoot %", "6-DOF 500 deg/s overshoot %"].iter().enumerate() {
+    for (i, label) in ["6-DOF 200 deg/s overshoot %", "6-DOF 500 deg/s overshoot %"]
+        .iter()
+        .enumerate()
+    {
         row(label, &|t| {
             t.flight
                 .as_ref()

@@ -387,7 +387,10 @@ impl<'a> Compiled<'a> {
     /// ≤ 1.4). The floor costs little: on 1/(s+1)^4 the optimum ki is 0.969 at the floor against
     /// 0.971 for the ideal PID (scipy, SLSQP on a dense grid).
     fn filter_floor(&self, th: &[f64]) -> Option<(f64, Vec<f64>)> {
-        if !matches!(self.prob.structure.block, Block::Pid(super::blocks::DerivativeFilter::Tuned)) {
+        if !matches!(
+            self.prob.structure.block,
+            Block::Pid(super::blocks::DerivativeFilter::Tuned)
+        ) {
             return None;
         }
         let ln_min = -FILTER_FLOOR_DECADES * LN_10 - self.w0.ln();
@@ -861,7 +864,11 @@ pub fn tune_loop(prob: &LoopTuning) -> Result<TunedLoop> {
     // and the hard bounds tightened by the exact violation, at most three times.
     let (mut order, mut tighten) = (prob.options.pade_order, c.tighten);
     for _ in 0..3 {
-        let worst = goals.iter().filter(|g| g.hard).map(|g| g.normalized).fold(1.0, f64::max);
+        let worst = goals
+            .iter()
+            .filter(|g| g.hard)
+            .map(|g| g.normalized)
+            .fold(1.0, f64::max);
         if feasible || !best.feasible || !loops.iter().all(|l| l.stable) || !worst.is_finite() {
             break;
         }

@@ -107,11 +107,16 @@ pub fn fly(setup: &FlightSetup, c_fb: &StateSpace, c_r: &StateSpace) -> Result<F
         ("output limit", s.output_limit),
     ] {
         if !(v.is_finite() && v > 0.0) {
-            return Err(Error::Input(format!("flight check: {name} = {v} must be finite and > 0")));
+            return Err(Error::Input(format!(
+                "flight check: {name} = {v} must be finite and > 0"
+            )));
         }
     }
     if !(s.td_s.is_finite() && (0.0..=1.0).contains(&s.td_s)) {
-        return Err(Error::Input(format!("flight check: Td = {} s must be in [0, 1] s", s.td_s)));
+        return Err(Error::Input(format!(
+            "flight check: Td = {} s must be in [0, 1] s",
+            s.td_s
+        )));
     }
     if !(50.0..=32_000.0).contains(&s.loop_hz) {
         return Err(Error::Input(format!(
@@ -237,13 +242,17 @@ fn summarize(trace: &[Sample], crashed: bool, torque_per_unit: f64) -> FlightChe
         .map(|x| x.torque[0] / torque_per_unit)
         .collect();
     let mean = hover.iter().sum::<f64>() / hover.len().max(1) as f64;
-    let hover_output_rms =
-        (hover.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / hover.len().max(1) as f64).sqrt();
+    let hover_output_rms = (hover.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / hover.len().max(1) as f64).sqrt();
     let mut doublets = Vec::new();
     let mut t0 = T_FIRST_S;
     for r in RATES_DEG_S {
         let in_first = |x: &f64| *x >= t0 && *x < t0 + HOLD_S;
-        let first: Vec<(f64, f64)> = t.iter().zip(&y).filter(|(a, _)| in_first(a)).map(|(a, b)| (*a, *b)).collect();
+        let first: Vec<(f64, f64)> = t
+            .iter()
+            .zip(&y)
+            .filter(|(a, _)| in_first(a))
+            .map(|(a, b)| (*a, *b))
+            .collect();
         // Overshoot of each move (0 → r, r → −r, −r → 0) past its target, relative to its size.
         let mut overshoot: f64 = 0.0;
         for (k, (from, to)) in [(0.0, r), (r, -r), (-r, 0.0)].into_iter().enumerate() {
@@ -265,7 +274,12 @@ fn summarize(trace: &[Sample], crashed: bool, torque_per_unit: f64) -> FlightChe
         let win = |x: &Sample| x.t >= t0 && x.t < t0 + 3.0 * HOLD_S;
         let w: Vec<&Sample> = trace.iter().filter(|x| win(x)).collect();
         let n = w.len().max(1) as f64;
-        let rms = (w.iter().map(|x| ((x.reference[0] - x.rates[0]) * deg).powi(2)).sum::<f64>() / n).sqrt();
+        let rms = (w
+            .iter()
+            .map(|x| ((x.reference[0] - x.rates[0]) * deg).powi(2))
+            .sum::<f64>()
+            / n)
+            .sqrt();
         let sat = w.iter().filter(|x| x.saturated).count() as f64 / n;
         doublets.push(Doublet {
             rate_deg_s: r,
@@ -340,7 +354,11 @@ mod tests {
         // First order near crossover: 10–90 % in about 2.2/ω_c after the 25 ms ramp's own share.
         assert!(rise > 0.02 && rise < 0.08, "rise {rise}");
         // The hover output is gyro noise times the loop's high-frequency gain kp, in PID units.
-        assert!(f.hover_output_rms > 0.1 && f.hover_output_rms < 1.5, "{}", f.hover_output_rms);
+        assert!(
+            f.hover_output_rms > 0.1 && f.hover_output_rms < 1.5,
+            "{}",
+            f.hover_output_rms
+        );
         // kp 5: crossover near 500 rad/s, far past −180° with the delay and lag: unstable.
         let bad = parse_model("5 + 2/s").unwrap();
         let f = fly(&setup(), &bad, &bad).unwrap();

@@ -20,11 +20,11 @@
 //! plants), clamped to K ≥ K/20, τ ≥ 0.1 ms, Td ≥ 0.
 
 use super::deconv::{step_from_log, DeconvOptions, MeasuredStep};
+use super::flight::{fly, FlightCheck, FlightSetup};
 use super::{tune, with_hold, Firmware, GenericStructure, Maximize, TuneOutcome, TuneRequest};
 use crate::error::{Error, Result};
 use crate::firmware::betaflight::{self, Axis};
 use crate::firmware::{px4, Lowpass};
-use super::flight::{fly, FlightCheck, FlightSetup};
 use crate::identify::{identify, Identification, IdentifyRequest};
 use serde_json::{json, Value};
 use skyloop_lti::interconnect::{feedback, series};
@@ -484,7 +484,14 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
                     g.d, m.disk_alpha, m.phase_margin_deg, m.crossover_hz, m.gain_margin_db, m.ms
                 ));
             }
-            Some(analyse(serde_json::to_value(g)?, &c, &cr, &held, wn, flight_setup.as_ref())?)
+            Some(analyse(
+                serde_json::to_value(g)?,
+                &c,
+                &cr,
+                &held,
+                wn,
+                flight_setup.as_ref(),
+            )?)
         }
         Some(CurrentGains::Px4(g)) => {
             let c = px4::feedback_controller(&g, &treq.px4)?;
