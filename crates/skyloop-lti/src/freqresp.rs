@@ -389,6 +389,9 @@ fn cinv(z: c64) -> c64 {
     }
 }
 
+/// Dot product with four independent partial sums, so the compiler can keep them in SIMD lanes (a
+/// single running sum is a serial dependency chain); the frequency evaluation and the time
+/// responses' state update run on it.
 pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     let mut acc = [0.0f64; 4];
     let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));

@@ -6,6 +6,7 @@
 
 use crate::discretize::{c2d, Method};
 use crate::error::{LtiError, Result};
+use crate::freqresp::dot;
 use crate::poles_zeros::poles;
 use crate::ss::StateSpace;
 use skyloop_linalg::expm::expm;
@@ -181,28 +182,6 @@ impl Discrete {
         }
         y
     }
-}
-
-/// Dot product with four independent accumulators, so the compiler can keep them in SIMD lanes
-/// (a single running sum is a serial dependency chain); the state update of `run` is nearly all
-/// of a step response's time.
-#[inline]
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let n = a.len().min(b.len());
-    let (a, b) = (&a[..n], &b[..n]);
-    let mut acc = [0.0; 4];
-    let mut ca = a.chunks_exact(4);
-    let mut cb = b.chunks_exact(4);
-    for (x, y) in (&mut ca).zip(&mut cb) {
-        for l in 0..4 {
-            acc[l] += x[l] * y[l];
-        }
-    }
-    let mut tail = 0.0;
-    for (x, y) in ca.remainder().iter().zip(cb.remainder()) {
-        tail += x * y;
-    }
-    (acc[0] + acc[2]) + (acc[1] + acc[3]) + tail
 }
 
 /// Unit step on each input in turn, zero initial state; `t_s` uniform from 0 (auto when None).

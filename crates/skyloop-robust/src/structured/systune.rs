@@ -399,9 +399,7 @@ impl<'a> Compiled<'a> {
         g[3] = -v;
         Some((v, g))
     }
-}
 
-impl Compiled<'_> {
     /// PI and PID gains kp and kd keep the sign of the plant's low-frequency gain, as hard terms
     /// 1 − sign·k/k_ref ≤ 1 (k_ref: the plant's ultimate gain Ku for kp, Ku/ω0 for kd).
     ///
@@ -811,11 +809,7 @@ pub fn tune_loop(prob: &LoopTuning) -> Result<TunedLoop> {
             }
             th.clone()
         }
-        None => {
-            let (wu, ku) = ultimate(&c.plants[0].ev, &c.plants[0].rational)?;
-            let sign = c.sign;
-            heuristic(&prob.structure.block, ku, wu, sign, prob.options.seed)
-        }
+        None => heuristic(&prob.structure.block, c.ku, c.w0, c.sign, prob.options.seed),
     };
     let results: Vec<Result<Option<StartResult>>> = (0..prob.options.starts)
         .into_par_iter()

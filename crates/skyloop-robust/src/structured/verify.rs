@@ -54,16 +54,15 @@ pub fn sampled_peak(mut f: impl FnMut(f64) -> f64, w_lo: f64, w_hi: f64, n: usiz
     }
 }
 
-/// The band over which a loop's closed-loop peaks are searched: three decades beyond every
-/// non-zero pole magnitude (and the delay's corner) on either side, at most 30 decades wide.
+/// The band over which a loop's closed-loop peaks are searched: three decades beyond the loop's
+/// dynamics range (poles, the delay's corner) and every non-zero pole magnitude on either side,
+/// at most 30 decades wide.
 ///
 /// Unlike [`dynamics_range`], no pole is left out: a plant at 1 rad/s behind a derivative filter
 /// at 1e10 rad/s has its sensitivity peak among the slow poles, which that range drops as an
 /// outlier cluster (a peak search over 1e7–1e13 rad/s then reports Ms = 1).
 pub fn loop_band(l: &StateSpace) -> Result<(f64, f64)> {
-    let (_, top) = dynamics_range(l)?;
-    let mut lo = top;
-    let mut hi = top;
+    let (mut lo, mut hi) = dynamics_range(l)?;
     for m in pole_summary(l)?.mags.into_iter().filter(|&m| m > 0.0 && m.is_finite()) {
         lo = lo.min(m);
         hi = hi.max(m);

@@ -246,13 +246,6 @@ fn summarize(trace: &[Sample], crashed: bool, torque_per_unit: f64) -> FlightChe
     let mut doublets = Vec::new();
     let mut t0 = T_FIRST_S;
     for r in RATES_DEG_S {
-        let in_first = |x: &f64| *x >= t0 && *x < t0 + HOLD_S;
-        let first: Vec<(f64, f64)> = t
-            .iter()
-            .zip(&y)
-            .filter(|(a, _)| in_first(a))
-            .map(|(a, b)| (*a, *b))
-            .collect();
         // Overshoot of each move (0 → r, r → −r, −r → 0) past its target, relative to its size.
         let mut overshoot: f64 = 0.0;
         for (k, (from, to)) in [(0.0, r), (r, -r), (-r, 0.0)].into_iter().enumerate() {
@@ -266,11 +259,9 @@ fn summarize(trace: &[Sample], crashed: bool, torque_per_unit: f64) -> FlightChe
                 .fold(0.0, f64::max);
             overshoot = overshoot.max(past / (to - from).abs());
         }
-        let cross = |level: f64| first.iter().find(|p| p.1 >= level * r).map(|p| p.0);
-        let rise_time_s = match (cross(0.1), cross(0.9)) {
-            (Some(a), Some(b)) => Some(b - a),
-            _ => None,
-        };
+        // Rise time 10–90 % of the first move, as `stepinfo` reads it.
+        let (tf, yf): (Vec<f64>, Vec<f64>) = t.iter().zip(&y).filter(|(x, _)| **x >= t0 && **x < t0 + HOLD_S).unzip();
+        let rise_time_s = skyloop_lti::timeresp::stepinfo(&tf, &yf, Some(r)).rise_time_s;
         let win = |x: &Sample| x.t >= t0 && x.t < t0 + 3.0 * HOLD_S;
         let w: Vec<&Sample> = trace.iter().filter(|x| win(x)).collect();
         let n = w.len().max(1) as f64;
@@ -304,8 +295,13 @@ fn summarize(trace: &[Sample], crashed: bool, torque_per_unit: f64) -> FlightChe
 }
 
 impl FlightCheck {
+    /// The largest overshoot over the doublets' moves, %.
+    pub fn worst_overshoot_pct(&self) -> f64 {
+        self.doublets.iter().map(|d| d.overshoot_pct).fold(0.0, f64::max)
+    }
+
     /// `{doublets: [{rate_deg_s, overshoot_pct, rise_time_s, rms_error_deg_s, saturated_fraction}],
-    /// hover_output_rms, crashed, noise_deg_s, trace: {t_s, setpoint_deg_s, rate_deg_s}}`.
+    /// hover_output_rms, crashed, gyro_noise_deg_s, trace: {t_s, setpoint_deg_s, rate_deg_s}}`.
     pub fn to_json(&self) -> Value {
         json!({
             "doublets": self.doublets.iter().map(|d| json!({

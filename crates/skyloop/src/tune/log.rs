@@ -423,26 +423,21 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
         Firmware::Generic => None,
     };
     let held: Vec<StateSpace> = plants.iter().map(|p| with_hold(p, loop_hz)).collect::<Result<_>>()?;
-    // The nonlinear check flies the identified axis with the log's own units and limits.
-    let flight_setup = match log_fw.as_str() {
-        "Betaflight" => Some(FlightSetup {
-            k,
-            tau_s: tau,
-            td_s: td,
-            loop_hz: loop_hz.unwrap_or(treq.betaflight.loop_hz),
-            gyro_unit_rad_s: std::f64::consts::PI / 180.0,
-            output_limit: 500.0,
-        }),
-        "PX4" => Some(FlightSetup {
-            k,
-            tau_s: tau,
-            td_s: td,
-            loop_hz: loop_hz.unwrap_or(treq.px4.loop_hz),
-            gyro_unit_rad_s: 1.0,
-            output_limit: 1.0,
-        }),
+    // The nonlinear check flies the identified axis with the log's own units and limits:
+    // (loop rate, gyro unit in rad/s, output limit).
+    let flight_units = match log_fw.as_str() {
+        "Betaflight" => Some((treq.betaflight.loop_hz, std::f64::consts::PI / 180.0, 500.0)),
+        "PX4" => Some((treq.px4.loop_hz, 1.0, 1.0)),
         _ => None,
     };
+    let flight_setup = flight_units.map(|(loop_hz, gyro_unit_rad_s, output_limit)| FlightSetup {
+        k,
+        tau_s: tau,
+        td_s: td,
+        loop_hz,
+        gyro_unit_rad_s,
+        output_limit,
+    });
     let wn = proposed.noise_w_rad_s;
     let c_r_proposed = match req.firmware {
         Firmware::Betaflight => {
@@ -541,14 +536,14 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
         }
     }
     if let Some(f) = &proposed_analysis.flight {
-        let worst = f.doublets.iter().map(|d| d.overshoot_pct).fold(0.0, f64::max);
+        let worst = f.worst_overshoot_pct();
         if f.crashed {
             warnings.push("the proposal CRASHED the 6-DOF quadrotor in the nonlinear check: do not fly it".into());
         } else if worst > FLIGHT_OVERSHOOT_MAX {
             let flown = current
                 .as_ref()
                 .and_then(|c| c.flight.as_ref())
-                .map(|c| c.doublets.iter().map(|d| d.overshoot_pct).fold(0.0, f64::max));
+                .map(FlightCheck::worst_overshoot_pct);
             warnings.push(format!(
                 "in the 6-DOF check the proposal overshoots a fast stick move by {worst:.0} %{}: its margins hold, but the tracking is lively; the feedforward F is kept as flown while P and D change, and the check models no I-term relax; keep F in proportion to P, or ask for more phase margin (--goal phase_margin_deg>=45)",
                 flown.map(|v| format!(" (the flown tune: {v:.0} %)")).unwrap_or_default()

@@ -459,40 +459,46 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
 /// can cost a margin).
 fn betaflight_rounding(prob: &LoopTuning, th: &[f64], req: &TuneRequest) -> Result<(betaflight::Gains, Vec<f64>)> {
     let yaw = if req.axis == Axis::Yaw { 2.5 } else { 1.0 };
-    let mut cands = Vec::new();
-    for mask in 0..8u32 {
-        let pick = |k: f64, scale: f64, bit: u32| {
-            let v = k / scale;
-            (if mask & (1 << bit) == 0 { v.floor() } else { v.ceil() }).max(0.0) * scale
-        };
+    let scales = [
+        betaflight::PTERM_SCALE,
+        betaflight::ITERM_SCALE * yaw,
+        betaflight::DTERM_SCALE,
+    ];
+    // The optimum in firmware units (P, I, D), and one candidate from whole units.
+    let units: Vec<f64> = (0..3).map(|j| th[j] / scales[j]).collect();
+    let candidate = |u: [f64; 3]| -> Result<(betaflight::Gains, Vec<f64>)> {
         let bg = betaflight::from_continuous(
-            pick(th[0], betaflight::PTERM_SCALE, 0),
-            pick(th[1], betaflight::ITERM_SCALE * yaw, 1),
-            pick(th[2], betaflight::DTERM_SCALE, 2),
+            u[0] * scales[0],
+            u[1] * scales[1],
+            u[2] * scales[2],
             req.betaflight_f.unwrap_or(120),
             req.axis,
         )?;
         let (kp, ki, kd, _) = betaflight::continuous(&bg, req.axis);
-        cands.push((bg, vec![kp, ki, kd]));
+        Ok((bg, vec![kp, ki, kd]))
+    };
+    let mut cands = Vec::new();
+    for mask in 0..8u32 {
+        let pick = |j: usize| {
+            (if mask & (1 << j) == 0 {
+                units[j].floor()
+            } else {
+                units[j].ceil()
+            })
+            .max(0.0)
+        };
+        cands.push(candidate([pick(0), pick(1), pick(2)])?);
     }
     // When every rounding of the optimum misses an active goal by a hair (one unit of I moves
     // the margins by more than the tightening re-tune can foresee), I lowered by up to 10 units
     // steps back into the feasible set at the smallest cost to the objective.
-    let floor = |k: f64, scale: f64| (k / scale).floor().max(0.0);
+    let floors = units.iter().map(|u| u.floor().max(0.0)).collect::<Vec<_>>();
     for back in 1..=10u32 {
-        let i = floor(th[1], betaflight::ITERM_SCALE * yaw) - f64::from(back);
+        let i = floors[1] - f64::from(back);
         if i < 0.0 {
             break;
         }
-        let bg = betaflight::from_continuous(
-            floor(th[0], betaflight::PTERM_SCALE) * betaflight::PTERM_SCALE,
-            i * betaflight::ITERM_SCALE * yaw,
-            floor(th[2], betaflight::DTERM_SCALE) * betaflight::DTERM_SCALE,
-            req.betaflight_f.unwrap_or(120),
-            req.axis,
-        )?;
-        let (kp, ki, kd, _) = betaflight::continuous(&bg, req.axis);
-        cands.push((bg, vec![kp, ki, kd]));
+        cands.push(candidate([floors[0], i, floors[2]])?);
     }
     best_rounding(prob, cands, req.maximize)
 }
