@@ -569,17 +569,11 @@ fn _freqresp<'py>(
     let w = omega.as_slice().map_err(|e| input_err(e.to_string()))?.to_vec();
     let (ny, nu) = (s.ny(), s.nu());
     let out = guarded(py, move || {
-        let g = skyloop::lti::freqresp::freqresp(&s, &w)?;
-        let mut a = Array3::<Complex64>::zeros((g.len(), ny, nu));
-        for (k, m) in g.iter().enumerate() {
-            for i in 0..ny {
-                for j in 0..nu {
-                    let z = m[(i, j)];
-                    a[[k, i, j]] = Complex64::new(z.re, z.im);
-                }
-            }
-        }
-        Ok::<_, skyloop::lti::LtiError>(a)
+        // The flat response is already [frequency][output][input], row-major.
+        let g = skyloop::lti::freqresp::freqresp_flat(&s, &w)?;
+        let flat: Vec<Complex64> = g.iter().map(|z| Complex64::new(z.re, z.im)).collect();
+        Array3::from_shape_vec((w.len(), ny, nu), flat)
+            .map_err(|e| skyloop::lti::LtiError::Numerical(format!("frequency response shape: {e}")))
     })?;
     Ok(out.into_pyarray(py))
 }

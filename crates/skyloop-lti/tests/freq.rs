@@ -243,3 +243,43 @@ fn disk_margin_edge_cases_are_infinite_where_the_disk_holds_every_gain() {
     assert!(dm.alpha < 2.0 && dm.gain_db[1].is_finite());
     assert!((dm.gain_db[0] + dm.gain_db[1]).abs() < 1e-9);
 }
+
+/// The flat response (one array, chunks evaluated in parallel above 4096 frequencies) holds, for
+/// a non-square model with a delay, exactly the values of one-point evaluation at each frequency,
+/// in `[frequency][output][input]` order; the matrix form holds the same values.
+#[test]
+fn flat_freqresp_is_pointwise_evaluation_in_row_major_order() {
+    use skyloop_lti::freqresp::{evalfr, freqresp_flat};
+    let mut sys = StateSpace::from_rows(
+        &[
+            vec![-1.0, 2.0, 0.0, 0.0],
+            vec![-2.0, -1.0, 0.0, 0.0],
+            vec![0.0, 0.0, -5.0, 0.0],
+            vec![0.0, 1.0, 0.0, -0.2],
+        ],
+        &[
+            vec![1.0, 0.0, 0.5],
+            vec![0.0, 1.0, 0.0],
+            vec![1.0, 1.0, 0.0],
+            vec![0.0, 0.0, 2.0],
+        ],
+        &[vec![1.0, 0.0, 2.0, 0.0], vec![0.0, 3.0, 0.0, 1.0]],
+        &[vec![0.0, 0.1, 0.0], vec![0.2, 0.0, 0.0]],
+        0.0,
+    )
+    .unwrap();
+    sys.input_delay = vec![0.0, 0.01, 0.0];
+    let w: Vec<f64> = (0..5000).map(|k| 1e-3 * 1.003f64.powi(k)).collect();
+    let flat = freqresp_flat(&sys, &w).unwrap();
+    assert_eq!(flat.len(), w.len() * 6);
+    let mats = freqresp(&sys, &w).unwrap();
+    for (k, &wk) in w.iter().enumerate().step_by(7) {
+        let g = evalfr(&sys, skyloop_lti::c64::new(0.0, wk)).unwrap();
+        for i in 0..2 {
+            for j in 0..3 {
+                assert_eq!(flat[k * 6 + i * 3 + j], g[(i, j)], "w = {wk}, channel {i}<-{j}");
+                assert_eq!(mats[k][(i, j)], g[(i, j)]);
+            }
+        }
+    }
+}

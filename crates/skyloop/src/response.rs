@@ -2,7 +2,7 @@
 
 use std::f64::consts::PI;
 
-use skyloop_lti::{c64, Mat, StateSpace};
+use skyloop_lti::{c64, StateSpace};
 
 use crate::{Error, Result};
 
@@ -77,7 +77,7 @@ pub fn default_grid_hz(sys: &StateSpace, n: usize) -> Result<Vec<f64>> {
 
 /// A frequency response in skyloop's JSON layout,
 /// `{"freq_hz":[..],"re":[[[..]]],"im":[[[..]]]}` indexed `[frequency][output][input]`,
-/// serialized straight from the response matrices (no nested copies).
+/// serialized straight from the flat response (no nested copies, no allocation per frequency).
 #[derive(serde::Serialize)]
 pub struct ResponseJson<'a> {
     /// Frequencies, Hz.
@@ -89,32 +89,97 @@ pub struct ResponseJson<'a> {
 }
 
 impl<'a> ResponseJson<'a> {
-    /// The JSON view of `g` (one matrix per frequency of `freq_hz`).
-    pub fn new(freq_hz: &'a [f64], g: &'a [Mat<c64>]) -> Self {
+    /// The JSON view of the flat response `g` of an `ny`×`nu` model: the values of frequency `k`
+    /// of `freq_hz`, row-major, at `k·ny·nu ..` (as `skyloop_lti::freqresp::freqresp_flat` gives).
+    pub fn new(freq_hz: &'a [f64], g: &'a [c64], ny: usize, nu: usize) -> Self {
+        let nfreq = freq_hz.len();
+        let view = |f: fn(&c64) -> f64| Part { g, nfreq, ny, nu, f };
         ResponseJson {
             freq_hz,
-            re: Part { g, f: |z| z.re },
-            im: Part { g, f: |z| z.im },
+            re: view(|z| z.re),
+            im: view(|z| z.im),
         }
     }
 }
 
-/// One part (real or imaginary) of every response matrix, serialized as `[frequency][output][input]`.
+/// One part (real or imaginary) of a flat response, serialized as `[frequency][output][input]`.
+#[derive(Clone, Copy)]
 pub struct Part<'a> {
-    g: &'a [Mat<c64>],
+    g: &'a [c64],
+    nfreq: usize,
+    ny: usize,
+    nu: usize,
     f: fn(&c64) -> f64,
+}
+
+/// `[output][input]` of one frequency, or `[input]` of one row when `nu` is its only dimension.
+struct Rows<'a> {
+    part: Part<'a>,
+    values: &'a [c64],
+    by_row: bool,
+}
+
+impl serde::Serialize for Rows<'_> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        use serde::ser::SerializeSeq;
+        let nu = self.part.nu;
+        if self.by_row {
+            let mut rows = s.serialize_seq(Some(self.part.ny))?;
+            for i in 0..self.part.ny {
+                let row = &self.values[i * nu..(i + 1) * nu];
+                rows.serialize_element(&Rows {
+                    part: self.part,
+                    values: row,
+                    by_row: false,
+                })?;
+            }
+            rows.end()
+        } else {
+            let mut cols = s.serialize_seq(Some(self.values.len()))?;
+            for z in self.values {
+                cols.serialize_element(&(self.part.f)(z))?;
+            }
+            cols.end()
+        }
+    }
 }
 
 impl serde::Serialize for Part<'_> {
     fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
         use serde::ser::SerializeSeq;
-        let mut freqs = s.serialize_seq(Some(self.g.len()))?;
-        for m in self.g {
-            let rows: Vec<Vec<f64>> = (0..m.nrows())
-                .map(|i| (0..m.ncols()).map(|j| (self.f)(&m[(i, j)])).collect())
-                .collect();
-            freqs.serialize_element(&rows)?;
+        let per = self.ny * self.nu;
+        let mut freqs = s.serialize_seq(Some(self.nfreq))?;
+        for k in 0..self.nfreq {
+            freqs.serialize_element(&Rows {
+                part: *self,
+                values: &self.g[k * per..(k + 1) * per],
+                by_row: true,
+            })?;
         }
         freqs.end()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `re[k][i][j]` and `im[k][i][j]` of a 2×3 response are the flat values at `k·6 + i·3 + j`.
+    #[test]
+    fn response_json_is_indexed_frequency_output_input() {
+        let g: Vec<c64> = (0..12).map(|v| c64::new(v as f64, -(v as f64) / 2.0)).collect();
+        let text = serde_json::to_string(&ResponseJson::new(&[1.0, 2.0], &g, 2, 3)).unwrap_or_default();
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap_or_default();
+        for k in 0..2 {
+            for i in 0..2 {
+                for j in 0..3 {
+                    let idx = (k * 6 + i * 3 + j) as f64;
+                    assert_eq!(v["re"][k][i][j].as_f64(), Some(idx), "{text}");
+                    assert_eq!(v["im"][k][i][j].as_f64(), Some(-idx / 2.0), "{text}");
+                }
+            }
+        }
+        assert_eq!(v["freq_hz"], serde_json::json!([1.0, 2.0]));
+        assert_eq!(v["re"].as_array().map(Vec::len), Some(2));
     }
 }

@@ -37,19 +37,20 @@ pub fn run(a: Args) -> skyloop::Result<()> {
         (None, None) => response::default_grid_hz(&sys, 50)?,
     };
     let w: Vec<f64> = freq_hz.iter().map(|f| 2.0 * PI * f).collect();
-    output::bench(a.bench, || skyloop::lti::freqresp::freqresp(&sys, &w))?;
-    let g = skyloop::lti::freqresp::freqresp(&sys, &w)?;
+    output::bench(a.bench, || skyloop::lti::freqresp::freqresp_flat(&sys, &w))?;
+    let g = skyloop::lti::freqresp::freqresp_flat(&sys, &w)?;
+    let (ny, nu) = (sys.ny(), sys.nu());
     if a.json {
-        return output::print_json(&response::ResponseJson::new(&freq_hz, &g));
+        return output::print_json(&response::ResponseJson::new(&freq_hz, &g, ny, nu));
     }
     println!(
         "{:>14} {:>8} {:>14} {:>14} {:>12} {:>12}",
         "freq_hz", "channel", "re", "im", "mag_db", "phase_deg"
     );
-    for (k, m) in g.iter().enumerate() {
-        for i in 0..m.nrows() {
-            for j in 0..m.ncols() {
-                let z = m[(i, j)];
+    for (k, m) in g.chunks_exact((ny * nu).max(1)).enumerate() {
+        for i in 0..ny {
+            for j in 0..nu {
+                let z = m[i * nu + j];
                 println!(
                     "{:>14.6e} {:>8} {:>14.6e} {:>14.6e} {:>12.4} {:>12.4}",
                     freq_hz[k],
