@@ -223,6 +223,8 @@ const MOTOR_EDGE: f64 = 0.01;
 /// Betaflight's and PX4's usual gyro full scale is ±2000 deg/s; the last 2.5 % of it counts as saturated.
 const GYRO_FULL_SCALE_DEG_S: f64 = 2000.0;
 const GYRO_SATURATED: f64 = 0.975;
+/// The exclusion reason of NaN samples in a tested channel (PX4: a stopped motor).
+const NAN_REASON: &str = "no value (NaN, e.g. a stopped motor)";
 
 impl AirborneCriteria {
     /// The firmware's default tests for `log` (only channels the log holds are tested):
@@ -356,17 +358,31 @@ pub fn airborne_segments(
     for l in &c.limits {
         let (tc, vc) = log.channel(&l.channel)?;
         let (tc, vc) = uniform::sorted(tc, vc);
+        // PX4 logs NaN for the outputs a frame does not use (motors 7–12 of a hexarotor) and for
+        // stopped motors: a channel that is NaN throughout is not tested, and NaN samples of a
+        // used one are excluded under their own reason, not taken for saturation.
+        if vc.iter().all(|v| v.is_nan()) {
+            continue;
+        }
         let held = hold_last(&tc, &vc, &t);
-        let mut bad = 0usize;
+        let (mut bad, mut nan) = (0usize, 0usize);
         for (k, v) in held.iter().enumerate() {
-            if !(*v > l.lo && *v < l.hi) {
+            if v.is_nan() {
+                ok[k] = false;
+                nan += 1;
+            } else if !(*v > l.lo && *v < l.hi) {
                 ok[k] = false;
                 bad += 1;
             }
         }
-        match excluded.iter_mut().find(|(r, _)| *r == l.reason) {
-            Some(e) => e.1 = e.1.max(bad as f64 * dt),
-            None => excluded.push((l.reason, bad as f64 * dt)),
+        for (reason, count) in [(l.reason, bad), (NAN_REASON, nan)] {
+            if reason == NAN_REASON && count == 0 {
+                continue;
+            }
+            match excluded.iter_mut().find(|(r, _)| *r == reason) {
+                Some(e) => e.1 = e.1.max(count as f64 * dt),
+                None => excluded.push((reason, count as f64 * dt)),
+            }
         }
     }
     let mut segments = Vec::new();

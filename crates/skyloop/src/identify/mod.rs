@@ -468,7 +468,11 @@ pub fn identify(a: &IdentifyRequest) -> Result<Identification> {
                     .map(|(k, v)| format!("{k} = {v:.4} ± {:.2}", r.stderr.get(k).copied().unwrap_or(f64::NAN)))
                     .collect();
                 if !loose.is_empty() {
-                    let (lo, hi) = fit_opts.fmin_hz.zip(fit_opts.fmax_hz).unwrap_or((0.0, f64::INFINITY));
+                    // The band the fit saw: the options' limits, else the estimate's own ends.
+                    let first = frf.freq_hz.first().copied().unwrap_or(0.0);
+                    let last = frf.freq_hz.last().copied().unwrap_or(0.0);
+                    let lo = fit_opts.fmin_hz.map_or(first, |f| f.max(first));
+                    let hi = fit_opts.fmax_hz.map_or(last, |f| f.min(last));
                     let msg = format!(
                         "the data do not determine the rate-loop model between {lo:.2} and {hi:.2} Hz: {} (the error exceeds the value); fly sharper, faster stick inputs or a chirp, or pass --allow-poor-fit to see the fit anyway",
                         loose.join(", ")
