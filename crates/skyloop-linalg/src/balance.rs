@@ -160,6 +160,9 @@ fn swap_sym(b: &mut Mat<f64>, perm: &mut [usize], i: usize, j: usize) {
 }
 
 /// Iterative power-of-2 scaling of the block `ilo..=ihi` (the dgebal loop of LAPACK ≥ 3.5, 2-norms).
+///
+/// The sweeps run on a column-major copy (faer's indexed access is bounds-checked at every entry,
+/// which made balancing a twentieth of an H∞ norm computation); the arithmetic is unchanged.
 fn scale_block(b: &mut Mat<f64>, scale: &mut [f64], ilo: usize, ihi: usize) {
     const RADIX: f64 = 2.0;
     const FACTOR: f64 = 0.95;
@@ -168,27 +171,27 @@ fn scale_block(b: &mut Mat<f64>, scale: &mut [f64], ilo: usize, ihi: usize) {
     let sfmax1 = 1.0 / sfmin1;
     let sfmin2 = sfmin1 * RADIX;
     let sfmax2 = 1.0 / sfmin2;
+    let mut d: Vec<f64> = (0..n * n).map(|k| b[(k % n, k / n)]).collect();
+    let mut any = false;
     // Bounded number of sweeps: each accepted change reduces the row+column norm sum by ≥ 5 %.
     for _sweep in 0..200 {
         let mut noconv = false;
         for i in ilo..=ihi {
+            let col = &d[i * n..(i + 1) * n];
+            let row = |k: usize| d[i + k * n];
             // Plain sums of squares: entries are finite and balancing only needs 2-norms to a factor of 2
             // (hypot per entry would dominate the cost).
-            let mut c2 = 0.0f64;
-            let mut r2 = 0.0f64;
-            for k in ilo..=ihi {
-                c2 += b[(k, i)] * b[(k, i)];
-                r2 += b[(i, k)] * b[(i, k)];
-            }
+            let c2: f64 = col[ilo..=ihi].iter().map(|v| v * v).sum();
+            let r2: f64 = (ilo..=ihi).map(|k| row(k) * row(k)).sum();
             let (mut c, mut r) = (c2.sqrt(), r2.sqrt());
             let tiny = f64::MIN_POSITIVE / f64::EPSILON;
             if !c.is_finite() || !r.is_finite() || c2 < tiny || r2 < tiny {
                 // Overflow/underflow of the squares: recompute with scaling.
-                c = (ilo..=ihi).fold(0.0f64, |acc, k| acc.hypot(b[(k, i)]));
-                r = (ilo..=ihi).fold(0.0f64, |acc, k| acc.hypot(b[(i, k)]));
+                c = col[ilo..=ihi].iter().fold(0.0f64, |acc, v| acc.hypot(*v));
+                r = (ilo..=ihi).fold(0.0f64, |acc, k| acc.hypot(row(k)));
             }
-            let mut ca = (0..=ihi).map(|k| b[(k, i)].abs()).fold(0.0, f64::max);
-            let mut ra = (ilo..n).map(|k| b[(i, k)].abs()).fold(0.0, f64::max);
+            let mut ca = col[..=ihi].iter().map(|v| v.abs()).fold(0.0, f64::max);
+            let mut ra = (ilo..n).map(|k| row(k).abs()).fold(0.0, f64::max);
             if c == 0.0 || r == 0.0 {
                 continue;
             }
@@ -224,16 +227,20 @@ fn scale_block(b: &mut Mat<f64>, scale: &mut [f64], ilo: usize, ihi: usize) {
             let g = 1.0 / f;
             scale[i] *= f;
             noconv = true;
+            any = true;
             for k in 0..n {
-                b[(i, k)] *= g;
+                d[i + k * n] *= g;
             }
-            for k in 0..n {
-                b[(k, i)] *= f;
+            for v in &mut d[i * n..(i + 1) * n] {
+                *v *= f;
             }
         }
         if !noconv {
             break;
         }
+    }
+    if any {
+        *b = Mat::from_fn(n, n, |i, j| d[i + j * n]);
     }
 }
 
