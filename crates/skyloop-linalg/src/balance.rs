@@ -180,9 +180,15 @@ fn scale_block(b: &mut Mat<f64>, scale: &mut [f64], ilo: usize, ihi: usize) {
             let col = &d[i * n..(i + 1) * n];
             let row = |k: usize| d[i + k * n];
             // Plain sums of squares: entries are finite and balancing only needs 2-norms to a factor of 2
-            // (hypot per entry would dominate the cost).
-            let c2: f64 = col[ilo..=ihi].iter().map(|v| v * v).sum();
-            let r2: f64 = (ilo..=ihi).map(|k| row(k) * row(k)).sum();
+            // (hypot per entry would dominate the cost). One pass over the column and one over the
+            // row give both the sums (over the block) and the largest magnitudes (dgebal's ranges),
+            // each in four independent lanes: a single running sum or maximum is a chain of
+            // dependent additions, which made these sweeps a sixth of a Hamiltonian eigenvalue solve.
+            let ca0 = col[..ilo].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let (c2, ca1) = sum_sq_max(col[ilo..=ihi].iter().copied());
+            let mut ca = ca0.max(ca1);
+            let (r2, ra0) = sum_sq_max((ilo..=ihi).map(row));
+            let mut ra = ra0.max((ihi + 1..n).map(row).fold(0.0f64, |m, v| m.max(v.abs())));
             let (mut c, mut r) = (c2.sqrt(), r2.sqrt());
             let tiny = f64::MIN_POSITIVE / f64::EPSILON;
             if !c.is_finite() || !r.is_finite() || c2 < tiny || r2 < tiny {
@@ -190,8 +196,6 @@ fn scale_block(b: &mut Mat<f64>, scale: &mut [f64], ilo: usize, ihi: usize) {
                 c = col[ilo..=ihi].iter().fold(0.0f64, |acc, v| acc.hypot(*v));
                 r = (ilo..=ihi).fold(0.0f64, |acc, k| acc.hypot(row(k)));
             }
-            let mut ca = col[..=ihi].iter().map(|v| v.abs()).fold(0.0, f64::max);
-            let mut ra = (ilo..n).map(|k| row(k).abs()).fold(0.0, f64::max);
             if c == 0.0 || r == 0.0 {
                 continue;
             }
@@ -242,6 +246,24 @@ fn scale_block(b: &mut Mat<f64>, scale: &mut [f64], ilo: usize, ihi: usize) {
     if any {
         *b = Mat::from_fn(n, n, |i, j| d[i + j * n]);
     }
+}
+
+/// Sum of squares and largest magnitude of `it`, accumulated in four lanes (element k in lane k mod 4).
+#[inline]
+fn sum_sq_max(mut it: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (mut s, mut m) = ([0.0f64; 4], [0.0f64; 4]);
+    'outer: loop {
+        for l in 0..4 {
+            match it.next() {
+                Some(v) => {
+                    s[l] += v * v;
+                    m[l] = m[l].max(v.abs());
+                }
+                None => break 'outer,
+            }
+        }
+    }
+    ((s[0] + s[1]) + (s[2] + s[3]), m[0].max(m[1]).max(m[2]).max(m[3]))
 }
 
 impl Balanced {
