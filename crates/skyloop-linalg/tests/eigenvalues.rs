@@ -79,7 +79,10 @@ fn same_eigenvalues_as_the_balancing_routine_on_a_balanced_matrix() {
     for (n, seed) in [(30usize, 3u64), (90, 4)] {
         let rows = skyloop_fixtures::lcg_matrix(n, n, seed);
         let a = Mat::from_fn(n, n, |i, j| rows[i][j]);
-        let (x, y) = (eigenvalues_unbalanced(a.as_ref()).unwrap(), eigenvalues(a.as_ref()).unwrap());
+        let (x, y) = (
+            eigenvalues_unbalanced(a.as_ref()).unwrap(),
+            eigenvalues(a.as_ref()).unwrap(),
+        );
         let d = eig_distance(&x, &y);
         assert!(d < 1e-10, "n = {n}: {d:e}");
     }
@@ -87,5 +90,7 @@ fn same_eigenvalues_as_the_balancing_routine_on_a_balanced_matrix() {
     assert!(eigenvalues_unbalanced(Mat::<f64>::zeros(2, 3).as_ref()).is_err());
     let nan = Mat::from_fn(2, 2, |i, j| if i == j { f64::NAN } else { 1.0 });
     assert!(eigenvalues_unbalanced(nan.as_ref()).is_err());
-    assert!(eigenvalues_unbalanced(Mat::<f64>::zeros(0, 0).as_ref()).unwrap().is_empty());
+    assert!(eigenvalues_unbalanced(Mat::<f64>::zeros(0, 0).as_ref())
+        .unwrap()
+        .is_empty());
 }
