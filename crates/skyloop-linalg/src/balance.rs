@@ -171,7 +171,11 @@ fn scale_block(b: &mut Mat<f64>, scale: &mut [f64], ilo: usize, ihi: usize) {
     let sfmax1 = 1.0 / sfmin1;
     let sfmin2 = sfmin1 * RADIX;
     let sfmax2 = 1.0 / sfmin2;
-    let mut d: Vec<f64> = (0..n * n).map(|k| b[(k % n, k / n)]).collect();
+    // Column by column (an index split k % n, k / n per entry costs two integer divisions).
+    let mut d: Vec<f64> = Vec::with_capacity(n * n);
+    for j in 0..n {
+        d.extend((0..n).map(|i| b[(i, j)]));
+    }
     let mut any = false;
     // Bounded number of sweeps: each accepted change reduces the row+column norm sum by ≥ 5 %.
     for _sweep in 0..200 {
@@ -185,9 +189,9 @@ fn scale_block(b: &mut Mat<f64>, scale: &mut [f64], ilo: usize, ihi: usize) {
             // each in four independent lanes: a single running sum or maximum is a chain of
             // dependent additions, which made these sweeps a sixth of a Hamiltonian eigenvalue solve.
             let ca0 = col[..ilo].iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            let (c2, ca1) = sum_sq_max(col[ilo..=ihi].iter().copied());
+            let (c2, ca1) = sum_sq_max_strided(&col[ilo..=ihi], 1, ihi + 1 - ilo);
             let mut ca = ca0.max(ca1);
-            let (r2, ra0) = sum_sq_max((ilo..=ihi).map(row));
+            let (r2, ra0) = sum_sq_max_strided(&d[i + ilo * n..], n, ihi + 1 - ilo);
             let mut ra = ra0.max((ihi + 1..n).map(row).fold(0.0f64, |m, v| m.max(v.abs())));
             let (mut c, mut r) = (c2.sqrt(), r2.sqrt());
             let tiny = f64::MIN_POSITIVE / f64::EPSILON;
@@ -248,20 +252,25 @@ fn scale_block(b: &mut Mat<f64>, scale: &mut [f64], ilo: usize, ihi: usize) {
     }
 }
 
-/// Sum of squares and largest magnitude of `it`, accumulated in four lanes (element k in lane k mod 4).
+/// Sum of squares and largest magnitude of the `count` entries `x[0]`, `x[stride]`, …, accumulated
+/// in four lanes (entry k in lane k mod 4).
 #[inline]
-fn sum_sq_max(mut it: impl Iterator<Item = f64>) -> (f64, f64) {
+fn sum_sq_max_strided(x: &[f64], stride: usize, count: usize) -> (f64, f64) {
     let (mut s, mut m) = ([0.0f64; 4], [0.0f64; 4]);
-    'outer: loop {
+    let full = count / 4 * 4;
+    let mut k = 0;
+    while k < full {
         for l in 0..4 {
-            match it.next() {
-                Some(v) => {
-                    s[l] += v * v;
-                    m[l] = m[l].max(v.abs());
-                }
-                None => break 'outer,
-            }
+            let v = x[(k + l) * stride];
+            s[l] += v * v;
+            m[l] = m[l].max(v.abs());
         }
+        k += 4;
+    }
+    for l in 0..count - full {
+        let v = x[(full + l) * stride];
+        s[l] += v * v;
+        m[l] = m[l].max(v.abs());
     }
     ((s[0] + s[1]) + (s[2] + s[3]), m[0].max(m[1]).max(m[2]).max(m[3]))
 }

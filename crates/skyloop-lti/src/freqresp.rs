@@ -74,14 +74,11 @@ impl FreqEvaluator {
         // round-off entries look like weak couplings, and then C·X cancels catastrophically.
         let scale = system_scaling(&sys.a, &sys.b, &sys.c);
         // Column-major D⁻¹AD, D⁻¹B, CD.
-        let mut ad: Vec<f64> = (0..n * n)
-            .map(|k| {
-                let (i, j) = (k % n, k / n);
-                sys.a[(i, j)] * scale[j] / scale[i]
-            })
-            .collect();
-        let mut bd: Vec<f64> = (0..n * nu).map(|k| sys.b[(k % n, k / n)] / scale[k % n]).collect();
-        let mut cd: Vec<f64> = (0..ny * n).map(|k| sys.c[(k % ny, k / ny)] * scale[k / ny]).collect();
+        let (mut ad, mut bd, mut cd) = (
+            col_major(n, n, |i, j| sys.a[(i, j)] * scale[j] / scale[i]),
+            col_major(n, nu, |i, j| sys.b[(i, j)] / scale[i]),
+            col_major(ny, n, |i, j| sys.c[(i, j)] * scale[j]),
+        );
         let schur = if use_schur && n > 0 {
             skyloop_linalg::schur::real_schur(faer::MatRef::from_column_major_slice(&ad, n, n)).ok()
         } else {
@@ -94,11 +91,11 @@ impl FreqEvaluator {
                 let blocks = sch.block_sizes();
                 (
                     Form::Schur {
-                        t: (0..n * n).map(|k| sch.t[(k % n, k / n)]).collect(),
+                        t: col_major(n, n, |i, j| sch.t[(i, j)]),
                         blocks,
                     },
-                    (0..n * nu).map(|k| b[(k % n, k / n)]).collect(),
-                    (0..ny * n).map(|k| c[(k / n, k % n)]).collect(),
+                    col_major(n, nu, |i, j| b[(i, j)]),
+                    col_major(n, ny, |j, i| c[(i, j)]),
                 )
             }
             None => {
@@ -110,10 +107,10 @@ impl FreqEvaluator {
                 });
                 (
                     Form::Hessenberg {
-                        h: (0..n * n).map(|k| ad[(k % n) * n + k / n]).collect(),
+                        h: col_major(n, n, |j, i| ad[j * n + i]),
                     },
                     bd,
-                    (0..ny * n).map(|k| cd[(k % n) * ny + k / n]).collect(),
+                    col_major(n, ny, |j, i| cd[j * ny + i]),
                 )
             }
         };
@@ -466,6 +463,17 @@ pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
+/// The `rows` × `cols` matrix with entries `f(i, j)`, column-major (filled column by column: an
+/// index split k % rows, k / rows per entry costs two integer divisions). With the roles of the
+/// arguments swapped, `col_major(cols, rows, |j, i| m(i, j))` is `m` row-major.
+fn col_major(rows: usize, cols: usize, f: impl Fn(usize, usize) -> f64) -> Vec<f64> {
+    let mut out = Vec::with_capacity(rows * cols);
+    for j in 0..cols {
+        out.extend((0..rows).map(|i| f(i, j)));
+    }
+    out
+}
+
 /// Powers of 2 d_i that balance the state rows [A(i,:) B(i,:)] and columns [A(:,i); C(:,i)] of the
 /// system matrix [A B; C 0] under D⁻¹AD, D⁻¹B, CD (the dgebal iteration, LAPACK ≥ 3.5 with 2-norms,
 /// applied to the system as SLICOT tb01id does; diagonal entries excluded as they are invariant).
@@ -479,7 +487,7 @@ pub(crate) fn system_scaling(a: &Mat<f64>, b: &Mat<f64>, c: &Mat<f64>) -> Vec<f6
     // Column-major copy of A and the reciprocals of d (powers of 2, so multiplying by them is
     // exact): the sweeps below read A n² times each, and faer's indexed access with a division per
     // entry made this 2–3 % of an H∞ norm computation.
-    let ad: Vec<f64> = (0..n * n).map(|k| a[(k % n, k / n)]).collect();
+    let ad = col_major(n, n, |i, j| a[(i, j)]);
     let mut dinv = vec![1.0; n];
     // Each accepted change lowers the sum of row and column norms by ≥ 5 %, so this terminates;
     // the sweep cap only guards against pathological input.
