@@ -119,6 +119,38 @@ fn square_reduce(a: MatRef<f64>, g: MatRef<f64>, q: MatRef<f64>) -> Result<Dm> {
             "hamiltonian_eigenvalues: the Hamiltonian matrix (or its square) has NaN or infinite entries".into(),
         ));
     }
+    // The reduction's loops are contiguous column axpys and dot products: they are compiled for
+    // AVX2 where the CPU has it (pulp's run-time dispatch). The order of every floating-point
+    // operation is that of the baseline SSE2 build, so the result is the same; on a 40-state H∞
+    // norm the whole computation took a few percent less time.
+    pulp::Arch::new().dispatch(Reduce {
+        w: &mut w,
+        x: &mut x,
+        y: &mut y,
+    });
+    Ok(w)
+}
+
+/// [`reduce_blocks`] as a pulp operation: `with_simd` is inlined into pulp's function compiled for
+/// the detected instruction set, and everything it calls with `#[inline(always)]` with it.
+struct Reduce<'a> {
+    w: &'a mut Dm,
+    x: &'a mut Dm,
+    y: &'a mut Dm,
+}
+
+impl pulp::WithSimd for Reduce<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        reduce_blocks(self.w, self.x, self.y)
+    }
+}
+
+/// The Paige–Van Loan reduction of [`square_reduce`] on the blocks W, X, Y of H² (in place).
+#[inline(always)]
+fn reduce_blocks(w: &mut Dm, x: &mut Dm, y: &mut Dm) {
+    let n = w.n;
     let mut v = vec![0.0; n];
     let mut tmp = vec![0.0; n];
     for k in 0..n.saturating_sub(1) {
@@ -127,9 +159,9 @@ fn square_reduce(a: MatRef<f64>, g: MatRef<f64>, q: MatRef<f64>) -> Result<Dm> {
         // (a) diag(P, P) zeroes Y(k+2.., k). Y's rows and columns before k are already zero.
         v[..len].copy_from_slice(&y.d[k * n + p..k * n + n]);
         if let Some(tau) = householder(&mut v[..len]) {
-            reflect_general(&mut w, k, p, &v[..len], tau, &mut tmp);
-            reflect_skew(&mut x, 0, p, &v[..len], tau, &mut tmp, true);
-            reflect_skew(&mut y, k, p, &v[..len], tau, &mut tmp, false);
+            reflect_general(w, k, p, &v[..len], tau, &mut tmp);
+            reflect_skew(x, 0, p, &v[..len], tau, &mut tmp, true);
+            reflect_skew(y, k, p, &v[..len], tau, &mut tmp, false);
         }
         for i in p + 1..n {
             y[(i, k)] = 0.0;
@@ -163,19 +195,19 @@ fn square_reduce(a: MatRef<f64>, g: MatRef<f64>, q: MatRef<f64>) -> Result<Dm> {
         // (c) diag(P, P) zeroes W(k+2.., k), making W upper Hessenberg. Y's column k is zero now.
         v[..len].copy_from_slice(&w.d[k * n + p..k * n + n]);
         if let Some(tau) = householder(&mut v[..len]) {
-            reflect_general(&mut w, k, p, &v[..len], tau, &mut tmp);
-            reflect_skew(&mut x, 0, p, &v[..len], tau, &mut tmp, true);
-            reflect_skew(&mut y, p, p, &v[..len], tau, &mut tmp, false);
+            reflect_general(w, k, p, &v[..len], tau, &mut tmp);
+            reflect_skew(x, 0, p, &v[..len], tau, &mut tmp, true);
+            reflect_skew(y, p, p, &v[..len], tau, &mut tmp, false);
         }
         for i in p + 1..n {
             w[(i, k)] = 0.0;
         }
     }
-    Ok(w)
 }
 
 /// Householder vector for x (overwritten with v, v[0] = 1) and τ such that (I − τvvᵀ)x = βe₁;
 /// `None` when x is already a multiple of e₁.
+#[inline(always)]
 fn householder(x: &mut [f64]) -> Option<f64> {
     let (beta, tau) = larfg(x[0], &mut x[1..]);
     let _ = beta;
@@ -188,6 +220,7 @@ fn householder(x: &mut [f64]) -> Option<f64> {
 
 /// W ← P·W·P with P = I − τvvᵀ acting on indices `p..n`. Columns before `k` are skipped on the
 /// left: the reduction has already zeroed their entries in rows `p..n`.
+#[inline(always)]
 fn reflect_general(w: &mut Dm, k: usize, p: usize, v: &[f64], tau: f64, tmp: &mut [f64]) {
     let n = w.n;
     for j in k..n {
@@ -221,6 +254,7 @@ fn reflect_general(w: &mut Dm, k: usize, p: usize, v: &[f64], tau: f64, tmp: &mu
 /// reads them again (it reads only columns ≥ p, whole), which saves a third of X's work; their
 /// entries are then stale and S is skew-symmetric only in the columns from `p` on.
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 fn reflect_skew(s: &mut Dm, lo: usize, p: usize, v: &[f64], tau: f64, tmp: &mut [f64], leading_stale: bool) {
     let n = s.n;
     let t = &mut tmp[..n];
@@ -249,6 +283,7 @@ fn reflect_skew(s: &mut Dm, lo: usize, p: usize, v: &[f64], tau: f64, tmp: &mut 
 }
 
 /// Dot product with four independent partial sums (lets the compiler vectorize it).
+#[inline(always)]
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     let mut acc = [0.0f64; 4];
     let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));

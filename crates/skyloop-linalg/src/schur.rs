@@ -112,6 +112,26 @@ pub fn eigenvalues(a: MatRef<f64>) -> Result<Vec<c64>> {
     Ok(block_eigenvalues(&h))
 }
 
+/// Eigenvalues of a square matrix as given, without balancing: for a matrix that is already
+/// balanced (the block `ilo..=ihi` of [`crate::balance::Balanced::a`]), where a second balancing
+/// pass would only cost time. Hessenberg reduction, then the QR iteration without Schur vectors
+/// (as [`eigenvalues`]); the order is that of the quasi-triangular form.
+///
+/// # Errors
+/// A non-square matrix, NaN or infinite entries, or a QR iteration that does not converge.
+pub fn eigenvalues_unbalanced(a: MatRef<f64>) -> Result<Vec<c64>> {
+    check_square_finite(a, "eigenvalues_unbalanced")?;
+    let mut h = Dm::from_mat(a);
+    let mut z = Dm::zeros(0);
+    hessenberg(&mut h, false);
+    if h.n < crate::multishift::NMIN {
+        lahqr_with(&mut h, &mut z, false)?;
+    } else {
+        crate::multishift::laqr0(&mut h, &mut z)?;
+    }
+    Ok(block_eigenvalues(&h))
+}
+
 /// Eigenvalues of an upper Hessenberg work matrix (destroyed): diagonal scaling (dgebal's
 /// scaling, which keeps the Hessenberg form, unlike its permutations), then the QR iteration
 /// without the Schur factor outside the active block below the multishift order.

@@ -75,29 +75,45 @@ impl FreqEvaluator {
         // SLICOT tb01id): balancing A alone can inflate C·D by 1e11 on nearly triangular A whose
         // round-off entries look like weak couplings, and then C·X cancels catastrophically.
         let scale = system_scaling(&sys.a, &sys.b, &sys.c);
-        let mut a = Mat::from_fn(n, n, |i, j| sys.a[(i, j)] * scale[j] / scale[i]);
-        let mut b = Mat::from_fn(n, nu, |i, j| sys.b[(i, j)] / scale[i]);
-        let mut c = Mat::from_fn(ny, n, |i, j| sys.c[(i, j)] * scale[j]);
+        // Column-major D⁻¹AD, D⁻¹B, CD.
+        let (mut ad, mut bd, mut cd) = (
+            col_major(n, n, |i, j| sys.a[(i, j)] * scale[j] / scale[i]),
+            col_major(n, nu, |i, j| sys.b[(i, j)] / scale[i]),
+            col_major(ny, n, |i, j| sys.c[(i, j)] * scale[j]),
+        );
         let schur = if use_schur && n > 0 {
-            skyloop_linalg::schur::real_schur(a.as_ref()).ok()
+            skyloop_linalg::schur::real_schur(faer::MatRef::from_column_major_slice(&ad, n, n)).ok()
         } else {
             None
         };
-        let form = match schur {
+        let (form, b, c) = match schur {
             Some(sch) => {
-                b = sch.q.transpose() * &b;
-                c = &c * &sch.q;
+                let b = sch.q.transpose() * faer::MatRef::from_column_major_slice(&bd, n, nu);
+                let c = faer::MatRef::from_column_major_slice(&cd, ny, n) * &sch.q;
                 let blocks = sch.block_sizes();
-                Form::Schur {
-                    t: (0..n * n).map(|k| sch.t[(k % n, k / n)]).collect(),
-                    blocks,
-                }
+                (
+                    Form::Schur {
+                        t: col_major(n, n, |i, j| sch.t[(i, j)]),
+                        blocks,
+                    },
+                    col_major(n, nu, |i, j| b[(i, j)]),
+                    col_major(n, ny, |j, i| c[(i, j)]),
+                )
             }
             None => {
-                hessenberg_reduce(&mut a, &mut b, &mut c);
-                Form::Hessenberg {
-                    h: (0..n * n).map(|k| a[(k / n, k % n)]).collect(),
-                }
+                pulp::Arch::new().dispatch(Reduce {
+                    ad: &mut ad,
+                    bd: &mut bd,
+                    cd: &mut cd,
+                    dims: (n, nu, ny),
+                });
+                (
+                    Form::Hessenberg {
+                        h: col_major(n, n, |j, i| ad[j * n + i]),
+                    },
+                    bd,
+                    col_major(n, ny, |j, i| cd[j * ny + i]),
+                )
             }
         };
         let mut delay = vec![0.0; ny * nu];
@@ -111,8 +127,8 @@ impl FreqEvaluator {
             ny,
             nu,
             form,
-            b: (0..n * nu).map(|k| b[(k % n, k / n)]).collect(),
-            c: (0..ny * n).map(|k| c[(k / n, k % n)]).collect(),
+            b,
+            c,
             d: sys.d.clone(),
             dt: sys.dt,
             has_delay: delay.iter().any(|&t| t > 0.0),
@@ -161,7 +177,7 @@ impl FreqEvaluator {
         let (n, nu) = (self.n, self.nu);
         match &self.form {
             Form::Schur { t, blocks } => self.solve_schur(t, blocks, x, ws)?,
-            Form::Hessenberg { h } => self.solve(h, x, ws)?,
+            Form::Hessenberg { h } => pulp::Arch::new().dispatch(HessSolve { ev: self, h, x, ws })?,
         }
         for i in 0..self.ny {
             let crow = &self.c[i * n..(i + 1) * n];
@@ -427,6 +443,46 @@ impl FreqEvaluator {
     }
 }
 
+/// The Hessenberg solve of [`FreqEvaluator::eval_into`] as a pulp operation, and
+/// [`hessenberg_reduce`] below: their loops (complex axpys and dot products over rows of H, column
+/// updates of the reduction) are compiled for AVX2 where the CPU has it, through pulp's run-time
+/// dispatch (`with_simd` is inlined into pulp's function built for the detected instruction set).
+/// Every floating-point operation happens in the same order as in the baseline build, so the
+/// results are the same; the evaluator's set-up and evaluations of a 40-state H∞ norm took about
+/// 15 % less time.
+struct HessSolve<'a> {
+    ev: &'a FreqEvaluator,
+    h: &'a [f64],
+    x: c64,
+    ws: &'a mut Workspace,
+}
+
+impl pulp::WithSimd for HessSolve<'_> {
+    type Output = Result<()>;
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) -> Result<()> {
+        self.ev.solve(self.h, self.x, self.ws)
+    }
+}
+
+/// See [`HessSolve`].
+struct Reduce<'a> {
+    ad: &'a mut [f64],
+    bd: &'a mut [f64],
+    cd: &'a mut [f64],
+    dims: (usize, usize, usize),
+}
+
+impl pulp::WithSimd for Reduce<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        let (n, nu, ny) = self.dims;
+        hessenberg_reduce(self.ad, self.bd, self.cd, n, nu, ny)
+    }
+}
+
+#[inline(always)]
 fn swap_rows(m: &mut [f64], n: usize, r1: usize, r2: usize, from_col: usize) {
     for j in from_col..n {
         m.swap(r1 * n + j, r2 * n + j);
@@ -465,6 +521,17 @@ pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
+/// The `rows` × `cols` matrix with entries `f(i, j)`, column-major (filled column by column: an
+/// index split k % rows, k / rows per entry costs two integer divisions). With the roles of the
+/// arguments swapped, `col_major(cols, rows, |j, i| m(i, j))` is `m` row-major.
+fn col_major(rows: usize, cols: usize, f: impl Fn(usize, usize) -> f64) -> Vec<f64> {
+    let mut out = Vec::with_capacity(rows * cols);
+    for j in 0..cols {
+        out.extend((0..rows).map(|i| f(i, j)));
+    }
+    out
+}
+
 /// Powers of 2 d_i that balance the state rows [A(i,:) B(i,:)] and columns [A(:,i); C(:,i)] of the
 /// system matrix [A B; C 0] under D⁻¹AD, D⁻¹B, CD (the dgebal iteration, LAPACK ≥ 3.5 with 2-norms,
 /// applied to the system as SLICOT tb01id does; diagonal entries excluded as they are invariant).
@@ -475,6 +542,11 @@ pub(crate) fn system_scaling(a: &Mat<f64>, b: &Mat<f64>, c: &Mat<f64>) -> Vec<f6
     const LIMIT: f64 = 1e100;
     let n = a.nrows();
     let mut d = vec![1.0; n];
+    // Column-major copy of A and the reciprocals of d (powers of 2, so multiplying by them is
+    // exact): the sweeps below read A n² times each, and faer's indexed access with a division per
+    // entry made this 2–3 % of an H∞ norm computation.
+    let ad = col_major(n, n, |i, j| a[(i, j)]);
+    let mut dinv = vec![1.0; n];
     // Each accepted change lowers the sum of row and column norms by ≥ 5 %, so this terminates;
     // the sweep cap only guards against pathological input.
     for _sweep in 0..100 {
@@ -482,17 +554,18 @@ pub(crate) fn system_scaling(a: &Mat<f64>, b: &Mat<f64>, c: &Mat<f64>) -> Vec<f6
         for i in 0..n {
             let mut col = 0.0;
             let mut row = 0.0;
+            let acol = &ad[i * n..(i + 1) * n];
             for k in 0..n {
                 if k != i {
-                    col += (a[(k, i)] * d[i] / d[k]).powi(2);
-                    row += (a[(i, k)] * d[k] / d[i]).powi(2);
+                    col += (acol[k] * d[i] * dinv[k]).powi(2);
+                    row += (ad[i + k * n] * d[k] * dinv[i]).powi(2);
                 }
             }
             for k in 0..c.nrows() {
                 col += (c[(k, i)] * d[i]).powi(2);
             }
             for k in 0..b.ncols() {
-                row += (b[(i, k)] / d[i]).powi(2);
+                row += (b[(i, k)] * dinv[i]).powi(2);
             }
             let (mut cn, mut rn) = (col.sqrt(), row.sqrt());
             if cn == 0.0 || rn == 0.0 || !(cn.is_finite() && rn.is_finite()) {
@@ -512,6 +585,7 @@ pub(crate) fn system_scaling(a: &Mat<f64>, b: &Mat<f64>, c: &Mat<f64>) -> Vec<f6
             }
             if f != 1.0 && cn + rn < FACTOR * sum {
                 d[i] *= f;
+                dinv[i] = 1.0 / d[i];
                 changed = true;
             }
         }
@@ -524,49 +598,68 @@ pub(crate) fn system_scaling(a: &Mat<f64>, b: &Mat<f64>, c: &Mat<f64>) -> Vec<f6
 
 /// Reduces A to upper Hessenberg form in place by Householder reflections H = QᵀAQ,
 /// applying the same Q to B (QᵀB) and C (CQ).
-fn hessenberg_reduce(a: &mut Mat<f64>, b: &mut Mat<f64>, c: &mut Mat<f64>) {
-    let n = a.nrows();
+///
+/// The work runs on column-major copies so that every inner loop is a contiguous axpy or dot
+/// product (faer's indexed access is bounds-checked and the row-wise right updates were strided,
+/// which made this reduction 7 % of an H∞ norm computation).
+#[inline(always)]
+fn hessenberg_reduce(ad: &mut [f64], bd: &mut [f64], cd: &mut [f64], n: usize, nu: usize, ny: usize) {
     let mut v = vec![0.0; n];
+    let mut t = vec![0.0; n.max(ny)];
+    // M ← M·(I − βvvᵀ) on the columns k+1.. of a column-major `rows` × n matrix: t = M·v, then
+    // M −= β·t·vᵀ, both column by column.
+    #[inline(always)]
+    fn right(m: &mut [f64], rows: usize, k: usize, v: &[f64], beta: f64, t: &mut [f64]) {
+        let t = &mut t[..rows];
+        t.fill(0.0);
+        for (jj, &vj) in v.iter().enumerate() {
+            let col = &m[(k + 1 + jj) * rows..(k + 2 + jj) * rows];
+            for (ti, &ci) in t.iter_mut().zip(col) {
+                *ti += vj * ci;
+            }
+        }
+        for (jj, &vj) in v.iter().enumerate() {
+            let f = beta * vj;
+            let col = &mut m[(k + 1 + jj) * rows..(k + 2 + jj) * rows];
+            for (ci, &ti) in col.iter_mut().zip(t.iter()) {
+                *ci -= f * ti;
+            }
+        }
+    }
+    // M ← (I − βvvᵀ)·M on the rows k+1.. of every column (columns of length `rows` = n).
+    #[inline(always)]
+    fn left(m: &mut [f64], rows: usize, cols: std::ops::Range<usize>, k: usize, v: &[f64], beta: f64) {
+        for j in cols {
+            let col = &mut m[j * rows + k + 1..(j + 1) * rows];
+            let s = dot(col, v) * beta;
+            for (ci, &vi) in col.iter_mut().zip(v) {
+                *ci -= s * vi;
+            }
+        }
+    }
     for k in 0..n.saturating_sub(2) {
-        let norm = (k + 1..n).map(|i| a[(i, k)] * a[(i, k)]).sum::<f64>().sqrt();
+        let x = &ad[k * n + k + 1..(k + 1) * n];
+        let norm = x.iter().map(|e| e * e).sum::<f64>().sqrt();
         if norm == 0.0 {
             continue;
         }
-        let alpha = if a[(k + 1, k)] > 0.0 { -norm } else { norm };
+        let alpha = if x[0] > 0.0 { -norm } else { norm };
         // v = x − alpha·e1, reflector I − 2vvᵀ/(vᵀv) maps x to alpha·e1.
-        for i in k + 1..n {
-            v[i] = a[(i, k)];
-        }
-        v[k + 1] -= alpha;
-        let vtv: f64 = (k + 1..n).map(|i| v[i] * v[i]).sum();
+        let len = n - k - 1;
+        let v = &mut v[..len];
+        v.copy_from_slice(x);
+        v[0] -= alpha;
+        let vtv: f64 = v.iter().map(|e| e * e).sum();
         if vtv == 0.0 {
             continue;
         }
         let beta = 2.0 / vtv;
-        let left = |m: &mut Mat<f64>, from: usize| {
-            for j in from..m.ncols() {
-                let s: f64 = (k + 1..n).map(|i| v[i] * m[(i, j)]).sum::<f64>() * beta;
-                for i in k + 1..n {
-                    m[(i, j)] -= s * v[i];
-                }
-            }
-        };
-        let right = |m: &mut Mat<f64>| {
-            for i in 0..m.nrows() {
-                let s: f64 = (k + 1..n).map(|j| m[(i, j)] * v[j]).sum::<f64>() * beta;
-                for j in k + 1..n {
-                    m[(i, j)] -= s * v[j];
-                }
-            }
-        };
-        left(a, k);
-        right(a);
-        left(b, 0);
-        right(c);
-        a[(k + 1, k)] = alpha;
-        for i in k + 2..n {
-            a[(i, k)] = 0.0;
-        }
+        left(ad, n, k + 1..n, k, v, beta);
+        right(ad, n, k, v, beta, &mut t);
+        left(bd, n, 0..nu, k, v, beta);
+        right(cd, ny, k, v, beta, &mut t);
+        ad[k * n + k + 1] = alpha;
+        ad[k * n + k + 2..(k + 1) * n].fill(0.0);
     }
 }
 
@@ -841,7 +934,8 @@ fn origin_cluster(be: &BalancedEigen, dt: f64, n: usize) -> Vec<bool> {
 
 /// Eigenvalues of A after dgebal balancing (skyloop_linalg::balance): eigenvalues isolated by the
 /// permutation are exact (integrators of companion forms stay exactly at 0), the rest come from
-/// faer on the scaled block, which is far better conditioned for companion-like matrices.
+/// the QR iteration (skyloop_linalg::schur) on the scaled block, which is far better conditioned
+/// for companion-like matrices.
 pub fn balanced_eigenvalues(a: &Mat<f64>) -> Result<Vec<c64>> {
     Ok(balanced_eigen(a)?.eig)
 }
@@ -875,10 +969,11 @@ fn balanced_eigen(a: &Mat<f64>) -> Result<BalancedEigen> {
         let m = bal.ihi + 1 - bal.ilo;
         let block = bal.a.as_ref().submatrix(bal.ilo, bal.ilo, m, m).to_owned();
         out.block_norm = block.norm_l2();
+        // skyloop-linalg's QR iteration without Schur vectors: faer's eigenvalue routine took
+        // nearly twice as long on a 40 × 40 block (it was a sixth of an H∞ norm computation).
         out.eig.extend(
-            block
-                .eigenvalues()
-                .map_err(|e| LtiError::Numerical(format!("eigenvalues of A: {e:?}")))?,
+            skyloop_linalg::schur::eigenvalues_unbalanced(block.as_ref())
+                .map_err(|e| LtiError::Numerical(format!("eigenvalues of A: {e}")))?,
         );
     }
     Ok(out)
