@@ -12,9 +12,17 @@ min(R, 3) alternating runs each), with the CPU time ratio that tells a busy mach
 serial bottleneck.
 This file defines no `comparisons()`, so bench/compare.py (which imports every compare_*.py)
 skips it; everything runs under `main()`.
+
+BLAS is single-threaded on both sides, as in bench/compare.py (skyloop is single-threaded per call;
+a threaded OpenBLAS on a busy machine makes slycot and numpy look slower than they are: in one such
+run ab09ad took 42 ms and balred showed 10.6x, against 2.1-2.3x with one BLAS thread).
 """
-import argparse
 import os
+
+for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_v, "1")
+
+import argparse
 import re
 import resource
 import time
