@@ -259,6 +259,21 @@ fn monte_carlo_seed_ranges_write_csv_that_splits_a_campaign() {
     assert_eq!(tail.lines().skip(1).collect::<Vec<_>>(), lines[3..].to_vec());
     // Different seeds fly differently (the noise and parameters are per run).
     assert_ne!(lines[1].split(',').nth(3), lines[2].split(',').nth(3));
+    // The same campaign as Parquet: a complete file (magic at both ends) with the same summary;
+    // its contents are checked by skyloop's own test against the Parquet reader, and by pyarrow.
+    let pq = dir.join("whole.parquet");
+    let o = skyloop()
+        .arg("simulate")
+        .arg(&spec)
+        .args(["--monte-carlo", "--json", "--seeds", "0..4", "--out"])
+        .arg(&pq)
+        .output()
+        .expect("runs");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("summary JSON");
+    assert_eq!(v, summary);
+    let bytes = std::fs::read(&pq).expect("parquet");
+    assert!(bytes.len() > 8 && bytes.starts_with(b"PAR1") && bytes.ends_with(b"PAR1"));
     let bad = skyloop()
         .arg("simulate")
         .arg(&spec)

@@ -1,6 +1,6 @@
 //! `skyloop simulate SCENARIO.toml`: nonlinear closed-loop simulation → trajectory CSV, metrics JSON,
 //! a trace plot; with --monte-carlo the scenario's [monte_carlo] study instead (optionally only the
-//! runs `--seeds A..B`, written as CSV with `--out FILE.csv`, so job arrays can split a campaign).
+//! runs `--seeds A..B`, written as CSV or Parquet with `--out FILE.csv` / `FILE.parquet`, so job arrays can split a campaign).
 
 use crate::output;
 use skyloop::simulation::{
@@ -14,7 +14,7 @@ pub struct Args {
     /// Scenario file (TOML; see examples/*.toml).
     scenario: PathBuf,
     /// Output directory for trajectory.csv, metrics.json and traces.svg (monte_carlo.json with
-    /// --monte-carlo); with --monte-carlo, a path ending in .csv gets one line of metrics per run instead.
+    /// --monte-carlo); with --monte-carlo, a path ending in .csv or .parquet gets one row of metrics per run instead.
     #[arg(long, default_value = "skyloop-sim-out")]
     out: PathBuf,
     /// Print the metrics as one JSON object on stdout.
@@ -47,20 +47,25 @@ pub fn run(a: Args) -> skyloop::Result<()> {
             bar.set_length(total as u64);
             bar.set_position(done as u64);
         };
-        let csv = a.out.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv"));
-        let (summary, path) = if csv || a.seeds.is_some() {
+        let ext = |x: &str| a.out.extension().is_some_and(|e| e.eq_ignore_ascii_case(x));
+        let (csv, parquet) = (ext("csv"), ext("parquet"));
+        let (summary, path) = if csv || parquet || a.seeds.is_some() {
             let seeds = match &a.seeds {
                 Some(t) => parse_seed_range(t)?,
                 None => (0..scn.monte_carlo.as_ref().map_or(0, |m| m.runs)).collect(),
             };
             let (runs, summary) = monte_carlo_runs(&scn, &seeds, None, &progress)?;
-            let path = if csv {
+            let path = if csv || parquet {
                 a.out.clone()
             } else {
                 a.out.join("monte_carlo.csv")
             };
             let base = scn.monte_carlo.as_ref().map_or(0, |m| m.seed);
-            write_runs_csv(&path, base, &seeds, &runs)?;
+            if parquet {
+                skyloop::simulation::write_runs_parquet(&path, base, &seeds, &runs)?;
+            } else {
+                write_runs_csv(&path, base, &seeds, &runs)?;
+            }
             (summary, path)
         } else {
             monte_carlo_to(&scn, &a.out, &progress)?
