@@ -99,17 +99,7 @@ pub fn real_schur(a: MatRef<f64>) -> Result<Schur> {
 /// for badly scaled matrices; the order is that of the Schur form.
 pub fn eigenvalues(a: MatRef<f64>) -> Result<Vec<c64>> {
     check_square_finite(a, "eigenvalues")?;
-    let bal = crate::balance::balance(a);
-    let mut h = Dm::from_mat(bal.a.as_ref());
-    let mut z = Dm::zeros(0);
-    hessenberg(&mut h, false);
-    if h.n < crate::multishift::NMIN {
-        // Same eigenvalues bit for bit (the active block never reads what lies outside it).
-        lahqr_with(&mut h, &mut z, false)?;
-    } else {
-        crate::multishift::laqr0(&mut h, &mut z)?;
-    }
-    Ok(block_eigenvalues(&h))
+    eigenvalues_unbalanced(crate::balance::balance(a).a.as_ref())
 }
 
 /// Eigenvalues of a square matrix as given, without balancing: for a matrix that is already
@@ -125,6 +115,7 @@ pub fn eigenvalues_unbalanced(a: MatRef<f64>) -> Result<Vec<c64>> {
     let mut z = Dm::zeros(0);
     hessenberg(&mut h, false);
     if h.n < crate::multishift::NMIN {
+        // Same eigenvalues bit for bit (the active block never reads what lies outside it).
         lahqr_with(&mut h, &mut z, false)?;
     } else {
         crate::multishift::laqr0(&mut h, &mut z)?;
