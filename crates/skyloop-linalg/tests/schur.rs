@@ -15,6 +15,17 @@ fn mat(v: &Value) -> Mat<f64> {
     Mat::from_fn(n, m, |i, j| rows[i][j].as_f64().expect("number"))
 }
 
+/// The numpy eigenvalues a fixture case holds (`eig_re`, `eig_im`).
+fn numpy_eigenvalues(case: &Value) -> Vec<c64> {
+    case["eig_re"]
+        .as_array()
+        .expect("re")
+        .iter()
+        .zip(case["eig_im"].as_array().expect("im"))
+        .map(|(r, i)| c64::new(r.as_f64().expect("re"), i.as_f64().expect("im")))
+        .collect()
+}
+
 fn fixtures() -> Vec<Value> {
     skyloop_fixtures::cases(env!("CARGO_MANIFEST_DIR"), "tests/fixtures/schur/cases.json")
 }
@@ -79,13 +90,7 @@ fn schur_matches_numpy_eigenvalues() {
         let a = mat(&case["a"]);
         let s = real_schur(a.as_ref()).unwrap_or_else(|e| panic!("{name}: {e}"));
         check_schur(a.as_ref(), &s, 1e-13 * (a.nrows() as f64).max(1.0));
-        let reference: Vec<c64> = case["eig_re"]
-            .as_array()
-            .expect("re")
-            .iter()
-            .zip(case["eig_im"].as_array().expect("im"))
-            .map(|(r, i)| c64::new(r.as_f64().expect("re"), i.as_f64().expect("im")))
-            .collect();
+        let reference = numpy_eigenvalues(&case);
         // Without balancing a badly scaled matrix has ill-conditioned eigenvalues: the Schur form is
         // still backward stable (checked above) but eigenvalues are compared after balancing.
         let d = eig_distance(&eigenvalues(a.as_ref()).expect("eigenvalues"), &reference);
@@ -348,13 +353,7 @@ fn balanced_block_eigenvalues_match_numpy() {
     for case in fixtures() {
         let name = case["name"].as_str().unwrap_or("?");
         let a = mat(&case["a"]);
-        let reference: Vec<c64> = case["eig_re"]
-            .as_array()
-            .expect("re")
-            .iter()
-            .zip(case["eig_im"].as_array().expect("im"))
-            .map(|(r, i)| c64::new(r.as_f64().expect("re"), i.as_f64().expect("im")))
-            .collect();
+        let reference = numpy_eigenvalues(&case);
         // As skyloop-lti's pole computation uses it: the isolated eigenvalues are the diagonal
         // entries outside the balanced block, the rest come from the block without rebalancing.
         let bal = balance(a.as_ref());

@@ -166,18 +166,19 @@ impl FreqEvaluator {
     /// G at the Laplace variable `s` (rad/s; discrete models are evaluated at z = e^{s·dt}),
     /// written row-major (ny × nu) into `out`. Errors when s is a pole of the model.
     pub fn eval_into(&self, s: c64, ws: &mut Workspace, out: &mut [c64]) -> Result<()> {
-        self.eval_inline(s, ws, out)
+        pulp::Arch::new().dispatch(EvalOne { ev: self, s, ws, out })
     }
 
-    /// The body of [`FreqEvaluator::eval_into`], inlined into [`FreqEvaluator::eval_chunk`]'s
-    /// SIMD-dispatched loop so that the solves there compile for the detected instruction set.
+    /// The body of [`FreqEvaluator::eval_into`], inlined into the SIMD-dispatched callers
+    /// ([`EvalOne`], [`FreqEvaluator::eval_chunk`]) so that the solves compile for the detected
+    /// instruction set.
     #[inline(always)]
     fn eval_inline(&self, s: c64, ws: &mut Workspace, out: &mut [c64]) -> Result<()> {
         let x = if self.dt > 0.0 { (s * self.dt).exp() } else { s };
         let (n, nu) = (self.n, self.nu);
         match &self.form {
             Form::Schur { t, blocks } => self.solve_schur(t, blocks, x, ws)?,
-            Form::Hessenberg { h } => pulp::Arch::new().dispatch(HessSolve { ev: self, h, x, ws })?,
+            Form::Hessenberg { h } => self.solve(h, x, ws)?,
         }
         for i in 0..self.ny {
             let crow = &self.c[i * n..(i + 1) * n];
@@ -271,10 +272,7 @@ impl FreqEvaluator {
                         .chunks_exact(lanes::LANES)
                         .zip(out.chunks_exact_mut(lanes::LANES * per))
                     {
-                        let w4: &[f64; lanes::LANES] = w4
-                            .try_into()
-                            .map_err(|_| LtiError::Numerical("frequency chunk of the wrong length".into()))?;
-                        ev.eval_lanes(w4, &mut lws, o)?;
+                        ev.eval_lanes(&std::array::from_fn(|l| w4[l]), &mut lws, o)?;
                     }
                     (w, out) = (&w[whole..], &mut out[whole * per..]);
                 }
@@ -443,29 +441,28 @@ impl FreqEvaluator {
     }
 }
 
-/// The Hessenberg solve of [`FreqEvaluator::eval_into`] as a pulp operation, and
-/// [`hessenberg_reduce`] below: their loops (complex axpys and dot products over rows of H, column
-/// updates of the reduction) are compiled for AVX2 where the CPU has it, through pulp's run-time
-/// dispatch (`with_simd` is inlined into pulp's function built for the detected instruction set).
-/// Every floating-point operation happens in the same order as in the baseline build, so the
-/// results are the same; the evaluator's set-up and evaluations of a 40-state H∞ norm took about
-/// 15 % less time.
-struct HessSolve<'a> {
+/// One evaluation of [`FreqEvaluator::eval_into`] as a pulp operation, and [`hessenberg_reduce`]
+/// below: their loops (complex axpys and dot products of the solves, column updates of the
+/// reduction) are compiled for AVX2 where the CPU has it, through pulp's run-time dispatch
+/// (`with_simd` is inlined into pulp's function built for the detected instruction set). Every
+/// floating-point operation happens in the same order as in the baseline build, so the results are
+/// the same; the evaluator's set-up and evaluations of a 40-state H∞ norm took about 15 % less time.
+struct EvalOne<'a> {
     ev: &'a FreqEvaluator,
-    h: &'a [f64],
-    x: c64,
+    s: c64,
     ws: &'a mut Workspace,
+    out: &'a mut [c64],
 }
 
-impl pulp::WithSimd for HessSolve<'_> {
+impl pulp::WithSimd for EvalOne<'_> {
     type Output = Result<()>;
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _simd: S) -> Result<()> {
-        self.ev.solve(self.h, self.x, self.ws)
+        self.ev.eval_inline(self.s, self.ws, self.out)
     }
 }
 
-/// See [`HessSolve`].
+/// See [`EvalOne`].
 struct Reduce<'a> {
     ad: &'a mut [f64],
     bd: &'a mut [f64],

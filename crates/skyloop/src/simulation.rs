@@ -208,11 +208,10 @@ pub fn write_runs_parquet(path: &Path, base_seed: u64, seeds: &[usize], runs: &[
         SerializedFileWriter::new(file, schema, Arc::new(WriterProperties::builder().build())).map_err(fail)?;
     let n = seeds.len().min(runs.len());
     let (seeds, runs) = (&seeds[..n], &runs[..n]);
-    let ints = |f: &dyn Fn(usize) -> i64| -> Vec<i64> { seeds.iter().map(|&i| f(i)).collect() };
     let floats = |f: fn(&Metrics) -> f64| -> Vec<f64> { runs.iter().map(f).collect() };
+    let run_col: Vec<i64> = seeds.iter().map(|&i| i as i64).collect();
     // The seed as the CSV prints it (u64), stored in INT64's bits: every seed below 2^63 reads back as is.
-    let run_col = ints(&|i| i as i64);
-    let seed_col = ints(&|i| base_seed.wrapping_add(i as u64) as i64);
+    let seed_col: Vec<i64> = seeds.iter().map(|&i| base_seed.wrapping_add(i as u64) as i64).collect();
     let settled: Vec<f64> = runs.iter().filter_map(|m| m.settling_time_s).collect();
     let settle_def: Vec<i16> = runs.iter().map(|m| i16::from(m.settling_time_s.is_some())).collect();
     let crashed: Vec<bool> = runs.iter().map(|m| m.crashed).collect();
