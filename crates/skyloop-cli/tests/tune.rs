@@ -113,6 +113,44 @@ fn betaflight_prints_integer_gains_and_cli_lines() {
     assert!(dir.join("report.html").exists() && dir.join("loop_bode.png").exists());
     // The hold of the 4 kHz loop (half a period) is part of the checked loop.
     check_claims("exp(-0.003125*s)*400/(s*(0.025*s+1))", &v);
+    // F is fitted to the loop: the printed integer is the fitted gain over FTERM_SCALE/100.
+    let ff = &v["feedforward"];
+    let f = v["gains"]["f"].as_f64().unwrap();
+    assert_eq!(f, (ff["gain"].as_f64().unwrap() / (0.013754 / 100.0)).round(), "{ff}");
+    assert!(f > 0.0 && ff["ise_ratio"].as_f64().unwrap() < 1.0, "{ff}");
+    let cap = ff["overshoot_without_pct"].as_f64().unwrap().max(10.0);
+    assert!(ff["overshoot_pct"].as_f64().unwrap() <= cap + 1e-9, "{ff}");
+}
+
+/// `--maximize crossover` keeps integral action (the default integral-corner floor) and
+/// `--keep-feedforward` keeps F at the firmware's default.
+#[test]
+fn maximizing_the_crossover_keeps_the_integral_corner() {
+    let plant = "exp(-0.003*s)*400/(s*(0.025*s+1))";
+    let v = json(&[
+        "tune",
+        "--plant",
+        plant,
+        "--firmware",
+        "betaflight",
+        "--maximize",
+        "crossover",
+        "--keep-feedforward",
+        "--starts",
+        "3",
+        "--json",
+    ]);
+    let corner = v["goals"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|g| g["goal"].as_str().unwrap().starts_with("integral_corner>="))
+        .unwrap_or_else(|| panic!("no default integral-corner goal: {v}"));
+    assert!(corner["met"].as_bool().unwrap(), "{corner}");
+    assert!(v["gains"]["i"].as_u64().unwrap() > 0, "{v}");
+    assert_eq!(v["gains"]["f"].as_u64(), Some(120));
+    assert!(v["feedforward"].is_null());
+    check_claims("exp(-0.003125*s)*400/(s*(0.025*s+1))", &v);
 }
 
 #[test]
@@ -141,6 +179,19 @@ fn px4_prints_parameter_names() {
     }
     assert!(v["cli"][1].as_str().unwrap().starts_with("param set MC_PITCHRATE_P "));
     check_claims("exp(-0.00525*s)*60/(s*(0.03*s+1))", &v);
+    // FF is fitted; this MIGO loop overshoots by itself and a positive FF would only add to it,
+    // so the least-error FF is negative and the range holds it at 0.
+    let ff = &v["feedforward"];
+    let printed = v["gains"]["MC_PITCHRATE_FF"].as_f64().unwrap();
+    let gain = ff["gain"].as_f64().unwrap();
+    assert!((printed - gain).abs() <= 1e-5 * gain, "{ff}");
+    assert!(printed >= 0.0, "{ff}");
+    if printed == 0.0 {
+        assert!(
+            ff["limited_by"] == "range" && ff["ise_optimal"].as_f64().unwrap() < 0.0,
+            "{ff}"
+        );
+    }
 }
 
 #[test]

@@ -27,7 +27,7 @@ pub struct Args {
     /// generic pid: fix the derivative filter time constant tf (s) instead of tuning it.
     #[arg(long)]
     pub d_filter_tau: Option<f64>,
-    /// A goal, repeatable: ms<=1.4, mt<=1.3, disk_margin>=0.6, gain_margin_db>=6, phase_margin_deg>=45, crossover_hz>=20.
+    /// A goal, repeatable: ms<=1.4, mt<=1.3, disk_margin>=0.6, gain_margin_db>=6, phase_margin_deg>=45, crossover_hz>=20, integral_corner>=0.067 (ki/kp over the crossover frequency; the default with --maximize crossover).
     #[arg(long = "goal", allow_hyphen_values = true)]
     pub goals: Vec<String>,
     /// What to maximize once the goals hold: integral_gain (default) or crossover.
@@ -48,6 +48,9 @@ pub struct Args {
     /// With LOG: the goals hold for K, tau, Td at ± this many standard errors (0..=5; 0: nominal only).
     #[arg(long, default_value_t = 2.0)]
     pub sigma: f64,
+    /// Keep the feedforward (Betaflight F, PX4 FF) as flown (from a log) or at the firmware's default, instead of fitting it to the tuned loop.
+    #[arg(long)]
+    pub keep_feedforward: bool,
     /// Optimizer starts (1..=64).
     #[arg(long, default_value_t = 8)]
     pub starts: usize,
@@ -83,6 +86,7 @@ pub fn run(a: Args) -> skyloop::Result<()> {
     req.maximize = Maximize::parse(&a.maximize)?;
     req.axis = Axis::parse(&a.axis)?;
     req.starts = a.starts;
+    req.tune_feedforward = !a.keep_feedforward;
     let out = run_tune(&req)?;
     if let Some(dir) = &a.out {
         write_outputs(&out, dir)?;
@@ -135,6 +139,7 @@ fn run_log(log: std::path::PathBuf, a: &Args) -> skyloop::Result<()> {
     req.goals = a.goals.clone();
     req.maximize = Maximize::parse(&a.maximize)?;
     req.starts = a.starts;
+    req.tune_feedforward = !a.keep_feedforward;
     let out = tune_from_log(&req)?;
     if let Some(dir) = &a.out {
         skyloop::tune::report::write_log_outputs(&out, dir)?;

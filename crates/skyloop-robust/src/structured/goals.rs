@@ -38,6 +38,10 @@ pub enum Requirement {
     PoleDecay,
     /// The controller's integral gain ki (Åström & Hägglund's load-disturbance criterion, MIGO).
     IntegralGain,
+    /// The integral corner ki/kp (rad/s, where the PI part's zero sits) as a fraction of the
+    /// gain-crossover frequency (rad/s), dimensionless: how much integral action the loop keeps
+    /// relative to its bandwidth (Betaflight's stock gains sit near 1/14 on the logs here).
+    IntegralCorner,
 }
 
 /// The bound of a goal.
@@ -133,6 +137,11 @@ impl Goal {
             R::IntegralGain => {
                 if upper || b <= 0.0 {
                     return bad("the integral gain takes a lower bound > 0");
+                }
+            }
+            R::IntegralCorner => {
+                if upper || !(b > 0.0 && b <= 1.0) {
+                    return bad("the integral corner takes a lower bound in (0, 1] (ki/kp over the crossover frequency, e.g. integral_corner>=0.067)");
                 }
             }
         }

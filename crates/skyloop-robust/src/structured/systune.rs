@@ -188,10 +188,14 @@ impl<'a> Compiled<'a> {
         }
         let ki = prob.structure.block.integral_gain_index();
         let needs_ki = prob.objective == Objective::MaximizeIntegralGain
-            || prob.goals.iter().any(|g| g.req == Requirement::IntegralGain);
+            || prob
+                .goals
+                .iter()
+                .any(|g| matches!(g.req, Requirement::IntegralGain | Requirement::IntegralCorner));
         if needs_ki && ki.is_none() {
             return Err(RobustError::InvalidArgument(
-                "an integral-gain goal or objective needs a PI or PID block".into(),
+                "an integral-gain or integral-corner goal, or the integral-gain objective, needs a PI or PID block"
+                    .into(),
             ));
         }
         for g in &prob.goals {
@@ -303,6 +307,14 @@ impl<'a> Compiled<'a> {
                     }
                     g[i] = -b / (ki * ki);
                     push((b / ki, g));
+                }
+                Requirement::IntegralCorner => {
+                    for p in &self.plants {
+                        match corner_term(goal, self.ki.unwrap_or(1), p, th, &k, &dk)? {
+                            Some(t) => push(t),
+                            None => return Ok(None),
+                        }
+                    }
                 }
                 Requirement::PoleDecay => {
                     let Bound::AtLeast(b) = goal.bound else {
@@ -514,6 +526,37 @@ fn margin_term(goal: &Goal, p: &PlantData, k: &StateSpace, dk: &[RealizationGrad
         }
         _ => unreachable_bound(),
     }
+}
+
+/// The integral-corner goal r = b·kp·ω_c/ki (≤ 1 when ki/kp ≥ b·ω_c) and its gradient; None
+/// where ki/kp ≤ 0 (no integral action in the plant's sign: outside the goal's domain).
+///
+/// Why ω_c enters: a fixed ki/kp floor would let a faster loop keep a relatively slower integral;
+/// relative to the crossover it states how much integral action the bandwidth keeps.
+fn corner_term(
+    goal: &Goal,
+    ki_index: usize,
+    p: &PlantData,
+    th: &[f64],
+    k: &StateSpace,
+    dk: &[RealizationGrad],
+) -> Result<Option<(f64, Vec<f64>)>> {
+    let Bound::AtLeast(b) = goal.bound else {
+        return unreachable_bound();
+    };
+    let (kp, ki) = (th[0], th[ki_index]);
+    if !(ki / kp > 0.0) {
+        return Ok(None);
+    }
+    let (lnw, dlnw) = crossover_log(p, k, dk)?;
+    if !lnw.is_finite() {
+        return Ok(None);
+    }
+    let r = b * kp * lnw.exp() / ki;
+    let mut g: Vec<f64> = dlnw.iter().map(|d| r * d).collect();
+    g[0] += r / kp;
+    g[ki_index] -= r / ki;
+    Ok(Some((r, g)))
 }
 
 /// max |C(jω)| over ω ≥ w_n (sampled to 10⁴·w_n and at ∞), normalized.
@@ -956,6 +999,7 @@ fn verify(c: &Compiled, th: &[f64], k: &StateSpace) -> Result<(Vec<GoalReport>, 
                 }
                 Requirement::PoleDecay => -p.lp.spectral_abscissa(k, &[])?.0,
                 Requirement::IntegralGain => th[c.ki.unwrap_or(0)],
+                Requirement::IntegralCorner => th[c.ki.unwrap_or(1)] / th[0] / (2.0 * PI * chk.crossover_hz),
             };
             vals.push(v);
         }
@@ -1046,6 +1090,7 @@ mod tests {
                     "noise",
                 ),
                 goal(Requirement::Ms, Bound::AtMost(1.5), "ms"),
+                goal(Requirement::IntegralCorner, Bound::AtLeast(0.1), "corner"),
             ],
             objective: Objective::MaximizeCrossover,
             options: TuneOptions::default(),
@@ -1069,6 +1114,36 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// Maximizing the crossover alone drops the integral gain; the integral-corner goal keeps
+    /// ki/kp at its floor relative to the crossover, and the exact check reports that ratio.
+    #[test]
+    fn crossover_objective_keeps_the_integral_corner() {
+        let g = parse_model("100*exp(-0.004*s)/(s*(0.01*s+1))").unwrap();
+        let mut prob = LoopTuning {
+            plants: vec![g],
+            structure: Structure::new(Block::Pi),
+            goals: vec![goal(Requirement::DiskMargin, Bound::AtLeast(0.5), "dm")],
+            objective: Objective::MaximizeCrossover,
+            options: TuneOptions {
+                starts: 2,
+                ..Default::default()
+            },
+        };
+        let free = tune_loop(&prob).unwrap();
+        prob.goals
+            .push(goal(Requirement::IntegralCorner, Bound::AtLeast(1.0 / 15.0), "corner"));
+        let kept = tune_loop(&prob).unwrap();
+        assert!(free.feasible && kept.feasible);
+        let ratio = |t: &TunedLoop| t.params[1] / t.params[0] / (2.0 * PI * t.loops[0].crossover_hz);
+        assert!(ratio(&free) < 0.02, "free: {:?}", free.params);
+        let r = &kept.goals[1];
+        assert!((r.value - ratio(&kept)).abs() < 1e-12 && r.met, "{r:?}");
+        assert!(r.value < 1.0 / 15.0 * 1.05, "the floor should be active: {r:?}");
+        // The integral action costs a little bandwidth, not most of it.
+        let (fc0, fc1) = (free.loops[0].crossover_hz, kept.loops[0].crossover_hz);
+        assert!(fc1 < fc0 && fc1 > 0.8 * fc0, "{fc0} vs {fc1}");
     }
 
     #[test]

@@ -187,15 +187,28 @@ pub fn feedback_controller(g: &Gains, axis: Axis, filters: &Filters) -> Result<S
 /// # Errors
 /// A loop rate that is not positive.
 pub fn reference_path(g: &Gains, axis: Axis, loop_hz: f64) -> Result<StateSpace> {
-    let t = 1.0 / loop_hz;
-    super::hold_delay_s(loop_hz)?;
     let (kp, ki, _, kf) = continuous(g, axis);
-    // States: integrator, derivative filter; kf·s/(T s + 1) = kf/T − (kf/T²)/(s + 1/T).
+    let pi = StateSpace::from_rows(&[vec![0.0]], &[vec![1.0]], &[vec![ki]], &[vec![kp]], 0.0)?;
+    let mut f = feedforward_unit(loop_hz)?;
+    f.c = &f.c * kf;
+    f.d = &f.d * kf;
+    Ok(skyloop_lti::interconnect::parallel(&pi, &f)?)
+}
+
+/// The feedforward's path per unit of continuous Kf: s/(T·s + 1) on the setpoint, T the loop
+/// period (Betaflight differentiates the setpoint once per loop).
+///
+/// # Errors
+/// A loop rate that is not positive.
+pub fn feedforward_unit(loop_hz: f64) -> Result<StateSpace> {
+    super::hold_delay_s(loop_hz)?;
+    let t = 1.0 / loop_hz;
+    // s/(T s + 1) = 1/T − (1/T²)/(s + 1/T).
     Ok(StateSpace::from_rows(
-        &[vec![0.0, 0.0], vec![0.0, -1.0 / t]],
-        &[vec![1.0], vec![1.0]],
-        &[vec![ki, -kf / (t * t)]],
-        &[vec![kp + kf / t]],
+        &[vec![-1.0 / t]],
+        &[vec![1.0]],
+        &[vec![-1.0 / (t * t)]],
+        &[vec![1.0 / t]],
         0.0,
     )?)
 }

@@ -62,6 +62,8 @@ pub struct LogTuneRequest {
     pub starts: usize,
     /// Half-width of the uncertainty box in standard errors (0: nominal only).
     pub sigma: f64,
+    /// Fit the feedforward to the proposal (false: keep the flown one).
+    pub tune_feedforward: bool,
 }
 
 impl LogTuneRequest {
@@ -80,6 +82,7 @@ impl LogTuneRequest {
             maximize: Maximize::IntegralGain,
             starts: 8,
             sigma: 2.0,
+            tune_feedforward: true,
         }
     }
 }
@@ -298,6 +301,7 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
     treq.goals = req.goals.clone();
     treq.maximize = req.maximize;
     treq.starts = req.starts;
+    treq.tune_feedforward = req.tune_feedforward;
     let mut current_gains: Option<CurrentGains> = None;
     match (&header, req.firmware) {
         (Some(FirmwareTuning::Betaflight(b)), Firmware::Betaflight) => {
@@ -545,8 +549,18 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
                 .and_then(|c| c.flight.as_ref())
                 .map(FlightCheck::worst_overshoot_pct);
             warnings.push(format!(
-                "in the 6-DOF check the proposal overshoots a fast stick move by {worst:.0} %{}: its margins hold, but the tracking is lively; the feedforward F is kept as flown while P and D change, and the check models no I-term relax; keep F in proportion to P, or ask for more phase margin (--goal phase_margin_deg>=45)",
-                flown.map(|v| format!(" (the flown tune: {v:.0} %)")).unwrap_or_default()
+                "in the 6-DOF check the proposal overshoots a fast stick move by {worst:.0} %{}: its margins hold, but the tracking is lively; {}the check models no I-term relax; ask for more phase margin (--goal phase_margin_deg>=45){}",
+                flown.map(|v| format!(" (the flown tune: {v:.0} %)")).unwrap_or_default(),
+                if req.tune_feedforward {
+                    "the feedforward is fitted on the linear model, without motor saturation; "
+                } else {
+                    "the feedforward is kept as flown while P and D change; "
+                },
+                if req.maximize == Maximize::IntegralGain {
+                    ", or maximize the crossover instead of the integral gain (--maximize crossover)"
+                } else {
+                    ""
+                }
             ));
         }
     }

@@ -23,6 +23,7 @@ use skyloop_robust::structured::verify::LoopCheck;
 use std::f64::consts::PI;
 
 pub mod deconv;
+pub mod feedforward;
 pub mod flight;
 pub mod log;
 pub mod report;
@@ -129,10 +130,14 @@ pub struct TuneRequest {
     pub px4: px4::Filters,
     /// Optimizer starts.
     pub starts: usize,
-    /// Betaflight: the F gain to keep (not tuned; None: 120, Betaflight 4.4's default).
+    /// Betaflight: the flown F gain, kept when `tune_feedforward` is false (None: 120,
+    /// Betaflight 4.4's default).
     pub betaflight_f: Option<u32>,
-    /// PX4: the MC_*RATE_FF to keep (not tuned; None: 0).
+    /// PX4: the flown MC_*RATE_FF, kept when `tune_feedforward` is false (None: 0).
     pub px4_ff: Option<f64>,
+    /// Fit the feedforward (Betaflight F, PX4 FF) to the tuned loop ([`feedforward`]); false
+    /// keeps the flown value.
+    pub tune_feedforward: bool,
 }
 
 impl TuneRequest {
@@ -152,6 +157,7 @@ impl TuneRequest {
             starts: 8,
             betaflight_f: None,
             px4_ff: None,
+            tune_feedforward: true,
         }
     }
 }
@@ -179,10 +185,20 @@ pub struct TuneOutcome {
     pub loop_plant: StateSpace,
     /// The default noise limit's frequency: |C_fb| is bounded above it, rad/s.
     pub noise_w_rad_s: f64,
+    /// The feedforward fit (None: generic structure, or the flown feedforward kept).
+    pub feedforward: Option<feedforward::FeedforwardFit>,
 }
 
+/// The default integral-corner floor with `--maximize crossover`: ki/kp ≥ ω_c/15.
+///
+/// Why: maximizing the crossover alone drives ki to 0 (integral action costs phase at
+/// crossover), a tune no pilot loads (btfl_all: p 34, i 0, d 6). Betaflight's stock gains keep
+/// their integral corner near ω_c/14 (the flown tune of btfl_all: ω_c/13.3).
+pub const DEFAULT_INTEGRAL_CORNER: f64 = 1.0 / 15.0;
+
 /// Parses one goal: `ms<=1.4`, `mt<=1.3`, `disk_margin>=0.6`, `gain_margin_db>=6`,
-/// `phase_margin_deg>=45`, `crossover_hz>=20` (or `<=`).
+/// `phase_margin_deg>=45`, `crossover_hz>=20` (or `<=`), `integral_corner>=0.067` (ki/kp over
+/// the crossover frequency).
 ///
 /// # Errors
 /// Unknown quantity, missing operator, a bound that is not a number or lies outside the
@@ -208,9 +224,10 @@ pub fn parse_goal(text: &str) -> Result<Goal> {
         "gain_margin_db" => Requirement::GainMarginDb,
         "phase_margin_deg" => Requirement::PhaseMarginDeg,
         "crossover_hz" => Requirement::CrossoverHz,
+        "integral_corner" => Requirement::IntegralCorner,
         _ => {
             return Err(Error::Input(format!(
-                "goal `{text}`: unknown quantity `{name}`; allowed: ms, mt, disk_margin, gain_margin_db, phase_margin_deg, crossover_hz"
+                "goal `{text}`: unknown quantity `{name}`; allowed: ms, mt, disk_margin, gain_margin_db, phase_margin_deg, crossover_hz, integral_corner"
             )))
         }
     };
@@ -305,6 +322,17 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
         ));
         defaults.push("disk_margin>=0.5: the loop tolerates ±5.6 dB and ±28° at once".to_string());
     }
+    if req.maximize == Maximize::Crossover && !goals.iter().any(|g| g.req == Requirement::IntegralCorner) {
+        let b = DEFAULT_INTEGRAL_CORNER;
+        goals.push(Goal::hard(
+            Requirement::IntegralCorner,
+            Bound::AtLeast(b),
+            format!("integral_corner>={b:.4} (default with --maximize crossover)"),
+        ));
+        defaults.push(format!(
+            "integral_corner>={b:.4}: ki/kp at least 1/15 of the crossover frequency, about Betaflight's stock ratio (maximizing the crossover alone drops I to 0)"
+        ));
+    }
     let (wu, ku) = ultimate_point(&plants[0])?;
     let wn = 3.0 * wu;
     let nmax = 10.0 * ku;
@@ -363,6 +391,7 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
     }
     let th = &tuned.params;
     let mut notes = Vec::new();
+    let mut ff_fit = None;
     // Map to the firmware's gains, round as the firmware stores them, and re-verify those.
     let (gains, theta, cli, discrete) = match req.firmware {
         Firmware::Generic => {
@@ -381,19 +410,31 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
             (g, th.clone(), Vec::new(), None)
         }
         Firmware::Betaflight => {
-            let f = req.betaflight_f.unwrap_or(120);
-            let (bg, theta) = betaflight_rounding(&prob, th, req)?;
-            notes.push(format!(
-                "f_{} = {f} is not tuned (feedforward acts on the setpoint only, not on the margins){}",
-                req.axis.name(),
-                if req.betaflight_f.is_some() {
-                    "; kept as flown"
-                } else {
-                    "; Betaflight 4.4's default, keep yours"
-                }
-            ));
-            notes.push("plant units: input Betaflight's PID sum, output gyro deg/s".into());
+            let (mut bg, theta) = betaflight_rounding(&prob, th, req)?;
             let c = betaflight::feedback_controller(&bg, req.axis, &req.betaflight)?;
+            if req.tune_feedforward {
+                let unit = betaflight::FTERM_SCALE / 100.0;
+                let c_r0 =
+                    betaflight::reference_path(&betaflight::Gains { f: 0, ..bg }, req.axis, req.betaflight.loop_hz)?;
+                let c_f = betaflight::feedforward_unit(req.betaflight.loop_hz)?;
+                let fit = feedforward::fit(&plants[0], &c, &c_r0, &c_f, f64::from(betaflight::F_GAIN_MAX) * unit)?;
+                bg.f = (fit.gain / unit).round().clamp(0.0, f64::from(betaflight::F_GAIN_MAX)) as u32;
+                notes.push(feedforward_note(&format!("f_{} = {}", req.axis.name(), bg.f), &fit));
+                ff_fit = Some(fit);
+            } else {
+                bg.f = req.betaflight_f.unwrap_or(120);
+                notes.push(format!(
+                    "f_{} = {} is not tuned (--keep-feedforward){}",
+                    req.axis.name(),
+                    bg.f,
+                    if req.betaflight_f.is_some() {
+                        "; kept as flown"
+                    } else {
+                        "; Betaflight 4.4's default, keep yours"
+                    }
+                ));
+            }
+            notes.push("plant units: input Betaflight's PID sum, output gyro deg/s".into());
             (
                 serde_json::to_value(bg)?,
                 theta,
@@ -411,17 +452,28 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
                 let e = 10f64.powi(5 - x.abs().log10().floor() as i32);
                 (x * e).round() / e
             };
-            let pg = px4::Gains {
+            let mut pg = px4::Gains {
                 k: 1.0,
                 p: round(th[0]),
                 i: round(th[1]),
                 d: round(th[2]),
                 ff: req.px4_ff.unwrap_or(0.0),
             };
-            notes.push(format!(
-                "MC_*RATE_K = 1 (parallel form); FF = {} is not tuned (setpoint path only)",
-                pg.ff
-            ));
+            if req.tune_feedforward {
+                let c = px4::feedback_controller(&pg, &req.px4)?;
+                let c_r0 = px4::reference_path(&px4::Gains { ff: 0.0, ..pg })?;
+                let c_f = StateSpace::gain(faer::Mat::from_fn(1, 1, |_, _| 1.0), 0.0)?;
+                let fit = feedforward::fit(&plants[0], &c, &c_r0, &c_f, PX4_FF_MAX)?;
+                pg.ff = round(fit.gain);
+                notes.push("MC_*RATE_K = 1 (parallel form)".into());
+                notes.push(feedforward_note(&format!("FF = {}", pg.ff), &fit));
+                ff_fit = Some(fit);
+            } else {
+                notes.push(format!(
+                    "MC_*RATE_K = 1 (parallel form); FF = {} is not tuned (--keep-feedforward)",
+                    pg.ff
+                ));
+            }
             notes.push("plant units: input normalized torque, output rad/s".into());
             let (kp, ki, kd) = px4::continuous(&pg);
             let names = px4::param_names(req.axis);
@@ -451,7 +503,24 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
         notes,
         loop_plant: plants[0].clone(),
         noise_w_rad_s: wn,
+        feedforward: ff_fit,
     })
+}
+
+/// Largest PX4 rate feedforward the fit may propose, normalized torque per rad/s (a sanity bound:
+/// full torque for a 1 rad/s setpoint).
+const PX4_FF_MAX: f64 = 1.0;
+
+/// The note that states how the feedforward was chosen.
+fn feedforward_note(what: &str, fit: &feedforward::FeedforwardFit) -> String {
+    format!(
+        "{what}: fitted to the tuned loop (least squared tracking error of a 25 ms stick ramp, adding no overshoot beyond {} % or the loop's own; set by {}): predicted overshoot {:.1} % ({:.1} % without feedforward), squared error {:.0} % of no feedforward's",
+        feedforward::OVERSHOOT_MAX_PCT,
+        fit.limited_by,
+        fit.overshoot_pct,
+        fit.overshoot_without_pct,
+        100.0 * fit.ise_ratio
+    )
 }
 
 /// Betaflight stores integers: of the 8 floor/ceil roundings of (P, I, D), and the floors with I
@@ -550,6 +619,14 @@ impl TuneOutcome {
             "cli": self.cli,
             "defaults": self.defaults,
             "notes": self.notes,
+            "feedforward": self.feedforward.map(|f| json!({
+                "gain": f.gain,
+                "ise_optimal": f.ise_optimal,
+                "overshoot_pct": f.overshoot_pct,
+                "ise_ratio": f.ise_ratio,
+                "overshoot_without_pct": f.overshoot_without_pct,
+                "limited_by": f.limited_by,
+            })),
         })
     }
 }
