@@ -218,6 +218,12 @@ fn print_log_outcome(out: &LogTuneOutcome) {
             out.measured_step_error.as_deref().unwrap_or("unknown")
         ),
     }
+    if let (Some(m), Some(r)) = (&out.causal_step, out.causal_step_rms) {
+        println!(
+            "model check: predicted step of the current tune vs the causal FIR step from the log: RMS difference {r:.3}; the future setpoint explains {:.0} % of its residual",
+            100.0 * m.acausal_fraction
+        );
+    }
     for n in &out.notes {
         println!("note     {n}");
     }

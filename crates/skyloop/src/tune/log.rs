@@ -141,6 +141,12 @@ pub struct LogTuneOutcome {
     pub measured_step_error: Option<String>,
     /// RMS of (predicted current − measured) over the measured step's span, per unit step.
     pub model_step_rms: Option<f64>,
+    /// The step measured by the causal FIR fit ([`super::fir_step`]); None when the log has too
+    /// little data. Its `acausal_fraction` is the share of the fit's residual the future setpoint
+    /// explains.
+    pub causal_step: Option<MeasuredStep>,
+    /// RMS of (predicted current − causal step), per unit step: the model check.
+    pub causal_step_rms: Option<f64>,
     /// Notes (filters inside the plant, what is not modelled).
     pub notes: Vec<String>,
     /// What the pilot must act on: a model that contradicts the flight (the flown tune predicted
@@ -506,11 +512,17 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
     };
 
     // The measured step: setpoint (the instrument) → gyro over the airborne segments.
-    let (measured_step, measured_step_error) = match measured(&log, &id) {
+    let (wiener, causal) = measured(&log, &id);
+    let (measured_step, measured_step_error) = match wiener {
         Ok(s) => (Some(s), None),
         Err(e) => (None, Some(e.to_string())),
     };
+    let causal_step = causal.ok();
     let model_step_rms = match (&measured_step, &current) {
+        (Some(m), Some(c)) => Some(step_rms(m, c)?),
+        _ => None,
+    };
+    let causal_step_rms = match (&causal_step, &current) {
         (Some(m), Some(c)) => Some(step_rms(m, c)?),
         _ => None,
     };
@@ -524,19 +536,34 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
             );
         }
     }
+    // The causal fit is the check's reference where it exists: the deconvolution is biased by a
+    // pilot in the loop (and by coloured disturbances), the causal fit much less.
     let acausal = measured_step.as_ref().map_or(0.0, |m| m.acausal_fraction);
-    if let Some(r) = model_step_rms.filter(|r| *r > MODEL_STEP_RMS_MAX) {
-        if acausal > ACAUSAL_MAX {
-            warnings.push(format!(
-                "the predicted step of the flown tune differs from the step measured in the log by {r:.3} RMS (more than {MODEL_STEP_RMS_MAX}), \
-                 but the measured step is itself biased: {:.0} % of the deconvolved impulse response lies before the setpoint moves \
-                 (typically a pilot correcting what the craft just did, so the setpoint depends on past gyro), so it comes out short; the check cannot tell whether the model is wrong",
-                100.0 * acausal
-            ));
-        } else {
-            warnings.push(format!(
-                "the predicted step of the flown tune differs from the step measured in the log by {r:.3} RMS (more than {MODEL_STEP_RMS_MAX}): the model does not describe this craft well; treat the proposal with care"
-            ));
+    match (causal_step_rms, &causal_step) {
+        (Some(r), Some(c)) if r > MODEL_STEP_RMS_MAX => warnings.push(format!(
+            "the predicted step of the flown tune differs from the step measured in the log (causal fit) by {r:.3} RMS (more than {MODEL_STEP_RMS_MAX}): the model does not describe this craft well; treat the proposal with care{}",
+            if c.acausal_fraction > ACAUSAL_MAX {
+                format!(" (the future setpoint explains {:.0} % of the fit's residual: a pilot reacting to the craft may bias the measurement too)", 100.0 * c.acausal_fraction)
+            } else {
+                String::new()
+            }
+        )),
+        (Some(_), _) => {}
+        _ => {
+            if let Some(r) = model_step_rms.filter(|r| *r > MODEL_STEP_RMS_MAX) {
+                if acausal > ACAUSAL_MAX {
+                    warnings.push(format!(
+                        "the predicted step of the flown tune differs from the step measured in the log by {r:.3} RMS (more than {MODEL_STEP_RMS_MAX}), \
+                         but the measured step is itself biased: {:.0} % of the deconvolved impulse response lies before the setpoint moves \
+                         (typically a pilot correcting what the craft just did, so the setpoint depends on past gyro), so it comes out short; the check cannot tell whether the model is wrong",
+                        100.0 * acausal
+                    ));
+                } else {
+                    warnings.push(format!(
+                        "the predicted step of the flown tune differs from the step measured in the log by {r:.3} RMS (more than {MODEL_STEP_RMS_MAX}): the model does not describe this craft well; treat the proposal with care"
+                    ));
+                }
+            }
         }
     }
     if let Some(f) = &proposed_analysis.flight {
@@ -580,6 +607,8 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
         measured_step,
         measured_step_error,
         model_step_rms,
+        causal_step,
+        causal_step_rms,
         notes,
         warnings,
     })
@@ -605,12 +634,20 @@ fn gains_bf(v: &Value) -> Result<betaflight::Gains> {
     })
 }
 
-fn measured(log: &Log, id: &Identification) -> Result<MeasuredStep> {
-    let r = id
-        .instrument
-        .as_deref()
-        .ok_or_else(|| Error::Input("no setpoint channel to deconvolve".into()))?;
-    let data = log.uniform(&[r, id.output.as_str()], None, None, None)?;
+/// The setpoint → gyro step of the airborne segments, two ways: PID-Analyzer's deconvolution
+/// ([`deconv`](super::deconv)) and the causal FIR fit ([`fir_step`](super::fir_step)).
+fn measured(log: &Log, id: &Identification) -> (Result<MeasuredStep>, Result<MeasuredStep>) {
+    let Some(r) = id.instrument.as_deref() else {
+        let e = || Err(Error::Input("no setpoint channel to deconvolve".into()));
+        return (e(), e());
+    };
+    let data = match log.uniform(&[r, id.output.as_str()], None, None, None) {
+        Ok(d) => d,
+        Err(e) => {
+            let msg = Error::from(e).to_string();
+            return (Err(Error::Failed(msg.clone())), Err(Error::Failed(msg)));
+        }
+    };
     let ranges: Vec<std::ops::Range<usize>> = id
         .segments
         .iter()
@@ -620,12 +657,11 @@ fn measured(log: &Log, id: &Identification) -> Result<MeasuredStep> {
             lo..hi.max(lo)
         })
         .collect();
-    step_from_log(
-        &data.columns[0],
-        &data.columns[1],
-        data.dt_s,
-        &ranges,
-        &DeconvOptions::default(),
+    let o = DeconvOptions::default();
+    let (x, y) = (&data.columns[0], &data.columns[1]);
+    (
+        step_from_log(x, y, data.dt_s, &ranges, &o),
+        super::fir_step::causal_step(x, y, data.dt_s, &ranges, o.response_s),
     )
 }
 
@@ -750,6 +786,13 @@ impl LogTuneOutcome {
         };
         v["measured_step_error"] = json!(self.measured_step_error);
         v["model_step_rms"] = json!(self.model_step_rms);
+        v["causal_step"] = match &self.causal_step {
+            Some(m) => {
+                json!({"t_s": m.t_s, "y": m.y, "y_std": m.y_std, "blocks": m.windows, "future_setpoint_share": m.acausal_fraction})
+            }
+            None => Value::Null,
+        };
+        v["causal_step_rms"] = json!(self.causal_step_rms);
         v["warnings"] = json!(self.warnings);
         if let Some(n) = v["notes"].as_array_mut() {
             for x in &self.notes {

@@ -24,6 +24,7 @@ use std::f64::consts::PI;
 
 pub mod deconv;
 pub mod feedforward;
+pub mod fir_step;
 pub mod flight;
 pub mod log;
 pub mod report;

@@ -196,6 +196,13 @@ pub fn write_log_outputs(out: &super::log::LogTuneOutcome, dir: &Path) -> Result
             y: ms.y.clone(),
         });
     }
+    if let Some(cs) = &out.causal_step {
+        traces.push(Trace {
+            label: "causal FIR fit to the log".into(),
+            t: cs.t_s.clone(),
+            y: cs.y.clone(),
+        });
+    }
     let step = traces_figure(
         "Setpoint → gyro step",
         &[TracePanel {
@@ -324,6 +331,16 @@ pub fn write_log_outputs(out: &super::log::LogTuneOutcome, dir: &Path) -> Result
                     "no deconvolved step: {}",
                     out.measured_step_error.as_deref().unwrap_or("")
                 ),
+            },
+        ),
+        (
+            "model check (causal fit)",
+            match (&out.causal_step, out.causal_step_rms) {
+                (Some(cs), Some(r)) => format!(
+                    "RMS(predicted current step − causal FIR step) = {r:.3}; the future setpoint explains {:.0} % of the fit's residual",
+                    100.0 * cs.acausal_fraction
+                ),
+                _ => "no causal step (too little data, or no current tune)".into(),
             },
         ),
     ];
