@@ -373,7 +373,7 @@ pub fn write_log_outputs(out: &super::log::LogTuneOutcome, dir: &Path) -> Result
     for (name, fig, caption) in [
         ("loop_bode", bode, "L of both tunes with the identified plant's exact delay and the loop's hold; the proposal's PM marked."),
         ("loop_nyquist", nyquist, "Nyquist plot of L (zoomed to radius 3 around the origin)."),
-        ("step", step, "Setpoint → gyro: predicted for both tunes (P and I on the error, D on the gyro, F on the setpoint; delay as Padé order 6) and the step response deconvolved from the log."),
+        ("step", step, "Setpoint → gyro: predicted for both tunes (P and I on the error, D on the gyro, F on the setpoint; delay as Padé order 6) and the step measured in the log two ways: deconvolved as PID-Analyzer does (biased short when the pilot corrects what the craft does) and by a causal FIR fit (the setpoint's past only), the model check's reference."),
     ] {
         fig.save(&dir.join(format!("{name}.svg")))?;
         sec.figure(fig, caption);
