@@ -195,6 +195,41 @@ fn px4_prints_parameter_names() {
 }
 
 #[test]
+fn ardupilot_prints_parameter_names() {
+    let plant = "exp(-0.004*s)*60/(s*(0.03*s+1))";
+    let v = json(&[
+        "tune",
+        "--plant",
+        plant,
+        "--firmware",
+        "ardupilot",
+        "--maximize",
+        "crossover",
+        "--starts",
+        "3",
+        "--json",
+    ]);
+    for k in ["ATC_RAT_RLL_P", "ATC_RAT_RLL_I", "ATC_RAT_RLL_D", "ATC_RAT_RLL_FF"] {
+        assert!(v["gains"][k].is_number(), "{k}: {v}");
+    }
+    assert!(v["cli"][0].as_str().unwrap().starts_with("param set ATC_RAT_RLL_P "));
+    // The 400 Hz loop's hold (1.25 ms) is part of the checked loop.
+    check_claims("exp(-0.00525*s)*60/(s*(0.03*s+1))", &v);
+    // D acts on the error in ArduPilot: C_fb's low-frequency part is P + I/s + D·s as printed.
+    let c = skyloop::lti::json::from_json_str(&v["feedback_controller"].to_string()).unwrap();
+    let s = skyloop::lti::c64::new(0.0, 0.2);
+    let got = skyloop::lti::freqresp::evalfr(&c, s).unwrap()[(0, 0)];
+    let g = |k: &str| v["gains"][k].as_f64().unwrap();
+    let want = g("ATC_RAT_RLL_P") + g("ATC_RAT_RLL_I") / s + g("ATC_RAT_RLL_D") * s;
+    assert!((got - want).norm() < 1e-3 * want.norm(), "{got} vs {want}");
+    // From a log it says why it cannot.
+    let log = format!("{}/../../testdata/logs/btfl_all.bbl", env!("CARGO_MANIFEST_DIR"));
+    let (code, _, err) = skyloop(&["tune", &log, "--firmware", "ardupilot"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("DataFlash"), "{err}");
+}
+
+#[test]
 fn bad_input_exits_2_with_the_allowed_range() {
     let cases: [(&[&str], &str); 4] = [
         (
@@ -350,7 +385,11 @@ fn tune_from_a_betaflight_log_compares_the_flown_gains() {
     assert!(v["model_step_rms"].as_f64().unwrap() > 3.0 * causal_rms);
     let cs = &v["causal_step"];
     assert_eq!(cs["y"].as_array().unwrap().len(), cs["t_s"].as_array().unwrap().len());
-    assert!(!v["warnings"].to_string().contains("step measured in the log"), "{}", v["warnings"]);
+    assert!(
+        !v["warnings"].to_string().contains("step measured in the log"),
+        "{}",
+        v["warnings"]
+    );
     assert!(v["cli"][0].as_str().unwrap().starts_with("set p_roll = "));
     // The flown tune is analysed with the D the firmware applied in flight, d_min 27 (the log's
     // axisD follows it: skyloop/tests/betaflight_log_scales.rs), not d 35, which gave disk

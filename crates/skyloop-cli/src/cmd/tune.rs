@@ -18,7 +18,7 @@ pub struct Args {
     /// The rate-loop plant (expression or LTI JSON), in the firmware's units (Betaflight: PID sum → deg/s; PX4: normalized torque → rad/s).
     #[arg(long, allow_hyphen_values = true)]
     pub plant: Option<String>,
-    /// betaflight, px4 or generic.
+    /// betaflight, px4, ardupilot (ATC_RAT_* of ArduCopter/QuadPlane; with --plant only) or generic.
     #[arg(long)]
     pub firmware: String,
     /// generic only: pi, pid or pidf (pidf = pid: kp + ki/s + kd·s/(tf·s+1)).
@@ -27,7 +27,7 @@ pub struct Args {
     /// generic pid: fix the derivative filter time constant tf (s) instead of tuning it.
     #[arg(long)]
     pub d_filter_tau: Option<f64>,
-    /// A goal, repeatable: ms<=1.4, mt<=1.3, disk_margin>=0.6, gain_margin_db>=6, phase_margin_deg>=45, crossover_hz>=20, integral_corner>=0.067 (ki/kp over the crossover frequency; the default with --maximize crossover).
+    /// A goal, repeatable: ms<=1.4, mt<=1.3, disk_margin>=0.6, gain_margin_db>=6, phase_margin_deg>=45, crossover_hz>=20, integral_corner>=0.067 or <=0.25 (ki/kp over the crossover frequency; 1/15..1/4 by default with --maximize crossover).
     #[arg(long = "goal", allow_hyphen_values = true)]
     pub goals: Vec<String>,
     /// What to maximize once the goals hold: integral_gain (default) or crossover.

@@ -140,8 +140,8 @@ impl Goal {
                 }
             }
             R::IntegralCorner => {
-                if upper || !(b > 0.0 && b <= 1.0) {
-                    return bad("the integral corner takes a lower bound in (0, 1] (ki/kp over the crossover frequency, e.g. integral_corner>=0.067)");
+                if !(b > 0.0 && b <= 1.0) {
+                    return bad("the integral corner takes a bound in (0, 1] (ki/kp over the crossover frequency, e.g. integral_corner>=0.067 or integral_corner<=0.25)");
                 }
             }
         }

@@ -528,10 +528,11 @@ fn margin_term(goal: &Goal, p: &PlantData, k: &StateSpace, dk: &[RealizationGrad
     }
 }
 
-/// The integral-corner goal r = b·kp·ω_c/ki (≤ 1 when ki/kp ≥ b·ω_c) and its gradient; None
-/// where ki/kp ≤ 0 (no integral action in the plant's sign: outside the goal's domain).
+/// The integral-corner goal and its gradient: r = b·kp·ω_c/ki for a floor (≤ 1 when
+/// ki/kp ≥ b·ω_c), r = ki/(b·kp·ω_c) for a ceiling; None where ki/kp ≤ 0 (no integral action in
+/// the plant's sign: outside the goal's domain).
 ///
-/// Why ω_c enters: a fixed ki/kp floor would let a faster loop keep a relatively slower integral;
+/// Why ω_c enters: a fixed ki/kp bound would let a faster loop keep a relatively slower integral;
 /// relative to the crossover it states how much integral action the bandwidth keeps.
 fn corner_term(
     goal: &Goal,
@@ -541,9 +542,6 @@ fn corner_term(
     k: &StateSpace,
     dk: &[RealizationGrad],
 ) -> Result<Option<(f64, Vec<f64>)>> {
-    let Bound::AtLeast(b) = goal.bound else {
-        return unreachable_bound();
-    };
     let (kp, ki) = (th[0], th[ki_index]);
     if !(ki / kp > 0.0) {
         return Ok(None);
@@ -552,10 +550,14 @@ fn corner_term(
     if !lnw.is_finite() {
         return Ok(None);
     }
-    let r = b * kp * lnw.exp() / ki;
-    let mut g: Vec<f64> = dlnw.iter().map(|d| r * d).collect();
-    g[0] += r / kp;
-    g[ki_index] -= r / ki;
+    // ln r = sign·(ln kp + ln ω_c − ln ki) + const.
+    let (r, sign) = match goal.bound {
+        Bound::AtLeast(b) => (b * kp * lnw.exp() / ki, 1.0),
+        Bound::AtMost(b) => (ki / (b * kp * lnw.exp()), -1.0),
+    };
+    let mut g: Vec<f64> = dlnw.iter().map(|d| sign * r * d).collect();
+    g[0] += sign * r / kp;
+    g[ki_index] -= sign * r / ki;
     Ok(Some((r, g)))
 }
 
@@ -1091,6 +1093,7 @@ mod tests {
                 ),
                 goal(Requirement::Ms, Bound::AtMost(1.5), "ms"),
                 goal(Requirement::IntegralCorner, Bound::AtLeast(0.1), "corner"),
+                goal(Requirement::IntegralCorner, Bound::AtMost(0.2), "corner ceiling"),
             ],
             objective: Objective::MaximizeCrossover,
             options: TuneOptions::default(),

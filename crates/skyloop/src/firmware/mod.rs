@@ -13,6 +13,7 @@
 //! and hold is a delay of half a loop period added to the plant (`hold_delay_s`); the discrete
 //! controller at the loop rate is C_fb mapped by Tustin ([`discrete`]).
 
+pub mod ardupilot;
 pub mod betaflight;
 pub mod px4;
 

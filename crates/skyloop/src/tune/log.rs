@@ -224,13 +224,18 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
     let log_fw = id.preset.as_ref().map(|p| p.0.clone()).unwrap_or_default();
     match (req.firmware, log_fw.as_str()) {
         (Firmware::Betaflight, "Betaflight") | (Firmware::Px4, "PX4") | (Firmware::Generic, _) => {}
+        (Firmware::Ardupilot, l) => {
+            return Err(Error::Input(format!(
+                "--firmware ardupilot does not match the log, which is a {l} log (ArduPilot DataFlash logs are not read yet: identify the axis elsewhere and give --plant)"
+            )))
+        }
         (f, l) => {
             return Err(Error::Input(format!(
                 "--firmware {} does not match the log, which is a {l} log",
                 match f {
                     Firmware::Betaflight => "betaflight",
                     Firmware::Px4 => "px4",
-                    Firmware::Generic => "generic",
+                    Firmware::Ardupilot | Firmware::Generic => "generic",
                 }
             )))
         }
@@ -430,6 +435,7 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
     let loop_hz = match req.firmware {
         Firmware::Betaflight => Some(treq.betaflight.loop_hz),
         Firmware::Px4 => Some(treq.px4.loop_hz),
+        Firmware::Ardupilot => Some(treq.ardupilot.loop_hz),
         Firmware::Generic => None,
     };
     let held: Vec<StateSpace> = plants.iter().map(|p| with_hold(p, loop_hz)).collect::<Result<_>>()?;
@@ -464,6 +470,19 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
                 d: v(3),
                 ff: v(4),
             })?
+        }
+        Firmware::Ardupilot => {
+            let names = crate::firmware::ardupilot::param_names(req.axis);
+            let v = |i: usize| proposed.gains[&names[i]].as_f64().unwrap_or(0.0);
+            crate::firmware::ardupilot::reference_path(
+                &crate::firmware::ardupilot::Gains {
+                    p: v(0),
+                    i: v(1),
+                    d: v(2),
+                    ff: v(3),
+                },
+                &treq.ardupilot,
+            )?
         }
         Firmware::Generic => proposed.feedback_controller.clone(),
     };

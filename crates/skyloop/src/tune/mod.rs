@@ -10,7 +10,7 @@
 
 use crate::error::{Error, Result};
 use crate::firmware::betaflight::{self, Axis};
-use crate::firmware::{self, px4};
+use crate::firmware::{self, ardupilot, px4};
 use serde_json::{json, Value};
 use skyloop_lti::json::LtiJson;
 use skyloop_lti::StateSpace;
@@ -36,12 +36,14 @@ pub enum Firmware {
     Betaflight,
     /// PX4 multicopter rate PID (MC_*RATE_*).
     Px4,
+    /// ArduPilot multicopter rate PID (ATC_RAT_*).
+    Ardupilot,
     /// C = kp + ki/s + kd·s/(tf·s + 1) in the plant's units.
     Generic,
 }
 
 impl Firmware {
-    /// Parses "betaflight", "px4" or "generic".
+    /// Parses "betaflight", "px4", "ardupilot" or "generic".
     ///
     /// # Errors
     /// Any other text.
@@ -49,9 +51,10 @@ impl Firmware {
         match s {
             "betaflight" => Ok(Firmware::Betaflight),
             "px4" => Ok(Firmware::Px4),
+            "ardupilot" => Ok(Firmware::Ardupilot),
             "generic" => Ok(Firmware::Generic),
             _ => Err(Error::Input(format!(
-                "--firmware must be betaflight, px4 or generic, got `{s}`"
+                "--firmware must be betaflight, px4 or generic (or ardupilot), got `{s}`"
             ))),
         }
     }
@@ -129,6 +132,8 @@ pub struct TuneRequest {
     pub betaflight: betaflight::Filters,
     /// PX4 filters and loop rate.
     pub px4: px4::Filters,
+    /// ArduPilot filters and loop rate.
+    pub ardupilot: ardupilot::Filters,
     /// Optimizer starts.
     pub starts: usize,
     /// Betaflight: the flown F gain, kept when `tune_feedforward` is false (None: 120,
@@ -136,6 +141,8 @@ pub struct TuneRequest {
     pub betaflight_f: Option<u32>,
     /// PX4: the flown MC_*RATE_FF, kept when `tune_feedforward` is false (None: 0).
     pub px4_ff: Option<f64>,
+    /// ArduPilot: the ATC_RAT_*_FF to keep when `tune_feedforward` is false (None: 0).
+    pub ardupilot_ff: Option<f64>,
     /// Fit the feedforward (Betaflight F, PX4 FF) to the tuned loop ([`feedforward`]); false
     /// keeps the flown value.
     pub tune_feedforward: bool,
@@ -155,9 +162,11 @@ impl TuneRequest {
             maximize: Maximize::IntegralGain,
             betaflight: betaflight::Filters::default(),
             px4: px4::Filters::default(),
+            ardupilot: ardupilot::Filters::default(),
             starts: 8,
             betaflight_f: None,
             px4_ff: None,
+            ardupilot_ff: None,
             tune_feedforward: true,
         }
     }
@@ -190,12 +199,15 @@ pub struct TuneOutcome {
     pub feedforward: Option<feedforward::FeedforwardFit>,
 }
 
-/// The default integral-corner floor with `--maximize crossover`: ki/kp ≥ ω_c/15.
+/// The default integral-corner band with `--maximize crossover`: ω_c/15 ≤ ki/kp ≤ ω_c/4.
 ///
-/// Why: maximizing the crossover alone drives ki to 0 (integral action costs phase at
-/// crossover), a tune no pilot loads (btfl_all: p 34, i 0, d 6). Betaflight's stock gains keep
+/// Why the floor: maximizing the crossover alone can drive ki to 0 (integral action costs phase
+/// at crossover), a tune no pilot loads (btfl_all: p 34, i 0, d 6). Betaflight's stock gains keep
 /// their integral corner near ω_c/14 (the flown tune of btfl_all: ω_c/13.3).
-pub const DEFAULT_INTEGRAL_CORNER: f64 = 1.0 / 15.0;
+/// Why the ceiling: on other plants the same objective raised ki until the corner sat at the
+/// crossover (0.97·ω_c on e^(−0.004s)·60/(s(0.03s+1)) with ArduPilot's PID), and the step then
+/// overshoots; ω_c/4 is Skogestad's SIMC integral time for integrating plants, τ_I = 4(τ_c + θ).
+pub const DEFAULT_INTEGRAL_CORNER: (f64, f64) = (1.0 / 15.0, 0.25);
 
 /// Parses one goal: `ms<=1.4`, `mt<=1.3`, `disk_margin>=0.6`, `gain_margin_db>=6`,
 /// `phase_margin_deg>=45`, `crossover_hz>=20` (or `<=`), `integral_corner>=0.067` (ki/kp over
@@ -285,6 +297,7 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
     let loop_hz = match req.firmware {
         Firmware::Betaflight => Some(req.betaflight.loop_hz),
         Firmware::Px4 => Some(req.px4.loop_hz),
+        Firmware::Ardupilot => Some(req.ardupilot.loop_hz),
         Firmware::Generic => None,
     };
     let plants: Vec<StateSpace> = std::iter::once(&req.plant)
@@ -294,6 +307,7 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
     let block = match req.firmware {
         Firmware::Betaflight => betaflight::block(&req.betaflight)?,
         Firmware::Px4 => px4::block(&req.px4)?,
+        Firmware::Ardupilot => ardupilot::block(&req.ardupilot)?,
         Firmware::Generic => match (req.structure, req.d_filter_tau_s) {
             (GenericStructure::Pi, _) => Block::Pi,
             (GenericStructure::Pid, None) => Block::Pid(DerivativeFilter::Tuned),
@@ -324,14 +338,19 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
         defaults.push("disk_margin>=0.5: the loop tolerates ±5.6 dB and ±28° at once".to_string());
     }
     if req.maximize == Maximize::Crossover && !goals.iter().any(|g| g.req == Requirement::IntegralCorner) {
-        let b = DEFAULT_INTEGRAL_CORNER;
+        let (lo, hi) = DEFAULT_INTEGRAL_CORNER;
         goals.push(Goal::hard(
             Requirement::IntegralCorner,
-            Bound::AtLeast(b),
-            format!("integral_corner>={b:.4} (default with --maximize crossover)"),
+            Bound::AtLeast(lo),
+            format!("integral_corner>={lo:.4} (default with --maximize crossover)"),
+        ));
+        goals.push(Goal::hard(
+            Requirement::IntegralCorner,
+            Bound::AtMost(hi),
+            format!("integral_corner<={hi} (default with --maximize crossover)"),
         ));
         defaults.push(format!(
-            "integral_corner>={b:.4}: ki/kp at least 1/15 of the crossover frequency, about Betaflight's stock ratio (maximizing the crossover alone drops I to 0)"
+            "{lo:.4} <= integral_corner <= {hi}: ki/kp between 1/15 of the crossover frequency (about Betaflight's stock ratio; maximizing the crossover alone can drop I to 0) and 1/4 of it (SIMC's most aggressive integral time; a higher corner makes the step overshoot)"
         ));
     }
     let (wu, ku) = ultimate_point(&plants[0])?;
@@ -443,21 +462,45 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
                 Some(firmware::discrete(&c, req.betaflight.loop_hz)?),
             )
         }
-        Firmware::Px4 => {
-            // Six significant digits: PX4 stores floats, and D ~ 0.003 at four decimals would move
-            // by 3 %.
-            let round = |x: f64| {
-                if x == 0.0 {
-                    return 0.0;
-                }
-                let e = 10f64.powi(5 - x.abs().log10().floor() as i32);
-                (x * e).round() / e
+        Firmware::Ardupilot => {
+            let mut ag = ardupilot::Gains {
+                p: round6(th[0]),
+                i: round6(th[1]),
+                d: round6(th[2]),
+                ff: req.ardupilot_ff.unwrap_or(0.0),
             };
+            let c = ardupilot::feedback_controller(&ag, &req.ardupilot)?;
+            if req.tune_feedforward {
+                let c_r0 = ardupilot::reference_path(&ardupilot::Gains { ff: 0.0, ..ag }, &req.ardupilot)?;
+                let c_f = ardupilot::feedforward_unit(&req.ardupilot)?;
+                let fit = feedforward::fit(&plants[0], &c, &c_r0, &c_f, ardupilot::GAIN_RANGES[3].1)?;
+                ag.ff = round6(fit.gain);
+                notes.push(feedforward_note(&format!("FF = {}", ag.ff), &fit));
+                ff_fit = Some(fit);
+            } else {
+                notes.push(format!("FF = {} is not tuned (--keep-feedforward)", ag.ff));
+            }
+            notes.extend(ardupilot::range_notes(&ag, req.axis));
+            notes.push(
+                "plant units: input the mixer's normalized command, output rad/s; IMAX and SMAX not modelled".into(),
+            );
+            let mut g = serde_json::Map::new();
+            for (n, v) in ardupilot::param_names(req.axis).iter().zip([ag.p, ag.i, ag.d, ag.ff]) {
+                g.insert(n.clone(), json!(v));
+            }
+            (
+                Value::Object(g),
+                vec![ag.p, ag.i, ag.d],
+                ardupilot::cli_lines(&ag, req.axis),
+                Some(firmware::discrete(&c, req.ardupilot.loop_hz)?),
+            )
+        }
+        Firmware::Px4 => {
             let mut pg = px4::Gains {
                 k: 1.0,
-                p: round(th[0]),
-                i: round(th[1]),
-                d: round(th[2]),
+                p: round6(th[0]),
+                i: round6(th[1]),
+                d: round6(th[2]),
                 ff: req.px4_ff.unwrap_or(0.0),
             };
             if req.tune_feedforward {
@@ -465,7 +508,7 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
                 let c_r0 = px4::reference_path(&px4::Gains { ff: 0.0, ..pg })?;
                 let c_f = StateSpace::gain(faer::Mat::from_fn(1, 1, |_, _| 1.0), 0.0)?;
                 let fit = feedforward::fit(&plants[0], &c, &c_r0, &c_f, PX4_FF_MAX)?;
-                pg.ff = round(fit.gain);
+                pg.ff = round6(fit.gain);
                 notes.push("MC_*RATE_K = 1 (parallel form)".into());
                 notes.push(feedforward_note(&format!("FF = {}", pg.ff), &fit));
                 ff_fit = Some(fit);
@@ -506,6 +549,16 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
         noise_w_rad_s: wn,
         feedforward: ff_fit,
     })
+}
+
+/// Six significant digits: PX4 and ArduPilot store floats, and D ~ 0.003 at four decimals would
+/// move by 3 %.
+fn round6(x: f64) -> f64 {
+    if x == 0.0 || !x.is_finite() {
+        return x;
+    }
+    let e = 10f64.powi(5 - x.abs().log10().floor() as i32);
+    (x * e).round() / e
 }
 
 /// Largest PX4 rate feedforward the fit may propose, normalized torque per rad/s (a sanity bound:

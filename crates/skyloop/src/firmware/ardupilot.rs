@@ -1,0 +1,226 @@
+//! ArduPilot's multicopter rate controller (ArduCopter and QuadPlane VTOL, `AC_AttitudeControl`'s
+//! rate loops, each an `AC_PID`).
+//!
+//! Source: ArduPilot's parameter documentation (`ATC_RAT_RLL_*`, `ATC_RAT_PIT_*`,
+//! `ATC_RAT_YAW_*`) and its maintainers' description of the filters: FLTT lowpasses the rate
+//! target; FLTE lowpasses the error (target − gyro) used by P, I and D; FLTD lowpasses the error
+//! again on the way into D only; FF multiplies the (FLTT-filtered) target. Each filter is a
+//! first-order lowpass, disabled by 0. D acts on the error, not on the measurement. Units: rad/s
+//! in, the motor mixer's normalized command (−1..1) out, as PX4's. The loop runs at
+//! `SCHED_LOOP_RATE` (400 Hz on a copter by default).
+//!
+//! So C_fb(s) = F_E(s)·[P + I/s + D·s·F_D(s)] and C_r(s) = F_T(s)·[C_fb(s) + FF].
+//!
+//! Not modelled: IMAX (the integrator limit), SMAX (the slew-rate limiter, which lowers the gains
+//! while the output oscillates), D_FF, the notch filters of INS_HNTCH_* (inside an identified
+//! plant when the gyro is logged after them).
+
+use super::{derivative_rolloff, Lowpass};
+use crate::error::{Error, Result};
+use crate::firmware::betaflight::Axis;
+use serde::Serialize;
+use skyloop_lti::interconnect::series;
+use skyloop_lti::StateSpace;
+use skyloop_robust::structured::blocks::Block;
+
+/// `ATC_RAT_<AXIS>_{P,I,D,FF}`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Gains {
+    /// P, command per rad/s.
+    pub p: f64,
+    /// I, command per rad.
+    pub i: f64,
+    /// D, command per rad/s².
+    pub d: f64,
+    /// Feedforward on the rate target, command per rad/s.
+    pub ff: f64,
+}
+
+/// Filters and loop rate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Filters {
+    /// `ATC_RAT_<AXIS>_FLTT`, Hz (0 disables).
+    pub fltt_hz: f64,
+    /// `ATC_RAT_<AXIS>_FLTE`, Hz (0 disables).
+    pub flte_hz: f64,
+    /// `ATC_RAT_<AXIS>_FLTD`, Hz (0 disables).
+    pub fltd_hz: f64,
+    /// `SCHED_LOOP_RATE`, Hz.
+    pub loop_hz: f64,
+}
+
+impl Default for Filters {
+    /// ArduCopter's roll and pitch defaults: FLTT 20 Hz, FLTE 0 (off), FLTD 20 Hz, 400 Hz loop.
+    fn default() -> Self {
+        Filters {
+            fltt_hz: 20.0,
+            flte_hz: 0.0,
+            fltd_hz: 20.0,
+            loop_hz: 400.0,
+        }
+    }
+}
+
+/// The documented ranges of the gains (the ground station's, not enforced by the firmware), in
+/// the order P, I, D, FF.
+pub const GAIN_RANGES: [(f64, f64); 4] = [(0.01, 0.5), (0.01, 2.0), (0.0, 0.05), (0.0, 0.5)];
+
+/// The parameter names of an axis, in the order P, I, D, FF.
+pub fn param_names(axis: Axis) -> [String; 4] {
+    let a = match axis {
+        Axis::Roll => "RLL",
+        Axis::Pitch => "PIT",
+        Axis::Yaw => "YAW",
+    };
+    ["P", "I", "D", "FF"].map(|s| format!("ATC_RAT_{a}_{s}"))
+}
+
+fn pt1(name: &str, hz: f64) -> Result<Option<StateSpace>> {
+    if !(hz.is_finite() && hz >= 0.0) {
+        return Err(Error::Input(format!("{name} must be >= 0 Hz (0 disables), got {hz}")));
+    }
+    Ok(if hz > 0.0 {
+        Some(Lowpass::Pt1(hz).model()?)
+    } else {
+        None
+    })
+}
+
+/// The tunable structure (continuous P, I, D on the filtered error).
+///
+/// # Errors
+/// Negative or non-finite cutoffs.
+pub fn block(f: &Filters) -> Result<Block> {
+    let e = pt1("FLTE", f.flte_hz)?;
+    pt1("FLTT", f.fltt_hz)?;
+    let d = match pt1("FLTD", f.fltd_hz)? {
+        Some(d) => d,
+        None => derivative_rolloff(f.loop_hz).model()?,
+    };
+    let d_filter = match &e {
+        Some(e) => series(e, &d)?,
+        None => d,
+    };
+    Ok(Block::PidFiltered { pi_filter: e, d_filter })
+}
+
+/// C_fb(s) of the gains.
+///
+/// # Errors
+/// As [`block`].
+pub fn feedback_controller(g: &Gains, f: &Filters) -> Result<StateSpace> {
+    Ok(block(f)?.realize(&[g.p, g.i, g.d])?)
+}
+
+/// C_r(s) = F_T(s)·[C_fb(s) + FF]: the target passes FLTT, then enters the error and the
+/// feedforward.
+///
+/// # Errors
+/// As [`block`].
+pub fn reference_path(g: &Gains, f: &Filters) -> Result<StateSpace> {
+    let mut c = feedback_controller(g, f)?;
+    c.d[(0, 0)] += g.ff;
+    Ok(match pt1("FLTT", f.fltt_hz)? {
+        Some(t) => series(&t, &c)?,
+        None => c,
+    })
+}
+
+/// The feedforward's path per unit FF: F_T(s).
+///
+/// # Errors
+/// As [`block`].
+pub fn feedforward_unit(f: &Filters) -> Result<StateSpace> {
+    Ok(match pt1("FLTT", f.fltt_hz)? {
+        Some(t) => t,
+        None => StateSpace::gain(faer::Mat::from_fn(1, 1, |_, _| 1.0), 0.0)?,
+    })
+}
+
+/// Notes for gains outside the documented ranges (the firmware accepts them; a ground station
+/// warns).
+pub fn range_notes(g: &Gains, axis: Axis) -> Vec<String> {
+    param_names(axis)
+        .iter()
+        .zip([g.p, g.i, g.d, g.ff])
+        .zip(GAIN_RANGES)
+        .filter(|((_, v), (lo, hi))| v < lo || v > hi)
+        .map(|((n, v), (lo, hi))| format!("{n} = {v} lies outside its documented range {lo}..{hi}; the plant's units may not be mixer command per rad/s"))
+        .collect()
+}
+
+/// MAVProxy / ground-station `param set` lines.
+pub fn cli_lines(g: &Gains, axis: Axis) -> Vec<String> {
+    param_names(axis)
+        .iter()
+        .zip([g.p, g.i, g.d, g.ff])
+        .map(|(n, v)| format!("param set {n} {v}"))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+    use skyloop_lti::c64;
+    use skyloop_lti::freqresp::evalfr;
+
+    /// Well below the filters, C_fb(jω) = P + I/(jω) + D·jω with the parameters as printed;
+    /// C_r adds FF; with FLTE set, the error filter multiplies every term.
+    #[test]
+    fn low_frequency_part_is_the_printed_pid() {
+        let g = Gains {
+            p: 0.135,
+            i: 0.135,
+            d: 0.0036,
+            ff: 0.05,
+        };
+        for flte in [0.0, 80.0] {
+            let f = Filters {
+                flte_hz: flte,
+                ..Filters::default()
+            };
+            let c = feedback_controller(&g, &f).unwrap();
+            let cr = reference_path(&g, &f).unwrap();
+            for w in [0.05, 0.3] {
+                let s = c64::new(0.0, w);
+                let want = 0.135 + 0.135 / s + 0.0036 * s;
+                let got = evalfr(&c, s).unwrap()[(0, 0)];
+                assert!((got - want).norm() < 2e-3 * want.norm(), "w {w}: {got} vs {want}");
+                let got_r = evalfr(&cr, s).unwrap()[(0, 0)];
+                // FLTT's first-order lag at ω: relative error ~ ω/ω_T (2.4e-3 at 0.3 rad/s).
+                assert!((got_r - want - 0.05).norm() < 5e-3 * want.norm(), "w {w}: {got_r}");
+            }
+            // At the FLTT corner the target path is 3 dB down relative to the feedback path.
+            let s = c64::new(0.0, 2.0 * std::f64::consts::PI * 20.0);
+            let ratio = (evalfr(&cr, s).unwrap()[(0, 0)]
+                - 0.05 * evalfr(&feedforward_unit(&f).unwrap(), s).unwrap()[(0, 0)])
+                / evalfr(&c, s).unwrap()[(0, 0)];
+            assert!((ratio.norm() - 0.5f64.sqrt()).abs() < 1e-9, "{ratio}");
+        }
+    }
+
+    #[test]
+    fn names_lines_and_ranges() {
+        let g = Gains {
+            p: 0.9,
+            i: 0.1,
+            d: 0.004,
+            ff: 0.0,
+        };
+        assert_eq!(param_names(Axis::Pitch)[0], "ATC_RAT_PIT_P");
+        assert_eq!(cli_lines(&g, Axis::Yaw)[3], "param set ATC_RAT_YAW_FF 0");
+        let n = range_notes(&g, Axis::Roll);
+        assert_eq!(n.len(), 1);
+        assert!(
+            n[0].contains("ATC_RAT_RLL_P = 0.9") && n[0].contains("0.01..0.5"),
+            "{n:?}"
+        );
+        let e = block(&Filters {
+            fltd_hz: -1.0,
+            ..Filters::default()
+        })
+        .unwrap_err();
+        assert!(e.to_string().contains("FLTD"), "{e}");
+    }
+}
