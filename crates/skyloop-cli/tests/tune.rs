@@ -194,6 +194,42 @@ fn px4_prints_parameter_names() {
     }
 }
 
+/// `--structure pid2`: the same feedback as `pid`, plus setpoint weights in [0, 1] whose predicted
+/// tracking error is no worse than the one-degree-of-freedom PID's when that one keeps the cap.
+#[test]
+fn generic_pid2_adds_setpoint_weights() {
+    let plant = "exp(-0.1*s)/(s+1)^2";
+    let args = |structure: &'static str| {
+        json(&[
+            "tune",
+            "--plant",
+            plant,
+            "--firmware",
+            "generic",
+            "--structure",
+            structure,
+            "--goal",
+            "ms<=1.6",
+            "--starts",
+            "2",
+            "--json",
+        ])
+    };
+    let (one, two) = (args("pid"), args("pid2"));
+    for k in ["kp", "ki", "kd", "tf"] {
+        assert_eq!(one["gains"][k], two["gains"][k], "{k}");
+    }
+    let (b, c) = (two["gains"]["b"].as_f64().unwrap(), two["gains"]["c"].as_f64().unwrap());
+    assert!((0.0..=1.0).contains(&b) && (0.0..=1.0).contains(&c), "{b} {c}");
+    let w = &two["setpoint_weights"];
+    assert!(
+        w["overshoot_pct"].as_f64().unwrap() <= 10.0 + 1e-9 || w["ise_ratio_one_dof"].as_f64().unwrap() < 1.0,
+        "{w}"
+    );
+    assert!(one["setpoint_weights"].is_null());
+    check_claims("exp(-0.1*s)/(s+1)^2", &two);
+}
+
 #[test]
 fn ardupilot_prints_parameter_names() {
     let plant = "exp(-0.004*s)*60/(s*(0.03*s+1))";

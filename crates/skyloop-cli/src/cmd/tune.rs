@@ -21,7 +21,7 @@ pub struct Args {
     /// betaflight, px4, ardupilot (ATC_RAT_* of ArduCopter/QuadPlane; with --plant only) or generic.
     #[arg(long)]
     pub firmware: String,
-    /// generic only: pi, pid or pidf (pidf = pid: kp + ki/s + kd·s/(tf·s+1)).
+    /// generic only: pi, pid or pidf (pidf = pid: kp + ki/s + kd·s/(tf·s+1)), or pid2 (the same with setpoint weights b, c fitted for tracking: u = kp(b·r−y) + ki/s(r−y) + kd·s/(tf·s+1)(c·r−y)).
     #[arg(long, default_value = "pid")]
     pub structure: String,
     /// generic pid: fix the derivative filter time constant tf (s) instead of tuning it.

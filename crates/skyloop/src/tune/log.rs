@@ -484,6 +484,7 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
                 &treq.ardupilot,
             )?
         }
+        Firmware::Generic if proposed.setpoint_weights.is_some() => super::generic_reference_path(&proposed.gains)?,
         Firmware::Generic => proposed.feedback_controller.clone(),
     };
     let proposed_analysis = analyse(

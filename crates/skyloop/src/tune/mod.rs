@@ -67,10 +67,15 @@ pub enum GenericStructure {
     Pi,
     /// kp + ki/s + kd·s/(tf·s + 1) (tf tuned unless fixed).
     Pid,
+    /// The same feedback with setpoint weights b and c (MATLAB's `pid2`):
+    /// u = kp·(b·r − y) + ki/s·(r − y) + kd·s/(tf·s + 1)·(c·r − y); b and c fitted for tracking
+    /// ([`feedforward::fit_setpoint_weights`]).
+    Pid2,
 }
 
 impl GenericStructure {
-    /// Parses "pi", "pid" or "pidf" (pidf is MATLAB's name for the same filtered PID).
+    /// Parses "pi", "pid", "pidf" (MATLAB's name for the same filtered PID) or "pid2" (two
+    /// degrees of freedom).
     ///
     /// # Errors
     /// Any other text.
@@ -78,7 +83,10 @@ impl GenericStructure {
         match s {
             "pi" => Ok(GenericStructure::Pi),
             "pid" | "pidf" => Ok(GenericStructure::Pid),
-            _ => Err(Error::Input(format!("--structure must be pi, pid or pidf, got `{s}`"))),
+            "pid2" => Ok(GenericStructure::Pid2),
+            _ => Err(Error::Input(format!(
+                "--structure must be pi, pid, pidf or pid2, got `{s}`"
+            ))),
         }
     }
 }
@@ -197,6 +205,8 @@ pub struct TuneOutcome {
     pub noise_w_rad_s: f64,
     /// The feedforward fit (None: generic structure, or the flown feedforward kept).
     pub feedforward: Option<feedforward::FeedforwardFit>,
+    /// The generic `pid2` structure's setpoint weights.
+    pub setpoint_weights: Option<feedforward::SetpointWeights>,
 }
 
 /// The default integral-corner band with `--maximize crossover`: ω_c/15 ≤ ki/kp ≤ ω_c/4.
@@ -310,8 +320,8 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
         Firmware::Ardupilot => ardupilot::block(&req.ardupilot)?,
         Firmware::Generic => match (req.structure, req.d_filter_tau_s) {
             (GenericStructure::Pi, _) => Block::Pi,
-            (GenericStructure::Pid, None) => Block::Pid(DerivativeFilter::Tuned),
-            (GenericStructure::Pid, Some(tau)) => {
+            (GenericStructure::Pid | GenericStructure::Pid2, None) => Block::Pid(DerivativeFilter::Tuned),
+            (GenericStructure::Pid | GenericStructure::Pid2, Some(tau)) => {
                 if !(tau.is_finite() && tau > 0.0) {
                     return Err(Error::Input(format!(
                         "--d-filter-tau must be a positive number of seconds, got {tau}"
@@ -412,6 +422,7 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
     let th = &tuned.params;
     let mut notes = Vec::new();
     let mut ff_fit = None;
+    let mut weights = None;
     // Map to the firmware's gains, round as the firmware stores them, and re-verify those.
     let (gains, theta, cli, discrete) = match req.firmware {
         Firmware::Generic => {
@@ -426,6 +437,23 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
             } else {
                 g["kd"] = json!(0.0);
                 g["tf"] = json!(0.0);
+            }
+            if req.structure == GenericStructure::Pid2 {
+                let (ipath, ppath, dpath) = pid2_paths(&g)?;
+                let c = prob.structure.realize(th)?;
+                let w = feedforward::fit_setpoint_weights(&plants[0], &c, &ipath, &ppath, &dpath)?;
+                g["b"] = json!(w.b);
+                g["c"] = json!(w.c);
+                notes.push(format!(
+                    "setpoint weights b = {:.2}, c = {:.2}: fitted to the tuned loop (least squared tracking error of a 25 ms ramp, adding no overshoot beyond {} % or the I-only path's own): predicted overshoot {:.1} % against {:.1} % for b = c = 1, squared error {:.0} % of theirs",
+                    w.b,
+                    w.c,
+                    feedforward::OVERSHOOT_MAX_PCT,
+                    w.overshoot_pct,
+                    w.overshoot_one_dof_pct,
+                    100.0 * w.ise_ratio_one_dof
+                ));
+                weights = Some(w);
             }
             (g, th.clone(), Vec::new(), None)
         }
@@ -548,7 +576,46 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
         loop_plant: plants[0].clone(),
         noise_w_rad_s: wn,
         feedforward: ff_fit,
+        setpoint_weights: weights,
     })
+}
+
+/// The I, P and D paths ki/s, kp and kd·s/(tf·s + 1) of generic gains (`kp`, `ki`, `kd`, `tf`).
+fn pid2_paths(g: &Value) -> Result<(StateSpace, StateSpace, StateSpace)> {
+    let num = |k: &str| g[k].as_f64().unwrap_or(0.0);
+    let (kp, ki, kd, tf) = (num("kp"), num("ki"), num("kd"), num("tf"));
+    let ipath = StateSpace::from_rows(&[vec![0.0]], &[vec![1.0]], &[vec![ki]], &[vec![0.0]], 0.0)?;
+    let ppath = StateSpace::gain(faer::Mat::from_fn(1, 1, |_, _| kp), 0.0)?;
+    let dpath = if tf > 0.0 {
+        // kd·s/(tf·s + 1) = kd/tf − (kd/tf²)/(s + 1/tf).
+        StateSpace::from_rows(
+            &[vec![-1.0 / tf]],
+            &[vec![1.0]],
+            &[vec![-kd / (tf * tf)]],
+            &[vec![kd / tf]],
+            0.0,
+        )?
+    } else {
+        StateSpace::gain(faer::Mat::from_fn(1, 1, |_, _| 0.0), 0.0)?
+    };
+    Ok((ipath, ppath, dpath))
+}
+
+/// C_r(s) = ki/s + b·kp + c·kd·s/(tf·s + 1) of generic `pid2` gains (keys `kp`, `ki`, `kd`,
+/// `tf`, `b`, `c`); without `b` and `c`, the one-degree-of-freedom C_r = C_fb's PID.
+///
+/// # Errors
+/// Gains that do not form a model.
+pub fn generic_reference_path(g: &Value) -> Result<StateSpace> {
+    let (i, mut p, mut d) = pid2_paths(g)?;
+    let (b, c) = (g["b"].as_f64().unwrap_or(1.0), g["c"].as_f64().unwrap_or(1.0));
+    p.d = &p.d * b;
+    d.c = &d.c * c;
+    d.d = &d.d * c;
+    Ok(skyloop_lti::interconnect::parallel(
+        &skyloop_lti::interconnect::parallel(&i, &p)?,
+        &d,
+    )?)
 }
 
 /// Six significant digits: PX4 and ArduPilot store floats, and D ~ 0.003 at four decimals would
@@ -680,6 +747,13 @@ impl TuneOutcome {
                 "ise_ratio": f.ise_ratio,
                 "overshoot_without_pct": f.overshoot_without_pct,
                 "limited_by": f.limited_by,
+            })),
+            "setpoint_weights": self.setpoint_weights.map(|w| json!({
+                "b": w.b,
+                "c": w.c,
+                "overshoot_pct": w.overshoot_pct,
+                "overshoot_one_dof_pct": w.overshoot_one_dof_pct,
+                "ise_ratio_one_dof": w.ise_ratio_one_dof,
             })),
         })
     }
