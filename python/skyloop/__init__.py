@@ -207,22 +207,28 @@ def hinfstruct(P, nmeas: int, ncon: int, order: int, starts: int = 8, seed: int 
 
 def tune(plant, firmware: str, goals: Iterable[str] = (), structure: str = "pid",
          d_filter_tau: Optional[float] = None, maximize: str = "integral_gain", axis: str = "roll",
-         starts: int = 8, out: Optional[Union[str, "_os.PathLike[str]"]] = None) -> dict:
+         starts: int = 8, out: Optional[Union[str, "_os.PathLike[str]"]] = None,
+         keep_feedforward: bool = False) -> dict:
     """Rate-loop gains for the flight controller, tuned against margin goals (``skyloop tune --plant``).
 
     ``plant``: the continuous SISO rate-loop plant in the firmware's units (Betaflight: PID sum ->
-    gyro deg/s; PX4: normalized torque -> rad/s; generic: any), exact delays allowed. ``firmware``
-    ``"betaflight"``, ``"px4"`` or ``"generic"`` (C = kp + ki/s + kd s/(tf s + 1), ``structure``
-    ``"pi"`` or ``"pid"``; ``d_filter_tau`` fixes tf in s). ``goals`` like ``"ms<=1.4"``,
-    ``"mt<=1.3"``, ``"disk_margin>=0.6"``, ``"gain_margin_db>=6"``, ``"phase_margin_deg>=45"``,
-    ``"crossover_hz>=20"``; a disk-margin floor (0.5) and a noise limit are added unless given.
-    ``maximize`` ``"integral_gain"`` or ``"crossover"``; ``axis`` roll / pitch / yaw; ``starts``
-    1..=64; ``out`` a directory to also write the CLI's files (tune.json, report.html, ...).
+    gyro deg/s; PX4 and ArduPilot: normalized torque -> rad/s; generic: any), exact delays allowed.
+    ``firmware`` ``"betaflight"``, ``"px4"``, ``"ardupilot"`` or ``"generic"`` (C = kp + ki/s +
+    kd s/(tf s + 1), ``structure`` ``"pi"``, ``"pid"`` or ``"pid2"`` (setpoint weights b, c fitted
+    for tracking); ``d_filter_tau`` fixes tf in s). ``goals`` like ``"ms<=1.4"``, ``"mt<=1.3"``,
+    ``"disk_margin>=0.6"``, ``"gain_margin_db>=6"``, ``"phase_margin_deg>=45"``,
+    ``"crossover_hz>=20"``, ``"integral_corner>=0.067"``; a disk-margin floor (0.5) and a noise
+    limit are added unless given. ``maximize`` ``"integral_gain"`` or ``"crossover"`` (which keeps
+    ki/kp within 1/15..1/4 of the crossover unless an ``integral_corner`` goal is given); ``axis``
+    roll / pitch / yaw; ``starts`` 1..=64; ``out`` a directory to also write the CLI's files
+    (tune.json, report.html, ...). The feedforward (Betaflight F, PX4/ArduPilot FF) is fitted to
+    the tuned loop unless ``keep_feedforward``.
 
     Returns the CLI's ``--json`` fields: {gains (the firmware's keys and units), feedback_controller
     (StateSpace C_fb, y -> u, continuous, of the rounded gains), discrete_controller (C_fb at the
     loop rate, None for generic), margins {disk_alpha, gain_margin_db (dB), phase_margin_deg (deg),
-    crossover_hz (Hz), ms, mt, stable}, goals [{goal, value, met, active}], cli, defaults, notes},
+    crossover_hz (Hz), ms, mt, stable}, goals [{goal, value, met, active}], cli, defaults, notes,
+    feedforward (the fit, or None), setpoint_weights (pid2, or None)},
     plus ``loop_plant`` (the plant the margins were checked with: ``plant`` with the firmware's
     sample-and-hold delay added), so ``margins(loop_plant * feedback_controller)`` re-derives them.
     """
@@ -230,7 +236,8 @@ def tune(plant, firmware: str, goals: Iterable[str] = (), structure: str = "pid"
         goals = [goals]
     return _skyloop._tune(_as_sys(plant), str(firmware), [str(g) for g in goals], str(structure),
                           None if d_filter_tau is None else float(d_filter_tau), str(maximize), str(axis),
-                          _count(starts, "starts"), None if out is None else _os.fspath(out))
+                          _count(starts, "starts"), None if out is None else _os.fspath(out),
+                          bool(keep_feedforward))
 
 
 def identify(data, input: Optional[str] = None, output: Optional[str] = None, **options) -> dict:

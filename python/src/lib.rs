@@ -896,7 +896,7 @@ fn _hinfstruct(
 /// with, the firmware's sample-and-hold delay included). ``out``: also write the CLI's files there.
 #[pyfunction]
 #[pyo3(signature = (plant, firmware, goals=Vec::new(), structure="pid", d_filter_tau=None,
-    maximize="integral_gain", axis="roll", starts=8, out=None))]
+    maximize="integral_gain", axis="roll", starts=8, out=None, keep_feedforward=false))]
 #[allow(clippy::too_many_arguments)]
 fn _tune(
     py: Python<'_>,
@@ -909,6 +909,7 @@ fn _tune(
     axis: &str,
     starts: usize,
     out: Option<PathBuf>,
+    keep_feedforward: bool,
 ) -> PyResult<PyObject> {
     use skyloop::tune::{report::write_outputs, tune, Firmware, GenericStructure, Maximize, TuneRequest};
     let p = sys_of(plant)?;
@@ -920,6 +921,7 @@ fn _tune(
     req.maximize = Maximize::parse(maximize).map_err(py_err)?;
     req.axis = skyloop::firmware::betaflight::Axis::parse(axis).map_err(py_err)?;
     req.starts = starts;
+    req.tune_feedforward = !keep_feedforward;
     let o = guarded(py, move || {
         let o = tune(&req)?;
         if let Some(dir) = &out {

@@ -78,7 +78,7 @@ def check_claims(r, num, den, delay_s):
 
 
 CLI_TUNE_KEYS = {"gains", "feedback_controller", "discrete_controller", "margins", "goals", "cli", "defaults",
-                 "notes"}
+                 "notes", "feedforward", "setpoint_weights"}
 
 
 def test_generic_pid_claims_hold_independently():
@@ -120,6 +120,23 @@ def test_betaflight_gains_with_the_hold_delay(tmp_path):
     assert hold == pytest.approx(0.003125, abs=1e-12)
     g = check_claims(r, [400], [0.025, 1, 0], hold)
     assert g["disk_alpha"] >= 0.6 * (1 - 1e-4)
+    # F is fitted to the loop (Betaflight's FTERM_SCALE/100 per unit), or kept at the default.
+    assert r["gains"]["f"] == round(r["feedforward"]["gain"] / (0.013754 / 100))
+    kept = sk.tune("exp(-0.003*s)*400/(s*(0.025*s+1))", "betaflight", goals=["disk_margin>=0.6"], starts=2,
+                   keep_feedforward=True)
+    assert kept["gains"]["f"] == 120 and kept["feedforward"] is None
+
+
+def test_pid2_and_ardupilot():
+    r = sk.tune("exp(-0.1*s)/(s+1)^2", "generic", goals=["ms<=1.6"], structure="pid2", starts=2)
+    w = r["setpoint_weights"]
+    assert 0 <= r["gains"]["b"] <= 1 and 0 <= r["gains"]["c"] <= 1 and w["b"] == r["gains"]["b"]
+    a = sk.tune("exp(-0.004*s)*60/(s*(0.03*s+1))", "ardupilot", maximize="crossover", starts=2)
+    assert a["cli"][0].startswith("param set ATC_RAT_RLL_P ")
+    corner = [x for x in a["goals"] if x["goal"].startswith("integral_corner")]
+    assert len(corner) == 2 and all(x["met"] for x in corner)
+    g = check_claims(a, [60], [0.03, 1, 0], a["loop_plant"].input_delay[0])
+    assert g["disk_alpha"] >= 0.5 * (1 - 1e-4)
 
 
 def test_tune_bad_input_names_the_argument():
