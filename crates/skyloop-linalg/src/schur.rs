@@ -45,7 +45,7 @@ impl Schur {
     }
 }
 
-fn block_eigenvalues(t: &Dm) -> Vec<c64> {
+pub(crate) fn block_eigenvalues(t: &Dm) -> Vec<c64> {
     let n = t.n;
     let mut out = Vec::with_capacity(n);
     let mut k = 0;
