@@ -965,7 +965,7 @@ fn balanced_eigen(a: &Mat<f64>) -> Result<BalancedEigen> {
     if bal.ihi + 1 > bal.ilo {
         let m = bal.ihi + 1 - bal.ilo;
         let block = bal.a.as_ref().submatrix(bal.ilo, bal.ilo, m, m).to_owned();
-        out.block_norm = block.norm_l2();
+        out.block_norm = skyloop_linalg::fro_norm(block.as_ref());
         // skyloop-linalg's QR iteration without Schur vectors: faer's eigenvalue routine took
         // nearly twice as long on a 40 × 40 block (it was a sixth of an H∞ norm computation).
         out.eig.extend(
