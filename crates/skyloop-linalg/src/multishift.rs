@@ -64,11 +64,29 @@ fn window_size(nh: usize) -> usize {
 /// Real Schur form of the upper Hessenberg `h` in place, accumulating into `z` unless `z` is empty
 /// (order 0). Falls back to the double-shift [`lahqr`] below [`NMIN`].
 pub(crate) fn laqr0(h: &mut Dm, z: &mut Dm) -> Result<()> {
-    let n = h.n;
-    if n < NMIN {
+    if h.n < NMIN {
         return lahqr(h, z);
     }
     clear_upper_simd();
+    pulp::Arch::new().dispatch(Laqr0 { h, z })
+}
+
+struct Laqr0<'a> {
+    h: &'a mut Dm,
+    z: &'a mut Dm,
+}
+
+impl pulp::WithSimd for Laqr0<'_> {
+    type Output = Result<()>;
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) -> Result<()> {
+        laqr0_body(self.h, self.z)
+    }
+}
+
+#[inline(always)]
+fn laqr0_body(h: &mut Dm, z: &mut Dm) -> Result<()> {
+    let n = h.n;
     let wantz = z.n == n;
     let ulp = f64::EPSILON;
     let smlnum = f64::MIN_POSITIVE * (n as f64 / ulp);
@@ -573,6 +591,7 @@ struct Refl {
 /// chased down together (the method of dlaqr5). The chase runs in chunks of steps; each chunk's
 /// reflectors are applied directly only inside its diagonal window and accumulated in `U`, and
 /// the rest of `H` and `Z` is updated by three matrix products per chunk.
+#[inline(always)]
 fn sweep(h: &mut Dm, z: &mut Dm, wantz: bool, ktop: usize, kbot: usize, sr: &[f64], si: &[f64]) {
     let n = h.n;
     let ulp = f64::EPSILON;
@@ -731,7 +750,7 @@ fn sweep(h: &mut Dm, z: &mut Dm, wantz: bool, ktop: usize, kbot: usize, sr: &[f6
 
 /// `M[rows, c..c+len] ← M[rows, c..c+len]·(I − τ·u·uᵀ)` on column-major `d` (leading dimension
 /// `ld`), columns contiguous.
-#[inline]
+#[inline(always)]
 fn cols_reflect(d: &mut [f64], ld: usize, r: &Refl, rows: std::ops::Range<usize>, c: usize) {
     let (t1, t2, t3) = (r.tau, r.tau * r.u1, r.tau * r.u2);
     let (a, rest) = d.split_at_mut((c + 1) * ld);
