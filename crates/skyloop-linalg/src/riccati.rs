@@ -462,7 +462,8 @@ fn care_finish(
 /// imply that `A_cl` is Hurwitz. Both are checked by Cholesky factorizations of `X − η·I` and
 /// `M − (‖Res‖_F + e)·I`, where `η` covers the backward error of the Cholesky factorization
 /// (`γ_{n+1}·trace`, doubled) and `e` bounds the rounding errors of forming `A_cl`, `M` and `Res`
-/// (the standard `γ_k` bounds of products and sums, in Frobenius norms, doubled).
+/// and of `‖Res‖_F` itself (the standard `γ_k` bounds of products and sums, in Frobenius norms,
+/// with a margin); every quantity is exact for the returned `X` and `K`, so the proof is for them.
 ///
 /// Why: it costs a few 50×50 products and two Cholesky factorizations, where the eigenvalues of
 /// `A_cl` cost a Hessenberg reduction and a QR iteration (about a tenth of a 50-state solve). It
@@ -503,14 +504,17 @@ fn lyapunov_certificate(
     let xacl = x * acl;
     let res = &xacl + xacl.transpose() + &mm;
     let (kn, xn, rn) = (fro_norm(k), fro_norm(x), fro_norm(res.as_ref()));
-    let err = 2.0
-        * gamma(n + m + 4)
+    // Each product or sum of the terms below errs by at most γ_k·(product of the factors' norms)
+    // with k ≤ n + 2m + 4; the M error enters twice (in M and in Res), hence the factor 4.
+    let err = 4.0
+        * gamma(n + 2 * m + 4)
         * (2.0 * (fro_norm(a) + fro_norm(b) * kn) * xn
             + fro_norm(q)
             + kn * kn * fro_norm(red.r.as_ref())
             + 2.0 * fro_norm(red.s.as_ref()) * kn
             + rn);
-    let delta = rn + err;
+    // rn itself: a sum of n² squares, relative error below γ_{n²+2}.
+    let delta = rn * (1.0 + gamma(n * n + 2)) + err;
     let shift = delta + 2.0 * gamma(n + 1) * (trace(mm.as_ref()).abs() + n as f64 * delta);
     for i in 0..n {
         mm[(i, i)] -= shift;
