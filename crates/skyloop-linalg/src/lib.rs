@@ -13,6 +13,7 @@ pub use error::{LinalgError, Result};
 pub use faer::{c64, Mat, MatRef};
 pub mod balance;
 mod dense;
+pub use dense::fro_norm;
 pub mod expm;
 pub mod hamiltonian;
 pub mod hermitian;

@@ -11,7 +11,7 @@
 //! trailing window long before the subdiagonal is small, and supplies the next shifts.
 
 use faer::linalg::matmul::matmul;
-use faer::{Accum, Mat, MatMut, MatRef, Par};
+use faer::{Accum, MatMut, MatRef, Par};
 
 use crate::dense::{clear_upper_simd, lanv2, larfg, Dm};
 use crate::schur::{lahqr, trexc_up};
@@ -64,11 +64,29 @@ fn window_size(nh: usize) -> usize {
 /// Real Schur form of the upper Hessenberg `h` in place, accumulating into `z` unless `z` is empty
 /// (order 0). Falls back to the double-shift [`lahqr`] below [`NMIN`].
 pub(crate) fn laqr0(h: &mut Dm, z: &mut Dm) -> Result<()> {
-    let n = h.n;
-    if n < NMIN {
+    if h.n < NMIN {
         return lahqr(h, z);
     }
     clear_upper_simd();
+    pulp::Arch::new().dispatch(Laqr0 { h, z })
+}
+
+struct Laqr0<'a> {
+    h: &'a mut Dm,
+    z: &'a mut Dm,
+}
+
+impl pulp::WithSimd for Laqr0<'_> {
+    type Output = Result<()>;
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) -> Result<()> {
+        laqr0_body(self.h, self.z)
+    }
+}
+
+#[inline(always)]
+fn laqr0_body(h: &mut Dm, z: &mut Dm) -> Result<()> {
+    let n = h.n;
     let wantz = z.n == n;
     let ulp = f64::EPSILON;
     let smlnum = f64::MIN_POSITIVE * (n as f64 / ulp);
@@ -344,6 +362,18 @@ fn standardize_2x2(h: &mut Dm, z: &mut Dm, wantz: bool, k: usize) {
     }
 }
 
+/// The block `M[r0..r0+nr, c0..c0+nc]` as a column-major vector, copied column by column.
+///
+/// Why: faer's `to_owned` of a submatrix fills the copy entry by entry through a closure, which
+/// showed as 5 % of a 50-state CARE solve (the copies of these updates); slice copies are memcpy.
+fn copy_block(m: &Dm, r0: usize, nr: usize, c0: usize, nc: usize) -> Vec<f64> {
+    let mut out = Vec::with_capacity(nr * nc);
+    for j in c0..c0 + nc {
+        out.extend_from_slice(&m.d[j * m.n + r0..j * m.n + r0 + nr]);
+    }
+    out
+}
+
 /// `M[rows, c0..c0+w] ← M[rows, c0..c0+w]·U` by a matrix product.
 pub(crate) fn update_right(m: &mut Dm, rows: std::ops::Range<usize>, c0: usize, u: &Dm) {
     let (nn, w) = (m.n, u.n);
@@ -351,11 +381,12 @@ pub(crate) fn update_right(m: &mut Dm, rows: std::ops::Range<usize>, c0: usize, 
         return;
     }
     let nr = rows.len();
+    let tmp = copy_block(m, rows.start, nr, c0, w);
+    let tmp = MatRef::from_column_major_slice(&tmp, nr, w);
     let mut view = MatMut::from_column_major_slice_mut(&mut m.d, nn, nn);
     let mut blk = view.as_mut().submatrix_mut(rows.start, c0, nr, w);
-    let tmp: Mat<f64> = blk.as_ref().to_owned();
     let uref = MatRef::from_column_major_slice(&u.d, w, w);
-    matmul(blk.as_mut(), Accum::Replace, tmp.as_ref(), uref, 1.0, Par::Seq);
+    matmul(blk.as_mut(), Accum::Replace, tmp, uref, 1.0, Par::Seq);
     clear_upper_simd();
 }
 
@@ -366,18 +397,12 @@ pub(crate) fn update_left(m: &mut Dm, r0: usize, cols: std::ops::Range<usize>, u
         return;
     }
     let nc = cols.len();
+    let tmp = copy_block(m, r0, w, cols.start, nc);
+    let tmp = MatRef::from_column_major_slice(&tmp, w, nc);
     let mut view = MatMut::from_column_major_slice_mut(&mut m.d, nn, nn);
     let mut blk = view.as_mut().submatrix_mut(r0, cols.start, w, nc);
-    let tmp: Mat<f64> = blk.as_ref().to_owned();
     let uref = MatRef::from_column_major_slice(&u.d, w, w);
-    matmul(
-        blk.as_mut(),
-        Accum::Replace,
-        uref.transpose(),
-        tmp.as_ref(),
-        1.0,
-        Par::Seq,
-    );
+    matmul(blk.as_mut(), Accum::Replace, uref.transpose(), tmp, 1.0, Par::Seq);
     clear_upper_simd();
 }
 
@@ -566,6 +591,7 @@ struct Refl {
 /// chased down together (the method of dlaqr5). The chase runs in chunks of steps; each chunk's
 /// reflectors are applied directly only inside its diagonal window and accumulated in `U`, and
 /// the rest of `H` and `Z` is updated by three matrix products per chunk.
+#[inline(always)]
 fn sweep(h: &mut Dm, z: &mut Dm, wantz: bool, ktop: usize, kbot: usize, sr: &[f64], si: &[f64]) {
     let n = h.n;
     let ulp = f64::EPSILON;
@@ -724,7 +750,7 @@ fn sweep(h: &mut Dm, z: &mut Dm, wantz: bool, ktop: usize, kbot: usize, sr: &[f6
 
 /// `M[rows, c..c+len] ← M[rows, c..c+len]·(I − τ·u·uᵀ)` on column-major `d` (leading dimension
 /// `ld`), columns contiguous.
-#[inline]
+#[inline(always)]
 fn cols_reflect(d: &mut [f64], ld: usize, r: &Refl, rows: std::ops::Range<usize>, c: usize) {
     let (t1, t2, t3) = (r.tau, r.tau * r.u1, r.tau * r.u2);
     let (a, rest) = d.split_at_mut((c + 1) * ld);

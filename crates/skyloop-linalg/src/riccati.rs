@@ -18,8 +18,8 @@ use faer::linalg::solvers::{FullPivLu, Solve};
 use faer::{c64, Mat, MatRef};
 
 use crate::balance::{try_balance_with, BalanceJob};
-use crate::dense::Dm;
-use crate::schur::{eigenvalues, reorder_dm, schur_dm};
+use crate::dense::{fro_norm, Dm};
+use crate::schur::{block_eigenvalues, eigenvalues, reorder_dm, schur_dm};
 use crate::{LinalgError, Result};
 
 /// Stabilizing solution of a CARE or DARE.
@@ -30,6 +30,10 @@ pub struct RiccatiSolution {
     /// Optimal gain: CARE `K = R⁻¹(BᵀX + Sᵀ)`, DARE `K = (R + BᵀXB)⁻¹(BᵀXA + Sᵀ)`; control `u = −K·x`.
     pub k: Mat<f64>,
     /// Eigenvalues of the closed loop `A − B·K` (all with negative real part / inside the unit disc).
+    /// For a CARE solution taken from the Hamiltonian's Schur form without refinement, these are
+    /// the Hamiltonian's stable eigenvalues (the exact closed loop's spectrum), and stability of
+    /// `A − B·K` itself is proven by a Lyapunov certificate; otherwise they are computed from
+    /// `A − B·K`.
     pub closed_loop_eigs: Vec<c64>,
     /// Relative residual: ‖residual‖_F divided by the sum of the Frobenius norms of its terms.
     pub residual: f64,
@@ -100,6 +104,8 @@ struct Reduced {
     g: Mat<f64>,
     qbar: Mat<f64>,
     s: Mat<f64>,
+    /// `R`, symmetrized.
+    r: Mat<f64>,
     r_lu: Option<FullPivLu<f64>>,
 }
 
@@ -117,8 +123,8 @@ fn check_finite(m: MatRef<f64>, name: &str, who: &str) -> Result<()> {
 }
 
 fn check_symmetric(m: MatRef<f64>, name: &str, who: &str) -> Result<Mat<f64>> {
-    let asym = (m - m.transpose()).norm_l2();
-    let nrm = m.norm_l2();
+    let asym = fro_norm((m - m.transpose()).as_ref());
+    let nrm = fro_norm(m);
     if asym > 1e-10 * nrm.max(f64::MIN_POSITIVE) && asym > 0.0 {
         return Err(LinalgError::InvalidArgument(format!(
             "{who}: {name} must be symmetric (‖{name} − {name}ᵀ‖/‖{name}‖ = {:.1e})",
@@ -176,6 +182,7 @@ fn reduce(
             g: Mat::zeros(n, n),
             qbar: q,
             s,
+            r,
             r_lu: None,
         });
     }
@@ -203,6 +210,7 @@ fn reduce(
         g,
         qbar,
         s,
+        r,
         r_lu: Some(lu),
     })
 }
@@ -236,7 +244,7 @@ pub fn care_with(
 
     // Scale X = σ·Y so that ‖σG‖ = ‖Q̄/σ‖ (SLICOT SB02MD's scaling): the Hamiltonian's blocks
     // then have comparable norms.
-    let (gn, qn) = (red.g.norm_l2(), red.qbar.norm_l2());
+    let (gn, qn) = (fro_norm(red.g.as_ref()), fro_norm(red.qbar.as_ref()));
     let sigma = if opts.scale && gn > 0.0 && qn > 0.0 {
         (qn / gn).sqrt()
     } else {
@@ -279,14 +287,7 @@ pub fn care_with(
             }
         }
     }
-    // Frobenius norm scaled by the largest entry: overflow-safe without a hypot per entry (which
-    // cost as much as a tenth of a 50-state solve).
-    let hmax = h.d.iter().fold(0.0f64, |acc, v| acc.max(v.abs()));
-    let hnorm = if hmax > 0.0 {
-        hmax * h.d.iter().map(|v| (v / hmax) * (v / hmax)).sum::<f64>().sqrt()
-    } else {
-        0.0
-    };
+    let hnorm = fro_norm(MatRef::from_column_major_slice(&h.d, 2 * n, 2 * n));
 
     let (mut t, mut z) = schur_dm(h)?;
     let tol = opts.axis_tol * hnorm.max(f64::MIN_POSITIVE);
@@ -312,6 +313,11 @@ pub fn care_with(
         )));
     }
 
+    // The stable eigenvalues: those of the exact closed loop (H is similar to the Hamiltonian of
+    // the unscaled problem); the first n of the reordered form.
+    let mut stable_eigs = block_eigenvalues(&t);
+    stable_eigs.truncate(n);
+
     // X' = U21·U11⁻¹, i.e. U11ᵀ·X' = U21ᵀ (X' is symmetric), by full-pivoting LU.
     let u11t = Mat::from_fn(n, n, |i, j| z[(j, i)]);
     let u21t = Mat::from_fn(n, n, |i, j| z[(j + n, i)]);
@@ -328,7 +334,7 @@ pub fn care_with(
     let xp = lu.solve(&u21t);
     let x = Mat::from_fn(n, n, |i, j| sigma * 0.5 * (xp[(i, j)] + xp[(j, i)]) / (d1[i] * d1[j]));
 
-    let mut sol = care_finish(a, b, q, &red, x)?;
+    let mut sol = care_finish(a, b, q, &red, x, Some(stable_eigs))?;
     for _ in 0..opts.newton_steps {
         if !(sol.residual > opts.refine_above.max(2.0 * f64::EPSILON)) {
             break;
@@ -361,7 +367,7 @@ fn newton_care_step(
         Err(e) => return Err(e),
     };
     let xn = symmetrize((x + &step).as_ref());
-    match care_finish(a, b, q, red, xn) {
+    match care_finish(a, b, q, red, xn, None) {
         Ok(s) => Ok(Some(s)),
         Err(LinalgError::NoSolution(_)) => Ok(None),
         Err(e) => Err(e),
@@ -385,11 +391,11 @@ fn care_gain_residual(
     };
     let aterm = a.transpose() * x;
     let res = &aterm + aterm.transpose() - &xbs * &k + q;
-    let denom = q.norm_l2() + 2.0 * aterm.norm_l2() + xbs.norm_l2() * k.norm_l2();
+    let denom = fro_norm(q) + 2.0 * fro_norm(aterm.as_ref()) + fro_norm(xbs.as_ref()) * fro_norm(k.as_ref());
     let residual = if denom > 0.0 {
-        res.norm_l2() / denom
+        fro_norm(res.as_ref()) / denom
     } else {
-        res.norm_l2()
+        fro_norm(res.as_ref())
     };
     (k, residual)
 }
@@ -416,10 +422,27 @@ pub fn care_residual(
 }
 
 /// Closed-loop eigenvalues, stabilizing check and residual of a CARE solution candidate.
-fn care_finish(a: MatRef<f64>, b: MatRef<f64>, q: MatRef<f64>, red: &Reduced, x: Mat<f64>) -> Result<RiccatiSolution> {
+///
+/// With `ham_eigs` (the Hamiltonian's stable eigenvalues, for `X` straight from its Schur form)
+/// the stability of `A − B·K` is proven by [`lyapunov_certificate`] where it applies, and
+/// `ham_eigs` are reported as the closed-loop eigenvalues; otherwise (no `ham_eigs`, or the
+/// certificate does not apply) the eigenvalues of `A − B·K` are computed and checked.
+fn care_finish(
+    a: MatRef<f64>,
+    b: MatRef<f64>,
+    q: MatRef<f64>,
+    red: &Reduced,
+    x: Mat<f64>,
+    ham_eigs: Option<Vec<c64>>,
+) -> Result<RiccatiSolution> {
     let (k, residual) = care_gain_residual(a, b, q, red, x.as_ref());
     let acl = a - b * &k;
-    let eigs = eigenvalues(acl.as_ref())?;
+    let certified = ham_eigs
+        .filter(|e| e.len() == a.nrows() && lyapunov_certificate(a, b, q, red, x.as_ref(), k.as_ref(), acl.as_ref()));
+    let eigs = match certified {
+        Some(e) => e,
+        None => eigenvalues(acl.as_ref())?,
+    };
     if let Some(z) = eigs.iter().find(|z| !(z.re < 0.0)) {
         return Err(LinalgError::NoSolution(format!(
             "care: the solution is not stabilizing (closed-loop eigenvalue {z}); no stabilizing solution"
@@ -431,6 +454,72 @@ fn care_finish(a: MatRef<f64>, b: MatRef<f64>, q: MatRef<f64>, red: &Reduced, x:
         closed_loop_eigs: eigs,
         residual,
     })
+}
+
+/// Whether Lyapunov's theorem proves `A_cl = A − B·K` Hurwitz, in floating point: with
+/// `M = Q + KᵀRK − S·K − KᵀSᵀ` and `Res = A_clᵀX + X·A_cl + M` (the CARE residual at `X` when
+/// `K = R⁻¹(BᵀX + Sᵀ)`), `A_clᵀX + X·A_cl = −(M − Res)`, so `X ≻ 0` and `λ_min(M) > ‖Res‖₂`
+/// imply that `A_cl` is Hurwitz. Both are checked by Cholesky factorizations of `X − η·I` and
+/// `M − (‖Res‖_F + e)·I`, where `η` covers the backward error of the Cholesky factorization
+/// (`γ_{n+1}·trace`, doubled) and `e` bounds the rounding errors of forming `A_cl`, `M` and `Res`
+/// and of `‖Res‖_F` itself (the standard `γ_k` bounds of products and sums, in Frobenius norms,
+/// with a margin); every quantity is exact for the returned `X` and `K`, so the proof is for them.
+///
+/// Why: it costs a few 50×50 products and two Cholesky factorizations, where the eigenvalues of
+/// `A_cl` cost a Hessenberg reduction and a QR iteration (about a tenth of a 50-state solve). It
+/// does not apply when `X` is not positive definite or `M` is not safely positive definite
+/// (e.g. singular `Q` with few inputs, or the indefinite `R` of H∞ synthesis): `false` then, and
+/// the caller computes the eigenvalues instead.
+fn lyapunov_certificate(
+    a: MatRef<f64>,
+    b: MatRef<f64>,
+    q: MatRef<f64>,
+    red: &Reduced,
+    x: MatRef<f64>,
+    k: MatRef<f64>,
+    acl: MatRef<f64>,
+) -> bool {
+    use faer::Side;
+    let n = a.nrows();
+    let m = b.ncols();
+    if m == 0 || red.r_lu.is_none() {
+        return false;
+    }
+    let gamma = |k: usize| {
+        let u = (k as f64) * f64::EPSILON;
+        u / (1.0 - u)
+    };
+    // X ≻ 0: a Cholesky factorization that succeeds on X − η·I with η ≥ its backward error.
+    let trace = |mat: MatRef<f64>| (0..mat.nrows()).map(|i| mat[(i, i)]).sum::<f64>();
+    let eta = 2.0 * gamma(n + 1) * trace(x).abs();
+    let mut xs = x.to_owned();
+    for i in 0..n {
+        xs[(i, i)] -= eta;
+    }
+    if xs.llt(Side::Lower).is_err() {
+        return false;
+    }
+    let sk = &red.s * k;
+    let mut mm = q + k.transpose() * &red.r * k - &sk - sk.transpose();
+    let xacl = x * acl;
+    let res = &xacl + xacl.transpose() + &mm;
+    let (kn, xn, rn) = (fro_norm(k), fro_norm(x), fro_norm(res.as_ref()));
+    // Each product or sum of the terms below errs by at most γ_k·(product of the factors' norms)
+    // with k ≤ n + 2m + 4; the M error enters twice (in M and in Res), hence the factor 4.
+    let err = 4.0
+        * gamma(n + 2 * m + 4)
+        * (2.0 * (fro_norm(a) + fro_norm(b) * kn) * xn
+            + fro_norm(q)
+            + kn * kn * fro_norm(red.r.as_ref())
+            + 2.0 * fro_norm(red.s.as_ref()) * kn
+            + rn);
+    // rn itself: a sum of n² squares, relative error below γ_{n²+2}.
+    let delta = rn * (1.0 + gamma(n * n + 2)) + err;
+    let shift = delta + 2.0 * gamma(n + 1) * (trace(mm.as_ref()).abs() + n as f64 * delta);
+    for i in 0..n {
+        mm[(i, i)] -= shift;
+    }
+    shift.is_finite() && mm.llt(Side::Lower).is_ok()
 }
 
 /// [`dare`] with explicit options.
@@ -479,8 +568,8 @@ pub fn dare_with(
         let g_next = symmetrize((&gk + &ak * &v2 * ak.transpose()).as_ref());
         let h_next = symmetrize((&hk + ak.transpose() * &hk * &v1).as_ref());
         let a_next = &ak * &v1;
-        let change = (&h_next - &hk).norm_l2();
-        let hn = h_next.norm_l2();
+        let change = fro_norm((&h_next - &hk).as_ref());
+        let hn = fro_norm(h_next.as_ref());
         ak = a_next;
         gk = g_next;
         hk = h_next;
@@ -569,11 +658,12 @@ fn dare_gain_residual(
     };
     let axa = a.transpose() * &xa;
     let res = &axa - x - bxas.transpose() * &k + q;
-    let denom = axa.norm_l2() + x.norm_l2() + bxas.norm_l2() * k.norm_l2() + q.norm_l2();
+    let denom =
+        fro_norm(axa.as_ref()) + fro_norm(x.as_ref()) + fro_norm(bxas.as_ref()) * fro_norm(k.as_ref()) + fro_norm(q);
     let residual = if denom > 0.0 {
-        res.norm_l2() / denom
+        fro_norm(res.as_ref()) / denom
     } else {
-        res.norm_l2()
+        fro_norm(res.as_ref())
     };
     Ok((k, residual))
 }
@@ -624,4 +714,112 @@ fn dare_finish(
         closed_loop_eigs: eigs,
         residual,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `A = diag(1, 2)`, `B = Q = R = I`: per state `2aₖx − x² + 1 = 0`, `x = aₖ ± √(aₖ² + 1)`.
+    fn diagonal_problem() -> (Mat<f64>, Mat<f64>, Mat<f64>, Mat<f64>) {
+        let a = Mat::from_fn(2, 2, |i, j| if i == j { (i + 1) as f64 } else { 0.0 });
+        (a, Mat::identity(2, 2), Mat::identity(2, 2), Mat::identity(2, 2))
+    }
+
+    fn sorted_re(mut v: Vec<c64>) -> Vec<f64> {
+        v.sort_by(|x, y| x.re.total_cmp(&y.re));
+        v.iter().map(|z| z.re).collect()
+    }
+
+    #[test]
+    fn certificate_accepts_the_stabilizing_solution() {
+        let (a, b, q, r) = diagonal_problem();
+        let red = reduce(a.as_ref(), b.as_ref(), q.as_ref(), r.as_ref(), None, "test").unwrap();
+        let root = |ak: f64| (ak * ak + 1.0).sqrt();
+        let x = Mat::from_fn(2, 2, |i, j| {
+            if i == j {
+                (i + 1) as f64 + root((i + 1) as f64)
+            } else {
+                0.0
+            }
+        });
+        let (k, _) = care_gain_residual(a.as_ref(), b.as_ref(), q.as_ref(), &red, x.as_ref());
+        let acl = &a - &b * &k;
+        assert!(lyapunov_certificate(
+            a.as_ref(),
+            b.as_ref(),
+            q.as_ref(),
+            &red,
+            x.as_ref(),
+            k.as_ref(),
+            acl.as_ref()
+        ));
+        // The closed loop is diag(−√2, −√5): the solver's result reports the same spectrum.
+        let sol = care(a.as_ref(), b.as_ref(), q.as_ref(), r.as_ref(), None).unwrap();
+        let got = sorted_re(sol.closed_loop_eigs);
+        let want = [-5f64.sqrt(), -2f64.sqrt()];
+        for (g, w) in got.iter().zip(want) {
+            assert!((g - w).abs() < 1e-14, "{got:?}");
+        }
+    }
+
+    #[test]
+    fn anti_stabilizing_claim_is_caught_by_the_eigenvalue_fallback() {
+        // The anti-stabilizing solution x = aₖ − √(aₖ² + 1) < 0, handed over with a (false) claim
+        // of stable Hamiltonian eigenvalues: the certificate does not apply (X is not positive
+        // definite), the eigenvalues of A − BK (+√2, +√5) are computed, and the claim is refused.
+        let (a, b, q, r) = diagonal_problem();
+        let red = reduce(a.as_ref(), b.as_ref(), q.as_ref(), r.as_ref(), None, "test").unwrap();
+        let x = Mat::from_fn(2, 2, |i, j| {
+            let ak = (i + 1) as f64;
+            if i == j {
+                ak - (ak * ak + 1.0).sqrt()
+            } else {
+                0.0
+            }
+        });
+        let (k, residual) = care_gain_residual(a.as_ref(), b.as_ref(), q.as_ref(), &red, x.as_ref());
+        assert!(residual < 1e-15, "it does solve the CARE: {residual}");
+        let acl = &a - &b * &k;
+        assert!(!lyapunov_certificate(
+            a.as_ref(),
+            b.as_ref(),
+            q.as_ref(),
+            &red,
+            x.as_ref(),
+            k.as_ref(),
+            acl.as_ref()
+        ));
+        let claim = vec![c64::new(-2f64.sqrt(), 0.0), c64::new(-5f64.sqrt(), 0.0)];
+        let e = care_finish(a.as_ref(), b.as_ref(), q.as_ref(), &red, x, Some(claim)).unwrap_err();
+        assert!(matches!(e, LinalgError::NoSolution(_)), "{e}");
+    }
+
+    #[test]
+    fn singular_weight_falls_back_to_the_eigenvalues() {
+        // Q = 0 and a stable A: X = 0 (not positive definite, so no certificate); the closed loop
+        // is A itself, and its eigenvalues are computed.
+        let a = Mat::from_fn(2, 2, |i, j| [[-1.0, 3.0], [0.0, -2.0]][i][j]);
+        let (b, q, r) = (Mat::identity(2, 2), Mat::zeros(2, 2), Mat::identity(2, 2));
+        let sol = care(a.as_ref(), b.as_ref(), q.as_ref(), r.as_ref(), None).unwrap();
+        assert!(fro_norm(sol.x.as_ref()) < 1e-14);
+        let got = sorted_re(sol.closed_loop_eigs);
+        assert!((got[0] + 2.0).abs() < 1e-14 && (got[1] + 1.0).abs() < 1e-14, "{got:?}");
+    }
+
+    #[test]
+    fn fro_norm_matches_faer_and_survives_extreme_scales() {
+        let m = Mat::from_fn(7, 5, |i, j| (i as f64 - 3.0) * 0.37 + j as f64 * 1.1);
+        let want = m.norm_l2();
+        assert!((fro_norm(m.as_ref()) - want).abs() <= 4.0 * f64::EPSILON * want);
+        for s in [1e-200, 1e200] {
+            let ms = &m * s;
+            let got = fro_norm(ms.as_ref());
+            assert!((got - want * s).abs() <= 8.0 * f64::EPSILON * want * s, "{s}: {got}");
+        }
+        assert_eq!(fro_norm(Mat::<f64>::zeros(3, 3).as_ref()), 0.0);
+        // A strided view (rows of a transposed matrix) takes the entry-wise path.
+        let t = m.transpose();
+        assert!((fro_norm(t) - want).abs() <= 4.0 * f64::EPSILON * want);
+    }
 }

@@ -442,7 +442,8 @@ fn imaginary_axis_crossings(sys: &StateSpace, gamma: f64) -> Result<Vec<f64>> {
     let h11 = a - b * &rinv_dt_c;
     let g = b * &rinv_bt * (-gamma);
     let q = c.transpose() * &sinv_c * gamma;
-    let (n11, ng, nq) = (h11.norm_l2(), g.norm_l2(), q.norm_l2());
+    let fro = |m: &Mat<f64>| skyloop_linalg::fro_norm(m.as_ref());
+    let (n11, ng, nq) = (fro(&h11), fro(&g), fro(&q));
     let hnorm = n11.hypot(n11).hypot(ng).hypot(nq); // ‖H‖_F without overflow in the squares
     if !hnorm.is_finite() {
         return Err(LtiError::Numerical(format!(
