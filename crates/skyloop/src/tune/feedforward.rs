@@ -116,7 +116,9 @@ fn responses(plant: &StateSpace, c_fb: &StateSpace, paths: &[&StateSpace]) -> Re
     }
     // A rate loop settles within the span; a slower loop gets 20/ω_c at most 2000 samples (the
     // ramp then is a step within one sample).
-    let wc = skyloop_lti::margins::margin(&series(c_fb, &pp)?)?.pm_w_rad_s;
+    let wc = skyloop_lti::margins::margin(&series(c_fb, &pp)?)
+        .map(|m| m.pm_w_rad_s)
+        .unwrap_or(f64::NAN);
     let span = if wc.is_finite() && wc > 0.0 {
         (20.0 / wc).clamp(SPAN_S, 1e4)
     } else {

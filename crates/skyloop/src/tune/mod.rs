@@ -441,40 +441,58 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
             if req.structure == GenericStructure::Pid2 {
                 let (ipath, ppath, dpath) = pid2_paths(&g)?;
                 let c = prob.structure.realize(th)?;
-                let w = feedforward::fit_setpoint_weights(&plants[0], &c, &ipath, &ppath, &dpath)?;
-                g["b"] = json!(w.b);
-                g["c"] = json!(w.c);
-                notes.push(format!(
-                    "setpoint weights b = {:.2}, c = {:.2}: fitted to the tuned loop (least squared tracking error of a 25 ms ramp, adding no overshoot beyond {} % or the I-only path's own): predicted overshoot {:.1} % against {:.1} % for b = c = 1, squared error {:.0} % of theirs",
-                    w.b,
-                    w.c,
-                    feedforward::OVERSHOOT_MAX_PCT,
-                    w.overshoot_pct,
-                    w.overshoot_one_dof_pct,
-                    100.0 * w.ise_ratio_one_dof
-                ));
-                weights = Some(w);
+                match feedforward::fit_setpoint_weights(&plants[0], &c, &ipath, &ppath, &dpath) {
+                    Ok(w) => {
+                        g["b"] = json!(w.b);
+                        g["c"] = json!(w.c);
+                        notes.push(format!(
+                            "setpoint weights b = {:.2}, c = {:.2}: fitted to the tuned loop (least squared tracking error of a 25 ms ramp, adding no overshoot beyond {} % or the I-only path's own): predicted overshoot {:.1} % against {:.1} % for b = c = 1, squared error {:.0} % of theirs",
+                            w.b,
+                            w.c,
+                            feedforward::OVERSHOOT_MAX_PCT,
+                            w.overshoot_pct,
+                            w.overshoot_one_dof_pct,
+                            100.0 * w.ise_ratio_one_dof
+                        ));
+                        weights = Some(w);
+                    }
+                    Err(e) => {
+                        g["b"] = json!(1.0);
+                        g["c"] = json!(1.0);
+                        notes.push(format!(
+                            "setpoint weights not fitted ({e}): b = c = 1, the one-degree-of-freedom PID"
+                        ));
+                    }
+                }
             }
             (g, th.clone(), Vec::new(), None)
         }
         Firmware::Betaflight => {
             let (mut bg, theta) = betaflight_rounding(&prob, th, req)?;
             let c = betaflight::feedback_controller(&bg, req.axis, &req.betaflight)?;
-            if req.tune_feedforward {
-                let unit = betaflight::FTERM_SCALE / 100.0;
+            let unit = betaflight::FTERM_SCALE / 100.0;
+            let fit = if req.tune_feedforward {
                 let c_r0 =
                     betaflight::reference_path(&betaflight::Gains { f: 0, ..bg }, req.axis, req.betaflight.loop_hz)?;
                 let c_f = betaflight::feedforward_unit(req.betaflight.loop_hz)?;
-                let fit = feedforward::fit(&plants[0], &c, &c_r0, &c_f, f64::from(betaflight::F_GAIN_MAX) * unit)?;
+                fit_or_note(
+                    feedforward::fit(&plants[0], &c, &c_r0, &c_f, f64::from(betaflight::F_GAIN_MAX) * unit),
+                    &mut notes,
+                )
+            } else {
+                None
+            };
+            if let Some(fit) = fit {
                 bg.f = (fit.gain / unit).round().clamp(0.0, f64::from(betaflight::F_GAIN_MAX)) as u32;
                 notes.push(feedforward_note(&format!("f_{} = {}", req.axis.name(), bg.f), &fit));
                 ff_fit = Some(fit);
             } else {
                 bg.f = req.betaflight_f.unwrap_or(120);
                 notes.push(format!(
-                    "f_{} = {} is not tuned (--keep-feedforward){}",
+                    "f_{} = {} is not tuned ({}){}",
                     req.axis.name(),
                     bg.f,
+                    keep_reason(req),
                     if req.betaflight_f.is_some() {
                         "; kept as flown"
                     } else {
@@ -498,15 +516,22 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
                 ff: req.ardupilot_ff.unwrap_or(0.0),
             };
             let c = ardupilot::feedback_controller(&ag, &req.ardupilot)?;
-            if req.tune_feedforward {
+            let fit = if req.tune_feedforward {
                 let c_r0 = ardupilot::reference_path(&ardupilot::Gains { ff: 0.0, ..ag }, &req.ardupilot)?;
                 let c_f = ardupilot::feedforward_unit(&req.ardupilot)?;
-                let fit = feedforward::fit(&plants[0], &c, &c_r0, &c_f, ardupilot::GAIN_RANGES[3].1)?;
+                fit_or_note(
+                    feedforward::fit(&plants[0], &c, &c_r0, &c_f, ardupilot::GAIN_RANGES[3].1),
+                    &mut notes,
+                )
+            } else {
+                None
+            };
+            if let Some(fit) = fit {
                 ag.ff = round6(fit.gain);
                 notes.push(feedforward_note(&format!("FF = {}", ag.ff), &fit));
                 ff_fit = Some(fit);
             } else {
-                notes.push(format!("FF = {} is not tuned (--keep-feedforward)", ag.ff));
+                notes.push(format!("FF = {} is not tuned ({})", ag.ff, keep_reason(req)));
             }
             notes.extend(ardupilot::range_notes(&ag, req.axis));
             notes.push(
@@ -531,19 +556,24 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
                 d: round6(th[2]),
                 ff: req.px4_ff.unwrap_or(0.0),
             };
-            if req.tune_feedforward {
+            let fit = if req.tune_feedforward {
                 let c = px4::feedback_controller(&pg, &req.px4)?;
                 let c_r0 = px4::reference_path(&px4::Gains { ff: 0.0, ..pg })?;
                 let c_f = StateSpace::gain(faer::Mat::from_fn(1, 1, |_, _| 1.0), 0.0)?;
-                let fit = feedforward::fit(&plants[0], &c, &c_r0, &c_f, PX4_FF_MAX)?;
+                fit_or_note(feedforward::fit(&plants[0], &c, &c_r0, &c_f, PX4_FF_MAX), &mut notes)
+            } else {
+                None
+            };
+            if let Some(fit) = fit {
                 pg.ff = round6(fit.gain);
                 notes.push("MC_*RATE_K = 1 (parallel form)".into());
                 notes.push(feedforward_note(&format!("FF = {}", pg.ff), &fit));
                 ff_fit = Some(fit);
             } else {
                 notes.push(format!(
-                    "MC_*RATE_K = 1 (parallel form); FF = {} is not tuned (--keep-feedforward)",
-                    pg.ff
+                    "MC_*RATE_K = 1 (parallel form); FF = {} is not tuned ({})",
+                    pg.ff,
+                    keep_reason(req)
                 ));
             }
             notes.push("plant units: input normalized torque, output rad/s".into());
@@ -631,6 +661,25 @@ fn round6(x: f64) -> f64 {
 /// Largest PX4 rate feedforward the fit may propose, normalized torque per rad/s (a sanity bound:
 /// full torque for a 1 rad/s setpoint).
 const PX4_FF_MAX: f64 = 1.0;
+
+/// The fit, or None with a note: a feedforward that cannot be fitted (e.g. the Padé model of a
+/// loop the exact check found stable is not) is kept, and the feedback gains still stand.
+fn fit_or_note(
+    fit: Result<feedforward::FeedforwardFit>,
+    notes: &mut Vec<String>,
+) -> Option<feedforward::FeedforwardFit> {
+    fit.map_err(|e| notes.push(format!("the feedforward could not be fitted: {e}")))
+        .ok()
+}
+
+/// Why a feedforward was kept.
+fn keep_reason(req: &TuneRequest) -> &'static str {
+    if req.tune_feedforward {
+        "not fitted, see above"
+    } else {
+        "--keep-feedforward"
+    }
+}
 
 /// The note that states how the feedforward was chosen.
 fn feedforward_note(what: &str, fit: &feedforward::FeedforwardFit) -> String {
