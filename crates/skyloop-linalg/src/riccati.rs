@@ -726,6 +726,21 @@ mod tests {
         (a, Mat::identity(2, 2), Mat::identity(2, 2), Mat::identity(2, 2))
     }
 
+    /// The certificate for a candidate `x`, with its gain and closed loop formed as the solver does.
+    fn certifies(a: &Mat<f64>, b: &Mat<f64>, q: &Mat<f64>, red: &Reduced, x: &Mat<f64>) -> bool {
+        let (k, _) = care_gain_residual(a.as_ref(), b.as_ref(), q.as_ref(), red, x.as_ref());
+        let acl = a - b * &k;
+        lyapunov_certificate(
+            a.as_ref(),
+            b.as_ref(),
+            q.as_ref(),
+            red,
+            x.as_ref(),
+            k.as_ref(),
+            acl.as_ref(),
+        )
+    }
+
     fn sorted_re(mut v: Vec<c64>) -> Vec<f64> {
         v.sort_by(|x, y| x.re.total_cmp(&y.re));
         v.iter().map(|z| z.re).collect()
@@ -743,17 +758,7 @@ mod tests {
                 0.0
             }
         });
-        let (k, _) = care_gain_residual(a.as_ref(), b.as_ref(), q.as_ref(), &red, x.as_ref());
-        let acl = &a - &b * &k;
-        assert!(lyapunov_certificate(
-            a.as_ref(),
-            b.as_ref(),
-            q.as_ref(),
-            &red,
-            x.as_ref(),
-            k.as_ref(),
-            acl.as_ref()
-        ));
+        assert!(certifies(&a, &b, &q, &red, &x));
         // The closed loop is diag(−√2, −√5): the solver's result reports the same spectrum.
         let sol = care(a.as_ref(), b.as_ref(), q.as_ref(), r.as_ref(), None).unwrap();
         let got = sorted_re(sol.closed_loop_eigs);
@@ -778,18 +783,9 @@ mod tests {
                 0.0
             }
         });
-        let (k, residual) = care_gain_residual(a.as_ref(), b.as_ref(), q.as_ref(), &red, x.as_ref());
+        let (_, residual) = care_gain_residual(a.as_ref(), b.as_ref(), q.as_ref(), &red, x.as_ref());
         assert!(residual < 1e-15, "it does solve the CARE: {residual}");
-        let acl = &a - &b * &k;
-        assert!(!lyapunov_certificate(
-            a.as_ref(),
-            b.as_ref(),
-            q.as_ref(),
-            &red,
-            x.as_ref(),
-            k.as_ref(),
-            acl.as_ref()
-        ));
+        assert!(!certifies(&a, &b, &q, &red, &x));
         let claim = vec![c64::new(-2f64.sqrt(), 0.0), c64::new(-5f64.sqrt(), 0.0)];
         let e = care_finish(a.as_ref(), b.as_ref(), q.as_ref(), &red, x, Some(claim)).unwrap_err();
         assert!(matches!(e, LinalgError::NoSolution(_)), "{e}");

@@ -133,7 +133,7 @@ pub fn reference_path(g: &Gains, f: &Filters) -> Result<StateSpace> {
 pub fn feedforward_unit(f: &Filters) -> Result<StateSpace> {
     Ok(match pt1("FLTT", f.fltt_hz)? {
         Some(t) => t,
-        None => StateSpace::gain(faer::Mat::from_fn(1, 1, |_, _| 1.0), 0.0)?,
+        None => super::static_gain(1.0)?,
     })
 }
 

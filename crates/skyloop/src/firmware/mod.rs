@@ -84,6 +84,14 @@ fn m1(v: f64) -> Mat<f64> {
     Mat::from_fn(1, 1, |_, _| v)
 }
 
+/// The SISO static gain `v` (a controller path without states).
+///
+/// # Errors
+/// A non-finite gain.
+pub(crate) fn static_gain(v: f64) -> Result<StateSpace> {
+    Ok(StateSpace::gain(m1(v), 0.0)?)
+}
+
 /// The series connection of `stages` (None when empty: no filter).
 ///
 /// # Errors

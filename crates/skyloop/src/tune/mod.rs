@@ -471,17 +471,23 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
             let (mut bg, theta) = betaflight_rounding(&prob, th, req)?;
             let c = betaflight::feedback_controller(&bg, req.axis, &req.betaflight)?;
             let unit = betaflight::FTERM_SCALE / 100.0;
-            let fit = if req.tune_feedforward {
-                let c_r0 =
-                    betaflight::reference_path(&betaflight::Gains { f: 0, ..bg }, req.axis, req.betaflight.loop_hz)?;
-                let c_f = betaflight::feedforward_unit(req.betaflight.loop_hz)?;
-                fit_or_note(
-                    feedforward::fit(&plants[0], &c, &c_r0, &c_f, f64::from(betaflight::F_GAIN_MAX) * unit),
-                    &mut notes,
-                )
-            } else {
-                None
-            };
+            let fit = fit_feedforward(
+                req,
+                &plants[0],
+                &c,
+                || {
+                    Ok((
+                        betaflight::reference_path(
+                            &betaflight::Gains { f: 0, ..bg },
+                            req.axis,
+                            req.betaflight.loop_hz,
+                        )?,
+                        betaflight::feedforward_unit(req.betaflight.loop_hz)?,
+                    ))
+                },
+                f64::from(betaflight::F_GAIN_MAX) * unit,
+                &mut notes,
+            )?;
             if let Some(fit) = fit {
                 bg.f = (fit.gain / unit).round().clamp(0.0, f64::from(betaflight::F_GAIN_MAX)) as u32;
                 notes.push(feedforward_note(&format!("f_{} = {}", req.axis.name(), bg.f), &fit));
@@ -516,16 +522,19 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
                 ff: req.ardupilot_ff.unwrap_or(0.0),
             };
             let c = ardupilot::feedback_controller(&ag, &req.ardupilot)?;
-            let fit = if req.tune_feedforward {
-                let c_r0 = ardupilot::reference_path(&ardupilot::Gains { ff: 0.0, ..ag }, &req.ardupilot)?;
-                let c_f = ardupilot::feedforward_unit(&req.ardupilot)?;
-                fit_or_note(
-                    feedforward::fit(&plants[0], &c, &c_r0, &c_f, ardupilot::GAIN_RANGES[3].1),
-                    &mut notes,
-                )
-            } else {
-                None
-            };
+            let fit = fit_feedforward(
+                req,
+                &plants[0],
+                &c,
+                || {
+                    Ok((
+                        ardupilot::reference_path(&ardupilot::Gains { ff: 0.0, ..ag }, &req.ardupilot)?,
+                        ardupilot::feedforward_unit(&req.ardupilot)?,
+                    ))
+                },
+                ardupilot::GAIN_RANGES[3].1,
+                &mut notes,
+            )?;
             if let Some(fit) = fit {
                 ag.ff = round6(fit.gain);
                 notes.push(feedforward_note(&format!("FF = {}", ag.ff), &fit));
@@ -556,14 +565,20 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
                 d: round6(th[2]),
                 ff: req.px4_ff.unwrap_or(0.0),
             };
-            let fit = if req.tune_feedforward {
-                let c = px4::feedback_controller(&pg, &req.px4)?;
-                let c_r0 = px4::reference_path(&px4::Gains { ff: 0.0, ..pg })?;
-                let c_f = StateSpace::gain(faer::Mat::from_fn(1, 1, |_, _| 1.0), 0.0)?;
-                fit_or_note(feedforward::fit(&plants[0], &c, &c_r0, &c_f, PX4_FF_MAX), &mut notes)
-            } else {
-                None
-            };
+            let c = px4::feedback_controller(&pg, &req.px4)?;
+            let fit = fit_feedforward(
+                req,
+                &plants[0],
+                &c,
+                || {
+                    Ok((
+                        px4::reference_path(&px4::Gains { ff: 0.0, ..pg })?,
+                        firmware::static_gain(1.0)?,
+                    ))
+                },
+                PX4_FF_MAX,
+                &mut notes,
+            )?;
             if let Some(fit) = fit {
                 pg.ff = round6(fit.gain);
                 notes.push("MC_*RATE_K = 1 (parallel form)".into());
@@ -583,7 +598,6 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
             for (n, v) in names.iter().zip([pg.k, pg.p, pg.i, pg.d, pg.ff]) {
                 g.insert(n.clone(), json!(v));
             }
-            let c = px4::feedback_controller(&pg, &req.px4)?;
             (
                 Value::Object(g),
                 vec![kp, ki, kd],
@@ -615,7 +629,7 @@ fn pid2_paths(g: &Value) -> Result<(StateSpace, StateSpace, StateSpace)> {
     let num = |k: &str| g[k].as_f64().unwrap_or(0.0);
     let (kp, ki, kd, tf) = (num("kp"), num("ki"), num("kd"), num("tf"));
     let ipath = StateSpace::from_rows(&[vec![0.0]], &[vec![1.0]], &[vec![ki]], &[vec![0.0]], 0.0)?;
-    let ppath = StateSpace::gain(faer::Mat::from_fn(1, 1, |_, _| kp), 0.0)?;
+    let ppath = firmware::static_gain(kp)?;
     let dpath = if tf > 0.0 {
         // kd·s/(tf·s + 1) = kd/tf − (kd/tf²)/(s + 1/tf).
         StateSpace::from_rows(
@@ -626,7 +640,7 @@ fn pid2_paths(g: &Value) -> Result<(StateSpace, StateSpace, StateSpace)> {
             0.0,
         )?
     } else {
-        StateSpace::gain(faer::Mat::from_fn(1, 1, |_, _| 0.0), 0.0)?
+        firmware::static_gain(0.0)?
     };
     Ok((ipath, ppath, dpath))
 }
@@ -662,14 +676,25 @@ fn round6(x: f64) -> f64 {
 /// full torque for a 1 rad/s setpoint).
 const PX4_FF_MAX: f64 = 1.0;
 
-/// The fit, or None with a note: a feedforward that cannot be fitted (e.g. the Padé model of a
-/// loop the exact check found stable is not) is kept, and the feedback gains still stand.
-fn fit_or_note(
-    fit: Result<feedforward::FeedforwardFit>,
+/// The feedforward fitted to the loop `c` around `plant` (see [`feedforward::fit`]), or None:
+/// when `--keep-feedforward` asks so, or with a note when it cannot be fitted (e.g. the Padé
+/// model of a loop the exact check found stable is not); the feedback gains stand either way.
+/// `paths` gives the reference path without feedforward and the feedforward's unit path.
+fn fit_feedforward(
+    req: &TuneRequest,
+    plant: &StateSpace,
+    c: &StateSpace,
+    paths: impl FnOnce() -> Result<(StateSpace, StateSpace)>,
+    max_gain: f64,
     notes: &mut Vec<String>,
-) -> Option<feedforward::FeedforwardFit> {
-    fit.map_err(|e| notes.push(format!("the feedforward could not be fitted: {e}")))
-        .ok()
+) -> Result<Option<feedforward::FeedforwardFit>> {
+    if !req.tune_feedforward {
+        return Ok(None);
+    }
+    let (c_r0, c_f) = paths()?;
+    Ok(feedforward::fit(plant, c, &c_r0, &c_f, max_gain)
+        .map_err(|e| notes.push(format!("the feedforward could not be fitted: {e}")))
+        .ok())
 }
 
 /// Why a feedforward was kept.
