@@ -23,7 +23,7 @@ use crate::matrix_ops::{
     vcat,
 };
 use faer::{Mat, MatRef, Side};
-use skyloop_linalg::riccati::care;
+use skyloop_linalg::riccati::{care_with, CareMethod, RiccatiOptions};
 use skyloop_lti::discretize::{c2d, d2c, Method};
 use skyloop_lti::StateSpace;
 
@@ -388,7 +388,16 @@ impl Normalized {
         }
         let q = self.c1.transpose() * &self.c1;
         let s = self.c1.transpose() * &d1r;
-        let xs = match care(self.a.as_ref(), b.as_ref(), q.as_ref(), r.as_ref(), Some(s.as_ref())) {
+        // The Schur method: the γ search probes infeasible γ whose Hamiltonians have eigenvalues
+        // on the imaginary axis, where doubling would spend its step limit before giving up.
+        let opts = RiccatiOptions {
+            care_method: CareMethod::Schur,
+            ..Default::default()
+        };
+        let care = |a: MatRef<f64>, b: MatRef<f64>, q: MatRef<f64>, r: MatRef<f64>, s: MatRef<f64>| {
+            care_with(a, b, q, r, Some(s), &opts)
+        };
+        let xs = match care(self.a.as_ref(), b.as_ref(), q.as_ref(), r.as_ref(), s.as_ref()) {
             Ok(x) => x,
             Err(e) => {
                 *why = format!("X Riccati equation: {e}");
@@ -403,7 +412,7 @@ impl Normalized {
         let ct = c.transpose().to_owned();
         let qy = &self.b1 * self.b1.transpose();
         let sy = &self.b1 * d1c.transpose();
-        let ys = match care(at.as_ref(), ct.as_ref(), qy.as_ref(), rt.as_ref(), Some(sy.as_ref())) {
+        let ys = match care(at.as_ref(), ct.as_ref(), qy.as_ref(), rt.as_ref(), sy.as_ref()) {
             Ok(y) => y,
             Err(e) => {
                 *why = format!("Y Riccati equation: {e}");
