@@ -34,6 +34,8 @@ pub struct FreqEvaluator {
     /// Total delay of channel (i, j) in seconds, row-major ny × nu.
     delay: Vec<f64>,
     has_delay: bool,
+    /// The state scaling D of the balancing D⁻¹AD, D⁻¹B, CD applied before the reduction.
+    scale: Vec<f64>,
 }
 
 /// A reduced by an orthogonal similarity QᵀAQ.
@@ -133,7 +135,14 @@ impl FreqEvaluator {
             dt: sys.dt,
             has_delay: delay.iter().any(|&t| t > 0.0),
             delay,
+            scale,
         })
+    }
+
+    /// The state scaling `D` (powers of two, one per state) of the balancing `D⁻¹AD, D⁻¹B, CD`
+    /// applied before the reduction: a caller that needs the same model balanced reuses it.
+    pub(crate) fn state_scaling(&self) -> &[f64] {
+        &self.scale
     }
 
     /// Number of outputs.

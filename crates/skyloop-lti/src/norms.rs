@@ -73,8 +73,8 @@ fn linf_with_poles(sys: &StateSpace, poles: &PoleSummary) -> Result<(f64, f64)> 
         };
         return Ok((g, w));
     }
-    let delay_free = StateSpace::new(sys.a.clone(), sys.b.clone(), sys.c.clone(), sys.d.clone(), 0.0)?;
-    linf_continuous(&delay_free, &poles.poles)
+    // Delays do not change |G(jω)|: linf_continuous reads only A, B, C and D.
+    linf_continuous(sys, &poles.poles)
 }
 
 /// Largest singular value of G(jω).
@@ -239,7 +239,16 @@ fn linf_continuous(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
         }
     };
     let sig = uniform(&b, &c_in);
-    let fs = StateSpace::new(a, &b * (1.0 / sig), &c_in * sig, sys.d.clone(), 0.0)?;
+    // σ² = ‖B‖/‖C‖ moves both norms towards their geometric mean, so B/σ and C·σ stay finite.
+    let fs = StateSpace {
+        b: &b * (1.0 / sig),
+        c: &c_in * sig,
+        d: sys.d.clone(),
+        dt: 0.0,
+        input_delay: vec![0.0; nu],
+        output_delay: vec![0.0; ny],
+        a,
+    };
     // One evaluator serves the whole computation: the model the Hamiltonian is built on below
     // differs from `fs` only by exact power-of-two scalings (outputs by 1/k, states), so its gain is
     // σ_max(G_fs)/k. A few hundred evaluations at most: the Hessenberg set-up pays off over Schur.
@@ -286,7 +295,9 @@ fn linf_continuous(sys: &StateSpace, eig: &[c64]) -> Result<(f64, f64)> {
     let sigma = uniform(&fs.b, &c);
     let b0 = &fs.b * (1.0 / sigma);
     c = &c * sigma;
-    let dsc = crate::freqresp::system_scaling(&fs.a, &b0, &c);
+    // The evaluator's own balancing of fs: the same states, and the output and uniform scalings
+    // above are powers of two that change only how B and C weigh in it.
+    let dsc = ev.state_scaling();
     let a = Mat::from_fn(n, n, |i, j| fs.a[(i, j)] * dsc[j] / dsc[i]);
     let b = Mat::from_fn(n, nu, |i, j| b0[(i, j)] / dsc[i]);
     let c = Mat::from_fn(ny, n, |i, j| c[(i, j)] * dsc[j]);
