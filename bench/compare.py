@@ -135,8 +135,9 @@ def lcg(rows, cols, seed):
 
 
 def linalg_comparisons(run):
-    """Issue 19: real Schur vs LAPACK dgees (>= 1x), CARE vs SLICOT SB02MD (>= 2x), Lyapunov at
-    n = 1000 vs scipy (>= 1x; issue 15). One run of the Rust example, then the references."""
+    """Issue 19: real Schur vs LAPACK dgees (>= 1x), QZ eigenvalues vs LAPACK dggev (>= 1x), CARE
+    vs SLICOT SB02MD (>= 2x), Lyapunov at n = 1000 vs scipy (>= 1x; issue 15). One run of the Rust
+    example, then the references."""
     import scipy.linalg as sla
 
     del run  # no CLI needed
@@ -162,6 +163,7 @@ def linalg_comparisons(run):
         return out
 
     m100, m400 = lcg(100, 100, 7), lcg(400, 400, 7)
+    n100, n400 = lcg(100, 100, 8), lcg(400, 400, 8)
     a1k = lcg(1000, 1000, 11) - np.sqrt(1000) * np.eye(1000)
     b1k = lcg(1000, 2, 12)
     assert np.allclose([m100[1, 0], m100[0, 1]], ours["check_schur"], rtol=1e-15), "LCG mismatch"
@@ -171,6 +173,10 @@ def linalg_comparisons(run):
     rows = [
         ("schur n=100 (scipy.linalg.schur, dgees)", ours["schur_n100"], best(lambda: sla.schur(m100), 30), 1.0),
         ("schur n=400 (scipy.linalg.schur, dgees)", ours["schur_n400"], best(lambda: sla.schur(m400), 5), 1.0),
+        ("qz eigenvalues n=100 (scipy.linalg.eigvals(a, b), dggev)", ours["qz_n100"],
+         best(lambda: sla.eigvals(m100, n100), 30), 1.0),
+        ("qz eigenvalues n=400 (scipy.linalg.eigvals(a, b), dggev)", ours["qz_n400"],
+         best(lambda: sla.eigvals(m400, n400), 3), 1.0),
         ("care n=50 (scipy solve_continuous_are)", ours["care_n50"],
          best(lambda: sla.solve_continuous_are(a, b, q, r), 30), 1.0),
         ("dare n=50 (scipy solve_discrete_are)", ours["dare_n50"],

@@ -11,6 +11,7 @@
 use faer::Mat;
 use serde_json::Value;
 use skyloop_linalg::lyapunov::{lyap, lyap_chol};
+use skyloop_linalg::qz::generalized_eigenvalues;
 use skyloop_linalg::riccati::{care, dare};
 use skyloop_linalg::schur::real_schur;
 
@@ -91,6 +92,19 @@ fn main() -> Result<(), String> {
     let t_s100 = best_of(repeats, || real_schur(m100.as_ref()).map(|_| ()).map_err(e))?;
     let m400 = random(400, 400, 7);
     let t_s400 = best_of(few, || real_schur(m400.as_ref()).map(|_| ()).map_err(e))?;
+    // Generalized eigenvalues of the pencil (M, N) with N from the LCG's next seed.
+    let n100 = random(100, 100, 8);
+    let t_qz100 = best_of(repeats, || {
+        generalized_eigenvalues(m100.as_ref(), n100.as_ref())
+            .map(|_| ())
+            .map_err(e)
+    })?;
+    let n400 = random(400, 400, 8);
+    let t_qz400 = best_of(few, || {
+        generalized_eigenvalues(m400.as_ref(), n400.as_ref())
+            .map(|_| ())
+            .map_err(e)
+    })?;
     // Lyapunov A·X + X·Aᵀ + B·Bᵀ = 0 at n = 1000, and the Cholesky factor of the same gramian.
     let a1k = stable(1000, 11);
     let b1k = random(1000, 2, 12);
@@ -99,7 +113,7 @@ fn main() -> Result<(), String> {
     let t_chol = best_of(2, || lyap_chol(a1k.as_ref(), b1k.as_ref()).map(|_| ()).map_err(e))?;
     println!(
         "{{\"care_n50\": {t_care:e}, \"dare_n50\": {t_dare:e}, \"schur_n100\": {t_s100:e}, \
-         \"schur_n400\": {t_s400:e}, \"lyap_n1000\": {t_lyap:e}, \"lyap_chol_n1000\": {t_chol:e}, \
+         \"schur_n400\": {t_s400:e}, \"qz_n100\": {t_qz100:e}, \"qz_n400\": {t_qz400:e}, \"lyap_n1000\": {t_lyap:e}, \"lyap_chol_n1000\": {t_chol:e}, \
          \"check_schur\": [{:e}, {:e}], \"check_lyap\": [{:e}, {:e}]}}",
         m100[(1, 0)],
         m100[(0, 1)],

@@ -95,11 +95,20 @@ impl Dm {
     #[inline]
     pub fn rot_cols(&mut self, c1: usize, c2: usize, rows: Range<usize>, c: f64, s: f64) {
         let n = self.n;
-        for i in rows {
-            let x = self.d[i + c1 * n];
-            let y = self.d[i + c2 * n];
-            self.d[i + c1 * n] = c * x + s * y;
-            self.d[i + c2 * n] = c * y - s * x;
+        if rows.is_empty() || c1 == c2 {
+            return;
+        }
+        // Two disjoint column segments as slices: no per-entry index arithmetic or bounds checks,
+        // so the loop vectorizes (indexed, it was a fifth of a 400-order QZ).
+        let (lo, hi, swap) = if c1 < c2 { (c1, c2, false) } else { (c2, c1, true) };
+        let (head, tail) = self.d.split_at_mut(hi * n);
+        let p = &mut head[lo * n + rows.start..lo * n + rows.end];
+        let q = &mut tail[rows.start..rows.end];
+        let (x, y) = if swap { (q, p) } else { (p, q) };
+        for (xi, yi) in x.iter_mut().zip(y.iter_mut()) {
+            let (u, v) = (*xi, *yi);
+            *xi = c * u + s * v;
+            *yi = c * v - s * u;
         }
     }
 
@@ -117,6 +126,46 @@ impl Dm {
             for (x, v) in col.iter_mut().zip(u) {
                 *x -= ts * v;
             }
+        }
+    }
+
+    /// [`Dm::refl_left`] for a reflector of length 3 (the QZ bulge), unrolled: the generic loop over
+    /// a 3-element slice compiled to a per-column loop with its own bounds and sum.
+    #[inline]
+    pub fn refl3_left(&mut self, u: [f64; 3], tau: f64, r0: usize, cols: Range<usize>) {
+        if tau == 0.0 {
+            return;
+        }
+        let n = self.n;
+        for j in cols {
+            let k = r0 + j * n;
+            let p = &mut self.d[k..k + 3];
+            let t = tau * (u[0] * p[0] + u[1] * p[1] + u[2] * p[2]);
+            p[0] -= t * u[0];
+            p[1] -= t * u[1];
+            p[2] -= t * u[2];
+        }
+    }
+
+    /// [`Dm::refl_right`] for a reflector of length 3, on three contiguous column segments (which
+    /// the compiler vectorizes across rows).
+    #[inline]
+    pub fn refl3_right(&mut self, u: [f64; 3], tau: f64, c0: usize, rows: Range<usize>) {
+        if tau == 0.0 || rows.is_empty() {
+            return;
+        }
+        let n = self.n;
+        let (r0, len) = (rows.start, rows.end - rows.start);
+        let (first, rest) = self.d[c0 * n..].split_at_mut(n);
+        let (second, third) = rest.split_at_mut(n);
+        let x = &mut first[r0..r0 + len];
+        let y = &mut second[r0..r0 + len];
+        let z = &mut third[r0..r0 + len];
+        for ((a, b), c) in x.iter_mut().zip(y.iter_mut()).zip(z.iter_mut()) {
+            let t = tau * (u[0] * *a + u[1] * *b + u[2] * *c);
+            *a -= t * u[0];
+            *b -= t * u[1];
+            *c -= t * u[2];
         }
     }
 
