@@ -94,8 +94,9 @@ fn hessenberg_triangular(a: &mut Dm, b: &mut Dm) {
             }
         }
     }
-    clear_upper_simd(); // faer's kernels above; scalar loops below
-                        // Row rotation of rows (i − 1, i), for i = n − 1 down to j + 2: (c, s); identity when skipped.
+    // faer's kernels above, scalar loops below.
+    clear_upper_simd();
+    // Row rotation of rows (i − 1, i), for i = n − 1 down to j + 2: (c, s); identity when skipped.
     let mut rot = vec![(1.0, 0.0); n];
     for j in 0..n.saturating_sub(2) {
         for i in (j + 2..n).rev() {
