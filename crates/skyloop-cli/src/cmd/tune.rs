@@ -30,12 +30,15 @@ pub struct Args {
     /// A goal, repeatable: ms<=1.4, mt<=1.3, disk_margin>=0.6, gain_margin_db>=6, phase_margin_deg>=45, crossover_hz>=20, integral_corner>=0.067 or <=0.25 (ki/kp over the crossover frequency; 1/15..1/4 by default with --maximize crossover).
     #[arg(long = "goal", allow_hyphen_values = true)]
     pub goals: Vec<String>,
-    /// What to maximize once the goals hold: integral_gain (default) or crossover.
-    #[arg(long, default_value = "integral_gain")]
-    pub maximize: String,
-    /// Axis the gains are for: roll, pitch or yaw.
-    #[arg(long, default_value = "roll")]
-    pub axis: String,
+    /// What to maximize once the goals hold: tracking (from a LOG, the default: the highest crossover at no loss of robustness against the flown tune), crossover (robustness may fall to the floor), or integral_gain (the default with --plant).
+    #[arg(long)]
+    pub maximize: Option<String>,
+    /// Axis the gains are for: roll, pitch or yaw (with --plant: roll by default; with LOG: all three unless given).
+    #[arg(long)]
+    pub axis: Option<String>,
+    /// With LOG: largest predicted motor-noise power of the proposal relative to the flown tune's (1..=10).
+    #[arg(long, default_value_t = 1.25)]
+    pub noise_budget: f64,
     /// With LOG: blackbox session (counted from 1); default: the longest.
     #[arg(long)]
     pub session: Option<usize>,
@@ -83,8 +86,8 @@ pub fn run(a: Args) -> skyloop::Result<()> {
     req.structure = GenericStructure::parse(&a.structure)?;
     req.d_filter_tau_s = a.d_filter_tau;
     req.goals = a.goals.clone();
-    req.maximize = Maximize::parse(&a.maximize)?;
-    req.axis = Axis::parse(&a.axis)?;
+    req.maximize = Maximize::parse(a.maximize.as_deref().unwrap_or("integral_gain"))?;
+    req.axis = Axis::parse(a.axis.as_deref().unwrap_or("roll"))?;
     req.starts = a.starts;
     req.tune_feedforward = !a.keep_feedforward;
     let out = run_tune(&req)?;
@@ -129,27 +132,98 @@ fn run_log(log: std::path::PathBuf, a: &Args) -> skyloop::Result<()> {
     if a.plant.is_some() {
         return Err(skyloop::Error::Input("give LOG or --plant, not both".into()));
     }
-    let mut req = LogTuneRequest::new(log, Axis::parse(&a.axis)?, Firmware::parse(&a.firmware)?);
-    req.session = a.session;
-    req.fmin_hz = a.fmin_hz;
-    req.fmax_hz = a.fmax_hz;
-    req.sigma = a.sigma;
-    req.structure = GenericStructure::parse(&a.structure)?;
-    req.d_filter_tau_s = a.d_filter_tau;
-    req.goals = a.goals.clone();
-    req.maximize = Maximize::parse(&a.maximize)?;
-    req.starts = a.starts;
-    req.tune_feedforward = !a.keep_feedforward;
-    let out = tune_from_log(&req)?;
+    let axes: Vec<Axis> = match &a.axis {
+        Some(x) => vec![Axis::parse(x)?],
+        None => vec![Axis::Roll, Axis::Pitch, Axis::Yaw],
+    };
+    let mut outs = Vec::new();
+    for axis in &axes {
+        let mut req = LogTuneRequest::new(log.clone(), *axis, Firmware::parse(&a.firmware)?);
+        req.session = a.session;
+        req.fmin_hz = a.fmin_hz;
+        req.fmax_hz = a.fmax_hz;
+        req.sigma = a.sigma;
+        req.structure = GenericStructure::parse(&a.structure)?;
+        req.d_filter_tau_s = a.d_filter_tau;
+        req.goals = a.goals.clone();
+        if let Some(m) = &a.maximize {
+            req.maximize = Maximize::parse(m)?;
+        }
+        req.starts = a.starts;
+        req.tune_feedforward = !a.keep_feedforward;
+        req.noise_budget = a.noise_budget;
+        req.progress = true;
+        match tune_from_log(&req) {
+            Ok(o) => outs.push(Ok(o)),
+            // One axis given: its error is the command's. Several: the others still answer.
+            Err(e) if axes.len() == 1 => return Err(e),
+            Err(e) => outs.push(Err((*axis, e))),
+        }
+    }
+    eprintln!(
+        "[{}] report …",
+        if axes.len() == 1 { axes[0].name() } else { "all axes" }
+    );
     if let Some(dir) = &a.out {
-        skyloop::tune::report::write_log_outputs(&out, dir)?;
+        for o in outs.iter().flatten() {
+            let sub = if axes.len() == 1 {
+                dir.clone()
+            } else {
+                dir.join(o.axis.name())
+            };
+            skyloop::tune::report::write_log_outputs(o, &sub)?;
+        }
         eprintln!("wrote {}", dir.display());
     }
     if a.json {
-        return print_json(&out.to_json());
+        if axes.len() == 1 {
+            if let Some(Ok(o)) = outs.first() {
+                return print_json(&o.to_json());
+            }
+        }
+        let mut m = serde_json::Map::new();
+        for o in &outs {
+            match o {
+                Ok(o) => m.insert(o.axis.name().into(), o.to_json()),
+                Err((ax, e)) => m.insert(ax.name().into(), serde_json::json!({"error": e.to_string()})),
+            };
+        }
+        let cli: Vec<String> = all_cli(&outs);
+        return print_json(&serde_json::json!({"axes": m, "cli": cli}));
     }
-    print_log_outcome(&out);
+    for o in &outs {
+        match o {
+            Ok(o) => println!("verdict  {}", o.verdict.text),
+            Err((ax, e)) => println!("verdict  {}: the log cannot support a proposal: {e}", ax.name()),
+        }
+    }
+    for o in outs.iter().flatten() {
+        println!();
+        println!("== {} ==", o.axis.name());
+        print_log_outcome(o);
+    }
+    if axes.len() > 1 {
+        println!();
+        println!("== the lines to paste (every axis with a proposal) ==");
+        for l in all_cli(&outs) {
+            println!("{l}");
+        }
+    }
     Ok(())
+}
+
+/// The pasteable lines of every axis with a proposal, one `save` at the end.
+fn all_cli(outs: &[Result<LogTuneOutcome, (Axis, skyloop::Error)>]) -> Vec<String> {
+    let mut lines: Vec<String> = outs
+        .iter()
+        .flatten()
+        .filter(|o| o.verdict.kind == skyloop::tune::verdict::VerdictKind::Propose)
+        .flat_map(|o| o.proposed.cli.iter().filter(|l| *l != "save").cloned())
+        .collect();
+    if lines.iter().any(|l| l.starts_with("set ")) {
+        lines.push("save".into());
+    }
+    lines
 }
 
 fn print_log_outcome(out: &LogTuneOutcome) {
@@ -166,8 +240,23 @@ fn print_log_outcome(out: &LogTuneOutcome) {
             f(&out.proposed_analysis)
         );
     };
-    println!("{:<28} {:>22} {:>22}", "", "current", "proposed");
-    row("gains", &|t| t.gains.to_string());
+    println!("{:<28} {:>22} {:>22} {:>9}", "", "flown", "proposed", "change");
+    let gain_rows = |g: &serde_json::Value| -> Vec<(String, f64)> {
+        g.as_object()
+            .map(|m| m.iter().filter_map(|(k, v)| Some((k.clone(), v.as_f64()?))).collect())
+            .unwrap_or_default()
+    };
+    let flown_rows = out.current.as_ref().map(|c| gain_rows(&c.gains)).unwrap_or_default();
+    for (k, v) in gain_rows(&out.proposed_analysis.gains) {
+        let f = flown_rows.iter().find(|(n, _)| *n == k).map(|x| x.1);
+        println!(
+            "{:<28} {:>22} {:>22} {:>9}",
+            format!("gain {k}"),
+            f.map(|x| x.to_string()).unwrap_or_else(|| "-".into()),
+            v,
+            f.map(|x| skyloop::tune::verdict::pct(v, x)).unwrap_or_default()
+        );
+    }
     row("disk margin alpha", &|t| format!("{:.3}", t.margins.disk_alpha));
     row("  worst over uncertainty", &|t| format!("{:.3}", t.worst.disk_alpha));
     row("gain margin [dB]", &|t| format!("{:.2}", t.margins.gain_margin_db));
@@ -207,6 +296,34 @@ fn print_log_outcome(out: &LogTuneOutcome) {
             .map(|f| format!("{:.1}", f.doublets[0].rms_error_deg_s))
             .unwrap_or_else(|| "-".into())
     });
+    if let Some(n) = &out.noise {
+        println!(
+            "motor noise (predicted from the log's gyro spectrum, {:.0}–{:.0} Hz): proposed/flown power {:.2}{}",
+            n.band_hz.0,
+            n.band_hz.1,
+            n.ratio(),
+            n.dterm_check
+                .map(|c| format!("; check on the flown tune: logged D-term power / predicted {c:.2}"))
+                .unwrap_or_default()
+        );
+        for (b, f, p) in &n.bands {
+            println!(
+                "  {:>6.0}–{:<6.0} Hz  flown {f:.4e}  proposed {p:.4e}  ratio {:.2}",
+                b.0,
+                b.1,
+                p / f.max(f64::MIN_POSITIVE)
+            );
+        }
+    }
+    if !out.front.is_empty() {
+        println!("trade-off front (bounded change; screened on the frequency grid):");
+        for (g, sc, r) in &out.front {
+            println!(
+                "  {g}  crossover {:.1} Hz  disk α {:.2} (worst {:.2})  noise ×{r:.2}",
+                sc.crossover_hz, sc.alpha, sc.alpha_worst
+            );
+        }
+    }
     match (&out.measured_step, out.model_step_rms) {
         (Some(m), Some(r)) => println!(
             "model check: predicted step of the current tune vs the step deconvolved from the log ({} of {} windows): RMS difference {r:.3}; {:.0} % of the deconvolved impulse response at negative lag",

@@ -38,6 +38,29 @@ pub struct Lowpass {
     pub dynamic_hz: Option<(f64, f64)>,
 }
 
+/// A static notch (Betaflight `dterm_notch_hz` / `dterm_notch_cutoff`, `gyro_notch_hz` /
+/// `gyro_notch_cutoff`): the centre and the lower −3 dB frequency, Hz.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Notch {
+    /// Notch centre, Hz.
+    pub center_hz: f64,
+    /// Lower cutoff, Hz (below the centre; the width follows from it).
+    pub cutoff_hz: f64,
+}
+
+/// Betaflight's stick-to-rate curve (the configurator's Rates tab) of one axis.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Rates {
+    /// RC rate (`rc_rates` 4.x, `rcRate`/`rcYawRate` 3.x), as the configurator shows it ×100.
+    pub rc_rate: f64,
+    /// Super rate (`rates`), ×100.
+    pub super_rate: f64,
+    /// RC expo (`rc_expo` 4.x, `rcExpo`/`rcYawExpo` 3.x), ×100.
+    pub expo: f64,
+    /// `rates_type` (0: Betaflight's curve; others are not modelled); `None` before 4.1.
+    pub rates_type: Option<f64>,
+}
+
 /// Betaflight's dynamic notch (gyro FFT tracking).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct DynamicNotch {
@@ -81,6 +104,14 @@ pub struct BetaflightTuning {
     pub dterm_lowpass: Option<Lowpass>,
     /// D-term lowpass 2.
     pub dterm_lowpass2: Option<Lowpass>,
+    /// D-term static notch (`dterm_notch_hz`, `dterm_notch_cutoff`); `None` when off.
+    pub dterm_notch: Option<Notch>,
+    /// Gyro static notches (`gyro_notch_hz`, `gyro_notch_cutoff`, up to two), on.
+    pub gyro_notches: Vec<Notch>,
+    /// The stick-to-rate curve of roll, pitch and yaw (empty when the header has no rates).
+    pub rates: Vec<Rates>,
+    /// Firmware major version (3 or 4 for Betaflight), from `Firmware revision`.
+    pub version_major: Option<u32>,
     /// Dynamic notch; `None` when absent or off.
     pub dynamic_notch: Option<DynamicNotch>,
     /// RPM filter; `None` when absent or off (0 harmonics).
@@ -89,7 +120,7 @@ pub struct BetaflightTuning {
     pub gyro_rate_hz: Option<f64>,
     /// PID loop rate, Hz (gyro rate / `pid_process_denom`).
     pub pid_rate_hz: Option<f64>,
-    /// TPA: PID attenuation at full throttle, percent (`tpa_rate`).
+    /// TPA: PID attenuation at full throttle, percent (`tpa_rate`; `dynThrPID` on 3.x).
     pub tpa_rate_percent: Option<f64>,
     /// TPA breakpoint: throttle above which the attenuation starts, µs (1000–2000).
     pub tpa_breakpoint_us: Option<f64>,
@@ -192,6 +223,15 @@ fn betaflight(log: &Log) -> BetaflightTuning {
             dynamic_hz: dynamic,
         })
     };
+    // A notch is on when its centre is above zero and its cutoff below the centre.
+    let notches = |hz: &str, cut: &str| -> Vec<Notch> {
+        list(hz)
+            .into_iter()
+            .zip(list(cut))
+            .filter(|&(c, k)| c > 0.0 && k > 0.0 && k < c)
+            .map(|(center_hz, cutoff_hz)| Notch { center_hz, cutoff_hz })
+            .collect()
+    };
     let gyro_rate_hz = one("looptime").filter(|&l| l > 0.0).map(|l| 1e6 / l);
     let dynamic_notch = match (one("dyn_notch_min_hz"), one("dyn_notch_max_hz")) {
         (Some(lo), Some(hi)) if hi > 0.0 && one("dyn_notch_count") != Some(0.0) => Some(DynamicNotch {
@@ -216,15 +256,58 @@ fn betaflight(log: &Log) -> BetaflightTuning {
         d_min_advance: one("d_min_advance"),
         gyro_lowpass: lowpass("gyro_lowpass_type", "gyro_lowpass_hz", Some("gyro_lowpass_dyn_hz")),
         gyro_lowpass2: lowpass("gyro_lowpass2_type", "gyro_lowpass2_hz", None),
-        dterm_lowpass: lowpass("dterm_filter_type", "dterm_lowpass_hz", Some("dterm_lowpass_dyn_hz")),
+        // Betaflight 3.x names the D-term lowpass `dterm_lpf_hz` (type in `dterm_filter_type`).
+        dterm_lowpass: lowpass("dterm_filter_type", "dterm_lowpass_hz", Some("dterm_lowpass_dyn_hz"))
+            .or_else(|| lowpass("dterm_filter_type", "dterm_lpf_hz", None)),
         dterm_lowpass2: lowpass("dterm_filter2_type", "dterm_lowpass2_hz", None),
         dynamic_notch,
         rpm_filter,
         gyro_rate_hz,
         pid_rate_hz: gyro_rate_hz.map(|g| g / one("pid_process_denom").filter(|&d| d >= 1.0).unwrap_or(1.0)),
-        tpa_rate_percent: one("tpa_rate"),
+        tpa_rate_percent: one("tpa_rate").or_else(|| one("dynThrPID")),
+        dterm_notch: notches("dterm_notch_hz", "dterm_notch_cutoff").first().copied(),
+        gyro_notches: notches("gyro_notch_hz", "gyro_notch_cutoff"),
+        rates: rates(log),
+        version_major: version_major(log.setting("Firmware revision").unwrap_or_default()),
         tpa_breakpoint_us: one("tpa_breakpoint"),
     }
+}
+
+/// The rate curves: 4.x `rc_rates`, `rc_expo`, `rates` (three values each); 3.x `rcRate`,
+/// `rcExpo` (roll and pitch), `rcYawRate`, `rcYawExpo`, `rates`.
+fn rates(log: &Log) -> Vec<Rates> {
+    let list = |k: &str| log.setting(k).map(numbers).unwrap_or_default();
+    let one = |k: &str| list(k).first().copied();
+    let sup = list("rates");
+    let rates_type = one("rates_type");
+    let (rc, ex) = (list("rc_rates"), list("rc_expo"));
+    if rc.len() >= 3 && ex.len() >= 3 && sup.len() >= 3 {
+        return (0..3)
+            .map(|i| Rates {
+                rc_rate: rc[i],
+                super_rate: sup[i],
+                expo: ex[i],
+                rates_type,
+            })
+            .collect();
+    }
+    match (one("rcRate"), one("rcExpo"), sup.len() >= 3) {
+        (Some(r), Some(e), true) => (0..3)
+            .map(|i| Rates {
+                rc_rate: if i == 2 { one("rcYawRate").unwrap_or(r) } else { r },
+                super_rate: sup[i],
+                expo: if i == 2 { one("rcYawExpo").unwrap_or(0.0) } else { e },
+                rates_type,
+            })
+            .collect(),
+        _ => Vec::new(),
+    }
+}
+
+/// The major version in a revision such as "Betaflight 3.1.5 (4646f9d) OMNIBUSF4".
+fn version_major(rev: &str) -> Option<u32> {
+    rev.split_whitespace()
+        .find_map(|w| w.split('.').next().filter(|_| w.contains('.'))?.parse().ok())
 }
 
 fn px4(log: &Log) -> Px4Tuning {

@@ -8,6 +8,7 @@
 
 mod cross;
 pub mod etfe;
+pub mod psd;
 mod segments;
 pub mod spa;
 pub mod spafdr;

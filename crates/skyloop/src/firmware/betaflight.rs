@@ -20,6 +20,8 @@ use crate::error::{Error, Result};
 use serde::Serialize;
 use skyloop_lti::StateSpace;
 use skyloop_robust::structured::blocks::Block;
+use skyloop_sysid::logs::tuning::Rates;
+use skyloop_sysid::logs::{Channel, Log};
 
 /// `PTERM_SCALE` of Betaflight's pid.h.
 pub const PTERM_SCALE: f64 = 0.032029;
@@ -211,6 +213,54 @@ pub fn feedforward_unit(loop_hz: f64) -> Result<StateSpace> {
         &[vec![1.0 / t]],
         0.0,
     )?)
+}
+
+/// Betaflight's stick-to-rate curve (`rates_type` BETAFLIGHT, 3.x and 4.x, `rc.c`
+/// `applyBetaflightRates`): the setpoint in deg/s of a stick deflection `rc` in rcCommand units
+/// (−500..500 from centre). With x = rc/500 and expo e, rate r, super rate s (all /100):
+/// x ← x·|x|³·e + x·(1 − e); r ← r + 14.54·(r − 2) above 2; rate = 200·r·x / clamp(1 − |x|·s, 0.01, 1),
+/// limited to ±1998 deg/s.
+pub fn rate_curve_deg_s(rc: f64, r: &Rates) -> f64 {
+    let mut x = (rc / 500.0).clamp(-1.0, 1.0);
+    let e = r.expo / 100.0;
+    if e != 0.0 {
+        x = x * x.abs().powi(3) * e + x * (1.0 - e);
+    }
+    let mut rate = r.rc_rate / 100.0;
+    if rate > 2.0 {
+        rate += 14.54 * (rate - 2.0);
+    }
+    let mut out = 200.0 * rate * x;
+    if r.super_rate != 0.0 {
+        out /= (1.0 - x.abs() * r.super_rate / 100.0).clamp(0.01, 1.0);
+    }
+    out.clamp(-1998.0, 1998.0)
+}
+
+/// Adds `setpoint[0..3]` (deg/s) to a Betaflight log that does not record it (3.x), computed from
+/// `rcCommand[i]` through the header's rate curve ([`rate_curve_deg_s`]); returns a note saying so,
+/// or None when the log has its setpoint, lacks rcCommand or rates, or uses another rates type.
+pub fn add_setpoint_from_rc(log: &mut Log, rates: &[Rates]) -> Option<String> {
+    if rates.len() < 3 || rates.iter().any(|r| r.rates_type.is_some_and(|t| t != 0.0)) {
+        return None;
+    }
+    let g = log.groups.iter_mut().find(|g| {
+        g.prefix.is_none()
+            && g.channels.iter().any(|c| c.name == "rcCommand[0]")
+            && !g.channels.iter().any(|c| c.name == "setpoint[0]")
+    })?;
+    for (i, r) in rates.iter().enumerate().take(3) {
+        let rc = g.channels.iter().find(|c| c.name == format!("rcCommand[{i}]"))?;
+        let values = rc.values.iter().map(|&v| rate_curve_deg_s(v, r)).collect();
+        g.channels.push(Channel {
+            name: format!("setpoint[{i}]"),
+            values,
+        });
+    }
+    Some(format!(
+        "setpoint[0..3] computed from rcCommand through the header's rate curve (roll: rc rate {}, super rate {}, expo {}): this firmware does not log the setpoint",
+        rates[0].rc_rate, rates[0].super_rate, rates[0].expo
+    ))
 }
 
 /// Betaflight CLI lines that load the gains.

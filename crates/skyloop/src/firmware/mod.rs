@@ -16,12 +16,25 @@
 pub mod ardupilot;
 pub mod betaflight;
 pub mod px4;
+pub mod rate_gains;
 
 use crate::error::{Error, Result};
 use skyloop_lti::discretize::{c2d, Method};
 use skyloop_lti::interconnect::series;
 use skyloop_lti::{Mat, StateSpace};
 use std::f64::consts::PI;
+
+/// Interprets a freshly read log for the firmware that wrote it: channels the firmware computes but
+/// does not record are derived (Betaflight 3.x: the setpoint from rcCommand through the rate
+/// curve). Returns notes saying what was derived.
+pub fn prepare_log(log: &mut skyloop_sysid::logs::Log) -> Vec<String> {
+    use skyloop_sysid::logs::tuning::FirmwareTuning;
+    let mut notes = Vec::new();
+    if let Some(FirmwareTuning::Betaflight(b)) = FirmwareTuning::from_log(log) {
+        notes.extend(betaflight::add_setpoint_from_rc(log, &b.rates));
+    }
+    notes
+}
 
 /// A lowpass stage, cutoff in Hz, as the firmware defines it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -34,13 +47,16 @@ pub enum Lowpass {
     Pt3(f64),
     /// Second-order Butterworth ω²/(s² + √2·ω·s + ω²) (Betaflight BIQUAD, PX4's LowPassFilter2p).
     Biquad(f64),
+    /// A notch (centre, lower cutoff), Hz: (s² + ω₀²)/(s² + (ω₀/Q)·s + ω₀²) with Betaflight's
+    /// Q = f₀·f_c/(f₀² − f_c²) (`filterGetNotchQ`).
+    Notch(f64, f64),
 }
 
 impl Lowpass {
     /// The cutoff in Hz.
     pub fn cutoff_hz(&self) -> f64 {
         match *self {
-            Lowpass::Pt1(f) | Lowpass::Pt2(f) | Lowpass::Pt3(f) | Lowpass::Biquad(f) => f,
+            Lowpass::Pt1(f) | Lowpass::Pt2(f) | Lowpass::Pt3(f) | Lowpass::Biquad(f) | Lowpass::Notch(f, _) => f,
         }
     }
 
@@ -69,6 +85,7 @@ impl Lowpass {
             Lowpass::Pt1(_) => StateSpace::new(m1(-w), m1(w), m1(1.0), m1(0.0), 0.0)?,
             Lowpass::Pt2(_) => pt(2)?,
             Lowpass::Pt3(_) => pt(3)?,
+            Lowpass::Notch(f0, fc) => notch(*f0, *fc)?,
             Lowpass::Biquad(_) => StateSpace::from_rows(
                 &[vec![0.0, 1.0], vec![-w * w, -std::f64::consts::SQRT_2 * w]],
                 &[vec![0.0], vec![w * w]],
@@ -78,6 +95,25 @@ impl Lowpass {
             )?,
         })
     }
+}
+
+/// Betaflight's notch at centre `f0` with lower cutoff `fc`, Hz.
+fn notch(f0: f64, fc: f64) -> Result<StateSpace> {
+    if !(fc.is_finite() && fc > 0.0 && fc < f0) {
+        return Err(Error::Input(format!(
+            "notch cutoff must lie in (0, {f0}) Hz (below its centre), got {fc}"
+        )));
+    }
+    let w = 2.0 * PI * f0;
+    let q = f0 * fc / (f0 * f0 - fc * fc);
+    // (s² + w²)/(s² + (w/Q)s + w²) = 1 + (−(w/Q)s)/(s² + (w/Q)s + w²).
+    Ok(StateSpace::from_rows(
+        &[vec![0.0, 1.0], vec![-w * w, -w / q]],
+        &[vec![0.0], vec![1.0]],
+        &[vec![0.0, -w / q]],
+        &[vec![1.0]],
+        0.0,
+    )?)
 }
 
 fn m1(v: f64) -> Mat<f64> {
@@ -119,6 +155,16 @@ pub fn hold_delay_s(loop_hz: f64) -> Result<f64> {
         )));
     }
     Ok(0.5 / loop_hz)
+}
+
+/// Six significant digits: PX4 and ArduPilot store floats, and D ~ 0.003 at four decimals would
+/// move by 3 %.
+pub(crate) fn round6(x: f64) -> f64 {
+    if x == 0.0 || !x.is_finite() {
+        return x;
+    }
+    let e = 10f64.powi(5 - x.abs().log10().floor() as i32);
+    (x * e).round() / e
 }
 
 /// C_fb at the loop rate (Tustin), the discrete form the firmware runs to first order.

@@ -124,7 +124,8 @@ pub fn cli_lines(g: &Gains, axis: Axis) -> Vec<String> {
     [g.k, g.p, g.i, g.d, g.ff]
         .iter()
         .zip(n.iter())
-        .map(|(v, name)| format!("param set {name} {v:.4}"))
+        // The shortest text that reads back as the value: the analysis used exactly these numbers.
+        .map(|(v, name)| format!("param set {name} {}", super::round6(*v)))
         .collect()
 }
 
@@ -154,6 +155,6 @@ mod tests {
             assert!((got - want).norm() < tol * want.norm(), "w {w}: {got} vs {want}");
         }
         assert_eq!(param_names(Axis::Pitch)[1], "MC_PITCHRATE_P");
-        assert_eq!(cli_lines(&g, Axis::Roll)[0], "param set MC_ROLLRATE_K 1.5000");
+        assert_eq!(cli_lines(&g, Axis::Roll)[0], "param set MC_ROLLRATE_K 1.5");
     }
 }

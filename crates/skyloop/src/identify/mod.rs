@@ -94,10 +94,8 @@ fn restart(specs: &[ParamSpec], at: &BTreeMap<String, f64>) -> Vec<ParamSpec> {
 /// for 2 s, a band above a channel's Nyquist frequency, options out of range ([`Error::Input`] names
 /// the flag), a fit that fails or whose fit percentage is below 0 (unless `allow_poor_fit`).
 pub fn identify(a: &IdentifyRequest) -> Result<Identification> {
-    let mut notes = Vec::new();
-    let mut warnings = Vec::new();
-    let method: Method = a.method.parse()?;
-    let window: Window = a.window.parse()?;
+    a.method.parse::<Method>()?;
+    a.window.parse::<Window>()?;
     for (name, v) in [
         ("--fmin-hz", a.fmin_hz),
         ("--fmax-hz", a.fmax_hz),
@@ -124,13 +122,29 @@ pub fn identify(a: &IdentifyRequest) -> Result<Identification> {
             a.blocks
         )));
     }
-    let log = Log::open(
+    let mut log = Log::open(
         &a.data,
         &OpenOptions {
             session: a.session,
             ..Default::default()
         },
     )?;
+    let derived = crate::firmware::prepare_log(&mut log);
+    let mut id = identify_log(&log, a)?;
+    id.notes.extend(derived);
+    Ok(id)
+}
+
+/// [`identify`] on a log already read (and prepared by [`crate::firmware::prepare_log`]); `a.data`
+/// only names it.
+///
+/// # Errors
+/// As [`identify`].
+pub fn identify_log(log: &Log, a: &IdentifyRequest) -> Result<Identification> {
+    let mut notes = Vec::new();
+    let mut warnings = Vec::new();
+    let method: Method = a.method.parse()?;
+    let window: Window = a.window.parse()?;
     let preset = a
         .axis
         .as_deref()

@@ -19,13 +19,17 @@
 //! each of K, τ, Td moved by ±`sigma` standard errors with the others at their fit (6 more
 //! plants), clamped to K ≥ K/20, τ ≥ 0.1 ms, Td ≥ 0.
 
+use super::candidates::{front, search, Scores, Screen, SearchLimits};
 use super::deconv::{step_from_log, DeconvOptions, MeasuredStep};
 use super::flight::{fly, FlightCheck, FlightSetup};
-use super::{tune, with_hold, Firmware, GenericStructure, Maximize, TuneOutcome, TuneRequest};
+use super::noise::{self, NoiseReport};
+use super::verdict::{proposal_text, Verdict, VerdictKind};
+use super::{outcome_for_gains, tune, with_hold, Firmware, GenericStructure, Maximize, TuneOutcome, TuneRequest};
 use crate::error::{Error, Result};
 use crate::firmware::betaflight::{self, Axis};
+use crate::firmware::rate_gains::RateGains;
 use crate::firmware::{px4, Lowpass};
-use crate::identify::{identify, Identification, IdentifyRequest};
+use crate::identify::{identify_log, Identification, IdentifyRequest};
 use serde_json::{json, Value};
 use skyloop_lti::interconnect::{feedback, series};
 use skyloop_lti::{c64, StateSpace};
@@ -64,10 +68,15 @@ pub struct LogTuneRequest {
     pub sigma: f64,
     /// Fit the feedforward to the proposal (false: keep the flown one).
     pub tune_feedforward: bool,
+    /// Largest predicted motor-noise power of a proposal relative to the flown tune's.
+    pub noise_budget: f64,
+    /// Report each stage on stderr.
+    pub progress: bool,
 }
 
 impl LogTuneRequest {
-    /// Defaults: identify's band, ±2σ, generic PID structure, maximize ki, 8 starts.
+    /// Defaults: identify's band, ±2σ, generic PID structure, the pilot's objective (the highest
+    /// crossover at no loss of robustness), noise budget 1.25, 8 starts.
     pub fn new(log: PathBuf, axis: Axis, firmware: Firmware) -> Self {
         LogTuneRequest {
             log,
@@ -79,10 +88,12 @@ impl LogTuneRequest {
             structure: GenericStructure::Pid,
             d_filter_tau_s: None,
             goals: Vec::new(),
-            maximize: Maximize::IntegralGain,
+            maximize: Maximize::Tracking,
             starts: 8,
             sigma: 2.0,
             tune_feedforward: true,
+            noise_budget: 1.25,
+            progress: false,
         }
     }
 }
@@ -152,11 +163,20 @@ pub struct LogTuneOutcome {
     /// What the pilot must act on: a model that contradicts the flight (the flown tune predicted
     /// unstable, or a predicted step far from the measured one).
     pub warnings: Vec<String>,
+    /// Propose, keep, or cannot, in a pilot's words.
+    pub verdict: Verdict,
+    /// The predicted motor noise of the proposal against the flown tune's (None without flown
+    /// gains or a gyro spectrum).
+    pub noise: Option<NoiseReport>,
+    /// The trade-off front within the bounded change: (gains, screened scores, noise ratio).
+    pub front: Vec<(Value, Scores, f64)>,
+    /// The axis.
+    pub axis: Axis,
 }
 
 /// Largest RMS difference between the predicted and the measured step (per unit step) that
 /// passes the model check without a warning.
-pub const MODEL_STEP_RMS_MAX: f64 = 0.3;
+pub const MODEL_STEP_RMS_MAX: f64 = 0.25;
 
 /// Overshoot (%) of the proposal's 6-DOF doublets above which a warning is printed.
 pub const FLIGHT_OVERSHOOT_MAX: f64 = 30.0;
@@ -220,7 +240,15 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
         fmax_hz: req.fmax_hz,
         ..Default::default()
     };
-    let id = identify(&idreq)?;
+    let mut log = Log::open(
+        &req.log,
+        &OpenOptions {
+            session: req.session,
+            ..Default::default()
+        },
+    )?;
+    let derived = crate::firmware::prepare_log(&mut log);
+    let id = identify_log(&log, &idreq)?;
     let log_fw = id.preset.as_ref().map(|p| p.0.clone()).unwrap_or_default();
     match (req.firmware, log_fw.as_str()) {
         (Firmware::Betaflight, "Betaflight") | (Firmware::Px4, "PX4") | (Firmware::Generic, _) => {}
@@ -254,7 +282,7 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
     let (k, sk) = get("K")?;
     let (tau, stau) = get("tau")?;
     let (td, std_) = get("Td")?;
-    let mut notes = Vec::new();
+    let mut notes = derived;
     notes.push(format!(
         "plant K*exp(-Td*s)/(s*(tau*s+1)) identified from {} ({} → {}), fit {:.1} %",
         req.log.display(),
@@ -294,13 +322,6 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
     }
 
     // The header's tuning.
-    let log = Log::open(
-        &req.log,
-        &OpenOptions {
-            session: req.session,
-            ..Default::default()
-        },
-    )?;
     let header = FirmwareTuning::from_log(&log);
     let ax = axis_index(req.axis);
     let mut filters = Vec::new();
@@ -331,6 +352,13 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
                         dterm.push(lp);
                     }
                 }
+            }
+            if let Some(n) = b.dterm_notch {
+                filters.push(format!(
+                    "dterm_notch: {} Hz, cutoff {} Hz (in the controller)",
+                    n.center_hz, n.cutoff_hz
+                ));
+                dterm.push(Lowpass::Notch(n.center_hz, n.cutoff_hz));
             }
             for (l, name) in [(&b.gyro_lowpass, "gyro_lowpass"), (&b.gyro_lowpass2, "gyro_lowpass2")] {
                 if let Some(l) = l {
@@ -421,17 +449,6 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
         _ => notes.push("the log header carries no rate-controller tuning: nothing to compare".into()),
     }
 
-    let mut proposed = tune(&treq)?;
-    if matches!(current_gains, Some(CurrentGains::Betaflight(g, d)) if d != g.d) {
-        // The proposal is analysed with a constant D; with d_min left active the firmware would
-        // fly d_min instead whenever d_min < d.
-        let line = format!("set d_min_{} = 0", req.axis.name());
-        let at = proposed.cli.len().saturating_sub(1);
-        proposed.cli.insert(at, line.clone());
-        proposed.notes.push(format!(
-            "`{line}`: the proposed D is meant constant (d_min would otherwise replace it away from fast moves)"
-        ));
-    }
     let loop_hz = match req.firmware {
         Firmware::Betaflight => Some(treq.betaflight.loop_hz),
         Firmware::Px4 => Some(treq.px4.loop_hz),
@@ -454,79 +471,34 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
         gyro_unit_rad_s,
         output_limit,
     });
-    let wn = proposed.noise_w_rad_s;
-    let c_r_proposed = match req.firmware {
-        Firmware::Betaflight => {
-            let g: betaflight::Gains = gains_bf(&proposed.gains)?;
-            betaflight::reference_path(&g, req.axis, treq.betaflight.loop_hz)?
-        }
-        Firmware::Px4 => {
-            let names = px4::param_names(req.axis);
-            let v = |i: usize| proposed.gains[&names[i]].as_f64().unwrap_or(0.0);
-            px4::reference_path(&px4::Gains {
-                k: v(0),
-                p: v(1),
-                i: v(2),
-                d: v(3),
-                ff: v(4),
-            })?
-        }
-        Firmware::Ardupilot => {
-            let names = crate::firmware::ardupilot::param_names(req.axis);
-            let v = |i: usize| proposed.gains[&names[i]].as_f64().unwrap_or(0.0);
-            crate::firmware::ardupilot::reference_path(
-                &crate::firmware::ardupilot::Gains {
-                    p: v(0),
-                    i: v(1),
-                    d: v(2),
-                    ff: v(3),
-                },
-                &treq.ardupilot,
-            )?
-        }
-        Firmware::Generic if proposed.setpoint_weights.is_some() => super::generic_reference_path(&proposed.gains)?,
-        Firmware::Generic => proposed.feedback_controller.clone(),
-    };
-    let proposed_analysis = analyse(
-        proposed.gains.clone(),
-        &proposed.feedback_controller,
-        &c_r_proposed,
-        &held,
-        wn,
-        flight_setup.as_ref(),
-    )?;
-    let current = match current_gains {
-        Some(CurrentGains::Betaflight(g, d_applied)) => {
-            let applied = betaflight::Gains { d: d_applied, ..g };
-            let c = betaflight::feedback_controller(&applied, req.axis, &treq.betaflight)?;
-            let cr = betaflight::reference_path(&g, req.axis, treq.betaflight.loop_hz)?;
-            if d_applied != g.d {
-                // The same tune at its D maximum, for comparison.
-                let cmax = betaflight::feedback_controller(&g, req.axis, &treq.betaflight)?;
-                let m = check_loop(&held[0], &cmax)?;
-                notes.push(format!(
-                    "the flown tune with D at its maximum d = {}: disk alpha {:.3}, PM {:.1} deg at {:.2} Hz, GM {:.2} dB, Ms {:.3}",
-                    g.d, m.disk_alpha, m.phase_margin_deg, m.crossover_hz, m.gain_margin_db, m.ms
-                ));
+    let wn = 3.0 * skyloop_robust::structured::systune::ultimate_point(&held[0])?.0;
+    progress(req, "the flown tune");
+    let flown_rg = flown_rate_gains(current_gains.as_ref(), &treq);
+    let current = match &flown_rg {
+        Some(g) => {
+            if let Some(CurrentGains::Betaflight(full, d_applied)) = &current_gains {
+                if *d_applied != full.d {
+                    // The same tune at its D maximum, for comparison.
+                    let cmax = betaflight::feedback_controller(full, req.axis, &treq.betaflight)?;
+                    let m = check_loop(&held[0], &cmax)?;
+                    notes.push(format!(
+                        "the flown tune with D at its maximum d = {}: disk alpha {:.3}, PM {:.1} deg at {:.2} Hz, GM {:.2} dB, Ms {:.3}",
+                        full.d, m.disk_alpha, m.phase_margin_deg, m.crossover_hz, m.gain_margin_db, m.ms
+                    ));
+                }
             }
+            let gains_json = match &current_gains {
+                Some(CurrentGains::Betaflight(full, _)) => serde_json::to_value(full)?,
+                _ => g.to_json(),
+            };
             Some(analyse(
-                serde_json::to_value(g)?,
-                &c,
-                &cr,
+                gains_json,
+                &g.feedback_controller()?,
+                &g.reference_path()?,
                 &held,
                 wn,
                 flight_setup.as_ref(),
             )?)
-        }
-        Some(CurrentGains::Px4(g)) => {
-            let c = px4::feedback_controller(&g, &treq.px4)?;
-            let cr = px4::reference_path(&g)?;
-            let names = px4::param_names(req.axis);
-            let mut m = serde_json::Map::new();
-            for (n, v) in names.iter().zip([g.k, g.p, g.i, g.d, g.ff]) {
-                m.insert(n.clone(), json!(v));
-            }
-            Some(analyse(Value::Object(m), &c, &cr, &held, wn, flight_setup.as_ref())?)
         }
         None => None,
     };
@@ -546,6 +518,77 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
         (Some(m), Some(c)) => Some(step_rms(m, c)?),
         _ => None,
     };
+    let refusal = refusal(req, current.as_ref(), causal_step_rms);
+
+    progress(req, "candidates");
+    let mut front_pts = Vec::new();
+    let mut noise_report = None;
+    let (proposed, proposed_analysis, verdict) = match (&flown_rg, &current) {
+        (Some(g), Some(cur)) => {
+            let spans: Vec<(f64, f64)> = id.segments.iter().map(|s| (s.from_s, s.to_s)).collect();
+            let dterm = format!("axisD[{ax}]");
+            let dterm = (log_fw == "Betaflight" && log.series(&dterm).is_ok()).then_some(dterm.as_str());
+            let gn = noise::measure(&log, &id.output, dterm, &spans, cur.margins.crossover_hz)?;
+            if let Some(why) = &refusal {
+                let mut out = outcome_for_gains(g, &held, &req.goals, Vec::new())?;
+                out.cli.clear();
+                let nr = noise_of(&gn, g, g, &held)?;
+                noise_report = Some(nr);
+                (
+                    out,
+                    cur.clone(),
+                    Verdict {
+                        kind: VerdictKind::Cannot,
+                        text: format!("{}: the log cannot support a proposal: {why}", req.axis.name()),
+                    },
+                )
+            } else {
+                let r = grid_proposal(req, g, cur, &held, &gn, wn, flight_setup.as_ref())?;
+                front_pts = r.front;
+                noise_report = Some(r.noise);
+                (r.outcome, r.analysis, r.verdict)
+            }
+        }
+        _ => {
+            let mut proposed = tune(&treq)?;
+            let c_r_proposed = proposed_reference_path(req, &treq, &proposed)?;
+            let pa = analyse(
+                proposed.gains.clone(),
+                &proposed.feedback_controller,
+                &c_r_proposed,
+                &held,
+                wn,
+                flight_setup.as_ref(),
+            )?;
+            let verdict = match &refusal {
+                Some(why) => {
+                    proposed.cli.clear();
+                    Verdict { kind: VerdictKind::Cannot, text: format!("{}: the log cannot support a proposal: {why}", req.axis.name()) }
+                }
+                None => Verdict {
+                    kind: VerdictKind::Propose,
+                    text: format!(
+                        "{}: proposal tuned from the identified model (no flown gains to compare with): crossover {:.1} Hz, disk α {:.2}",
+                        req.axis.name(), pa.margins.crossover_hz, pa.margins.disk_alpha
+                    ),
+                },
+            };
+            (proposed, pa, verdict)
+        }
+    };
+    let mut proposed = proposed;
+    if verdict.kind == VerdictKind::Propose && matches!(current_gains, Some(CurrentGains::Betaflight(g, d)) if d != g.d)
+    {
+        // The proposal is analysed with a constant D; with d_min left active the firmware would
+        // fly d_min instead whenever d_min < d.
+        let line = format!("set d_min_{} = 0", req.axis.name());
+        let at = proposed.cli.len().saturating_sub(1);
+        proposed.cli.insert(at, line.clone());
+        proposed.notes.push(format!(
+            "`{line}`: the proposed D is meant constant (d_min would otherwise replace it away from fast moves)"
+        ));
+    }
+
     // The flown tune flew: a model that calls it unstable, or predicts a step far from the one
     // measured, is wrong, and so would be gains tuned on it.
     let mut warnings = Vec::new();
@@ -631,6 +674,10 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
         causal_step_rms,
         notes,
         warnings,
+        verdict,
+        noise: noise_report,
+        front: front_pts,
+        axis: req.axis,
     })
 }
 
@@ -814,6 +861,20 @@ impl LogTuneOutcome {
         };
         v["causal_step_rms"] = json!(self.causal_step_rms);
         v["warnings"] = json!(self.warnings);
+        v["axis"] = json!(self.axis.name());
+        v["verdict"] = self.verdict.to_json();
+        v["noise"] = self.noise.as_ref().map_or(Value::Null, NoiseReport::to_json);
+        v["front"] = json!(self
+            .front
+            .iter()
+            .map(|(g, s, r)| json!({
+                "gains": g,
+                "crossover_hz": s.crossover_hz,
+                "disk_alpha": s.alpha,
+                "worst_disk_alpha": s.alpha_worst,
+                "noise_ratio": r,
+            }))
+            .collect::<Vec<_>>());
         if let Some(n) = v["notes"].as_array_mut() {
             for x in &self.notes {
                 n.push(json!(x));
@@ -821,4 +882,273 @@ impl LogTuneOutcome {
         }
         v
     }
+}
+
+/// Reports a stage on stderr (progress of a long log tune).
+fn progress(req: &LogTuneRequest, stage: &str) {
+    if req.progress {
+        eprintln!("[{}] {stage} …", req.axis.name());
+    }
+}
+
+/// The flown gains as the firmware model's gain set (D = d_min where d_min is active).
+fn flown_rate_gains(cur: Option<&CurrentGains>, treq: &TuneRequest) -> Option<RateGains> {
+    match cur? {
+        CurrentGains::Betaflight(g, d_applied) => Some(RateGains::Betaflight {
+            gains: betaflight::Gains { d: *d_applied, ..*g },
+            axis: treq.axis,
+            filters: treq.betaflight.clone(),
+        }),
+        CurrentGains::Px4(g) => Some(RateGains::Px4 {
+            gains: *g,
+            axis: treq.axis,
+            filters: treq.px4,
+        }),
+    }
+}
+
+/// Why the model cannot carry a proposal, with what to fly; None when it explains the flight.
+fn refusal(req: &LogTuneRequest, current: Option<&TuneAnalysis>, causal_rms: Option<f64>) -> Option<String> {
+    let c = current?;
+    let axis = req.axis.name();
+    if !c.margins.stable {
+        return Some(format!(
+            "the identified model predicts the flown tune to be unstable, yet it flew, so the model is wrong; fly a log with sharper {axis} stick inputs (or a chirp) and try again"
+        ));
+    }
+    match causal_rms {
+        Some(r) if r > MODEL_STEP_RMS_MAX => Some(format!(
+            "the model misses the flown step measured in the log by {r:.3} RMS (limit {MODEL_STEP_RMS_MAX}); fly a chirp or sharper {axis} stick inputs so the loop can be identified"
+        )),
+        _ => None,
+    }
+}
+
+/// The proposal's reference path (setpoint → PID output) of an optimizer outcome.
+fn proposed_reference_path(req: &LogTuneRequest, treq: &TuneRequest, proposed: &TuneOutcome) -> Result<StateSpace> {
+    Ok(match req.firmware {
+        Firmware::Betaflight => {
+            let g: betaflight::Gains = gains_bf(&proposed.gains)?;
+            betaflight::reference_path(&g, req.axis, treq.betaflight.loop_hz)?
+        }
+        Firmware::Px4 => {
+            let names = px4::param_names(req.axis);
+            let v = |i: usize| proposed.gains[&names[i]].as_f64().unwrap_or(0.0);
+            px4::reference_path(&px4::Gains {
+                k: v(0),
+                p: v(1),
+                i: v(2),
+                d: v(3),
+                ff: v(4),
+            })?
+        }
+        Firmware::Ardupilot => {
+            let names = crate::firmware::ardupilot::param_names(req.axis);
+            let v = |i: usize| proposed.gains[&names[i]].as_f64().unwrap_or(0.0);
+            crate::firmware::ardupilot::reference_path(
+                &crate::firmware::ardupilot::Gains {
+                    p: v(0),
+                    i: v(1),
+                    d: v(2),
+                    ff: v(3),
+                },
+                &treq.ardupilot,
+            )?
+        }
+        Firmware::Generic if proposed.setpoint_weights.is_some() => super::generic_reference_path(&proposed.gains)?,
+        Firmware::Generic => proposed.feedback_controller.clone(),
+    })
+}
+
+/// The noise report of `proposed` against `flown` on the log's gyro spectrum, with the D-term check
+/// of the flown tune.
+fn noise_of(
+    gn: &noise::GyroNoise,
+    flown: &RateGains,
+    proposed: &RateGains,
+    held: &[StateSpace],
+) -> Result<NoiseReport> {
+    let block = flown.block()?;
+    let power = |g: &RateGains, band: (f64, f64)| -> Result<f64> {
+        let (f, w) = gn.band_weights(band);
+        Ok(Screen::new(&block, &held[..1], 10.0, &f, &w)?.noise(g.continuous()))
+    };
+    let bands = gn
+        .sub_bands()
+        .into_iter()
+        .map(|b| Ok((b, power(flown, b)?, power(proposed, b)?)))
+        .collect::<Result<Vec<_>>>()?;
+    // The flown D path alone predicts the logged D term's spectrum.
+    let dterm_check = match &gn.dterm {
+        Some(d) => {
+            let k = flown.continuous();
+            let (f, w) = gn.weights();
+            let pred = Screen::new(&block, &held[..1], 10.0, &f, &w)?.noise([0.0, 0.0, k[2]]);
+            let logged = d.band_power(gn.band_hz.0, gn.band_hz.1);
+            (pred > 0.0).then(|| logged / pred)
+        }
+        None => None,
+    };
+    Ok(NoiseReport {
+        flown: power(flown, gn.band_hz)?,
+        proposed: power(proposed, gn.band_hz)?,
+        band_hz: gn.band_hz,
+        bands,
+        dterm_check,
+    })
+}
+
+/// What the grid search settled on.
+struct GridResult {
+    outcome: TuneOutcome,
+    analysis: TuneAnalysis,
+    verdict: Verdict,
+    noise: NoiseReport,
+    front: Vec<(Value, Scores, f64)>,
+}
+
+/// Most ranked candidates re-verified exactly (and flown in the 6-DOF check) before giving up.
+const VERIFY_MAX: usize = 6;
+
+/// The bounded search around the flown tune ([`super::candidates`]), the exact verification of the
+/// best candidates (margins over the uncertainty set, 6-DOF tracking no worse), and the verdict.
+fn grid_proposal(
+    req: &LogTuneRequest,
+    flown: &RateGains,
+    cur: &TuneAnalysis,
+    held: &[StateSpace],
+    gn: &noise::GyroNoise,
+    wn: f64,
+    flight: Option<&FlightSetup>,
+) -> Result<GridResult> {
+    if !(req.noise_budget.is_finite() && (1.0..=10.0).contains(&req.noise_budget)) {
+        return Err(Error::Input(format!(
+            "--noise-budget must be in 1..=10, got {}",
+            req.noise_budget
+        )));
+    }
+    let (nf, nw) = gn.weights();
+    let f_max = 0.45 * flown.loop_hz().min(4000.0);
+    let screen = Screen::new(&flown.block()?, held, f_max, &nf, &nw)?;
+    let limits = SearchLimits {
+        noise_budget: req.noise_budget,
+        alpha_floor: 0.5,
+        keep_robustness: req.maximize == Maximize::Tracking,
+        rank_by_integral: req.maximize == Maximize::IntegralGain,
+    };
+    let (ranked, all, fs) = search(&screen, flown, &limits);
+    let floor = 0.5f64.min(cur.worst.disk_alpha);
+    let flown_os = cur.flight.as_ref().map(FlightCheck::worst_overshoot_pct);
+    let os_limit = flown_os.map(|o| (o + 5.0).max(20.0));
+    let axis = req.axis.name();
+    let mut chosen = None;
+    let mut rejected = Vec::new();
+    let below_floor = fs.alpha_worst < limits.alpha_floor;
+    // One candidate per (P, D) pair: neighbours that differ in I alone fail for the same reason.
+    let mut seen = Vec::new();
+    let distinct = ranked.iter().filter(|c| c.gains != *flown).filter(|c| {
+        let k = c.gains.continuous();
+        let key = ((k[0] * 1e6).round() as i64, (k[2] * 1e9).round() as i64);
+        let new = !seen.contains(&key);
+        seen.push(key);
+        new
+    });
+    for c in distinct.take(VERIFY_MAX) {
+        let gain = if limits.keep_robustness {
+            c.scores.bandwidth_hz / fs.bandwidth_hz.max(1e-9) - 1.0
+        } else {
+            c.scores.crossover_hz / fs.crossover_hz.max(1e-9) - 1.0
+        };
+        let more_robust = c.scores.alpha_worst > fs.alpha_worst + 0.05;
+        if gain < super::candidates::MIN_GAIN && !more_robust {
+            break;
+        }
+        let a = analyse(
+            c.gains.to_json(),
+            &c.gains.feedback_controller()?,
+            &c.gains.reference_path()?,
+            held,
+            wn,
+            flight,
+        )?;
+        let os = a.flight.as_ref().map(FlightCheck::worst_overshoot_pct);
+        let why = if !a.margins.stable || !a.worst.stable {
+            Some("unstable in the exact check".to_string())
+        } else if a.worst.disk_alpha < floor - 1e-3 {
+            Some(format!(
+                "worst-case disk α {:.3} below the floor {floor:.3}",
+                a.worst.disk_alpha
+            ))
+        } else if a.margins.crossover_hz < cur.margins.crossover_hz && a.margins.disk_alpha < cur.margins.disk_alpha {
+            Some("slower and less robust than the flown tune in the exact check".to_string())
+        } else if a.flight.as_ref().is_some_and(|f| f.crashed) {
+            Some("crashed the 6-DOF check".to_string())
+        } else if let (Some(p), Some(f), false) = (&a.flight, &cur.flight, below_floor) {
+            // Above the floor a proposal must track at least as well; below it, robustness first.
+            let (ep, ef) = (p.doublets[0].rms_error_deg_s, f.doublets[0].rms_error_deg_s);
+            (ep > 1.05 * ef).then(|| format!("6-DOF tracking error {ep:.0} deg/s RMS above the flown tune's {ef:.0}"))
+        } else {
+            match (os, os_limit) {
+                (Some(o), Some(l)) if o > l => Some(format!("6-DOF overshoot {o:.0} % above {l:.0} %")),
+                _ => None,
+            }
+        };
+        match why {
+            None => {
+                chosen = Some((c.clone(), a));
+                break;
+            }
+            Some(w) => rejected.push(format!("{}: {w}", c.gains.to_json())),
+        }
+    }
+    let fr: Vec<(Value, Scores, f64)> = front(&all, &fs, &limits, 5)
+        .into_iter()
+        .map(|c| {
+            (
+                c.gains.to_json(),
+                c.scores,
+                c.scores.noise / fs.noise.max(f64::MIN_POSITIVE),
+            )
+        })
+        .collect();
+    let mut notes = vec![format!(
+        "bounded change: each of P, I, D within ±{:.0} % of the flown value ({} gain sets scored, {} within the limits); the feedforward is kept as flown",
+        100.0 * super::candidates::MAX_CHANGE,
+        all.len(),
+        ranked.len()
+    )];
+    notes.extend(rejected.into_iter().map(|r| format!("candidate rejected: {r}")));
+    let (gains, analysis, verdict) = match chosen {
+        Some((c, a)) => {
+            let nr = noise_of(gn, flown, &c.gains, held)?;
+            let text = proposal_text(
+                axis,
+                (cur.margins.crossover_hz, a.margins.crossover_hz),
+                (cur.margins.disk_alpha, a.margins.disk_alpha),
+                nr.ratio(),
+            );
+            (c.gains, a, Verdict { kind: VerdictKind::Propose, text })
+        }
+        None => (
+            flown.clone(),
+            cur.clone(),
+            Verdict {
+                kind: VerdictKind::Keep,
+                text: format!(
+                    "{axis}: keep your tune: it is at the frontier of this model (no P, I, D within ±{:.0} % is faster without losing robustness or adding more than {:.0} % motor noise); the trade-off front is listed below",
+                    100.0 * super::candidates::MAX_CHANGE,
+                    100.0 * (req.noise_budget - 1.0)
+                ),
+            },
+        ),
+    };
+    let noise = noise_of(gn, flown, &gains, held)?;
+    let outcome = outcome_for_gains(&gains, held, &req.goals, notes)?;
+    Ok(GridResult {
+        outcome,
+        analysis,
+        verdict,
+        noise,
+        front: fr,
+    })
 }

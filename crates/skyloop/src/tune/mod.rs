@@ -10,6 +10,7 @@
 
 use crate::error::{Error, Result};
 use crate::firmware::betaflight::{self, Axis};
+use crate::firmware::rate_gains::RateGains;
 use crate::firmware::{self, ardupilot, px4};
 use serde_json::{json, Value};
 use skyloop_lti::json::LtiJson;
@@ -22,12 +23,15 @@ use skyloop_robust::structured::systune::{
 use skyloop_robust::structured::verify::LoopCheck;
 use std::f64::consts::PI;
 
+pub mod candidates;
 pub mod deconv;
 pub mod feedforward;
 pub mod fir_step;
 pub mod flight;
 pub mod log;
+pub mod noise;
 pub mod report;
+pub mod verdict;
 
 /// Which firmware's controller structure and gains.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -98,10 +102,13 @@ pub enum Maximize {
     IntegralGain,
     /// The gain-crossover frequency.
     Crossover,
+    /// A pilot's default from a log: the highest crossover at no loss of robustness against the
+    /// flown tune (with --plant, as `Crossover`).
+    Tracking,
 }
 
 impl Maximize {
-    /// Parses "integral_gain" or "crossover".
+    /// Parses "integral_gain", "crossover" or "tracking".
     ///
     /// # Errors
     /// Any other text.
@@ -109,8 +116,9 @@ impl Maximize {
         match s {
             "integral_gain" => Ok(Maximize::IntegralGain),
             "crossover" => Ok(Maximize::Crossover),
+            "tracking" => Ok(Maximize::Tracking),
             _ => Err(Error::Input(format!(
-                "--maximize must be crossover or integral_gain, got `{s}`"
+                "--maximize must be tracking, crossover or integral_gain, got `{s}`"
             ))),
         }
     }
@@ -207,6 +215,10 @@ pub struct TuneOutcome {
     pub feedforward: Option<feedforward::FeedforwardFit>,
     /// The generic `pid2` structure's setpoint weights.
     pub setpoint_weights: Option<feedforward::SetpointWeights>,
+    /// The delay the analysis adds to the plant's input besides its own (the loop's sample and
+    /// hold: half a loop period), s: the margins are those of
+    /// L = plant·e^(−extra_delay_s·s)·feedback_controller.
+    pub extra_delay_s: f64,
 }
 
 /// The default integral-corner band with `--maximize crossover`: ω_c/15 ≤ ki/kp ≤ ω_c/4.
@@ -347,7 +359,7 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
         ));
         defaults.push("disk_margin>=0.5: the loop tolerates ±5.6 dB and ±28° at once".to_string());
     }
-    if req.maximize == Maximize::Crossover && !goals.iter().any(|g| g.req == Requirement::IntegralCorner) {
+    if req.maximize != Maximize::IntegralGain && !goals.iter().any(|g| g.req == Requirement::IntegralCorner) {
         let (lo, hi) = DEFAULT_INTEGRAL_CORNER;
         goals.push(Goal::hard(
             Requirement::IntegralCorner,
@@ -381,7 +393,7 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
         goals,
         objective: match req.maximize {
             Maximize::IntegralGain => Objective::MaximizeIntegralGain,
-            Maximize::Crossover => Objective::MaximizeCrossover,
+            Maximize::Crossover | Maximize::Tracking => Objective::MaximizeCrossover,
         },
         options: TuneOptions {
             starts: req.starts,
@@ -621,6 +633,59 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
         noise_w_rad_s: wn,
         feedforward: ff_fit,
         setpoint_weights: weights,
+        extra_delay_s: match loop_hz {
+            Some(hz) => firmware::hold_delay_s(hz)?,
+            None => 0.0,
+        },
+    })
+}
+
+/// The outcome of given firmware gains (no optimization): C_fb and its discrete form, the exact
+/// check of the nominal loop `held[0]` (hold included), the user's `goals` and the default disk floor
+/// evaluated over every plant of `held`, and the pilot's lines.
+///
+/// # Errors
+/// Bad goals (named) or gains whose loop cannot be evaluated.
+pub fn outcome_for_gains(
+    g: &RateGains,
+    held: &[StateSpace],
+    goals: &[String],
+    notes: Vec<String>,
+) -> Result<TuneOutcome> {
+    let mut gl: Vec<Goal> = goals.iter().map(|t| parse_goal(t)).collect::<Result<_>>()?;
+    let mut defaults = Vec::new();
+    if !gl.iter().any(|x| x.req == Requirement::DiskMargin) {
+        gl.push(Goal::hard(
+            Requirement::DiskMargin,
+            Bound::AtLeast(0.5),
+            "disk_margin>=0.5 (default floor)",
+        ));
+        defaults.push("disk_margin>=0.5: the loop tolerates ±5.6 dB and ±28° at once".to_string());
+    }
+    let prob = LoopTuning {
+        plants: held.to_vec(),
+        structure: Structure::new(g.block()?),
+        goals: gl,
+        objective: Objective::MaximizeCrossover,
+        options: TuneOptions::default(),
+    };
+    let theta = g.continuous().to_vec();
+    let (goal_reports, loops) = evaluate(&prob, &theta)?;
+    let c = prob.structure.realize(&theta)?;
+    Ok(TuneOutcome {
+        gains: g.to_json(),
+        discrete_controller: Some(firmware::discrete(&c, g.loop_hz())?),
+        feedback_controller: c,
+        margins: loops[0],
+        goals: goal_reports,
+        cli: g.cli(),
+        defaults,
+        notes,
+        loop_plant: held[0].clone(),
+        noise_w_rad_s: 0.0,
+        feedforward: None,
+        setpoint_weights: None,
+        extra_delay_s: firmware::hold_delay_s(g.loop_hz())?,
     })
 }
 
@@ -662,15 +727,7 @@ pub fn generic_reference_path(g: &Value) -> Result<StateSpace> {
     )?)
 }
 
-/// Six significant digits: PX4 and ArduPilot store floats, and D ~ 0.003 at four decimals would
-/// move by 3 %.
-fn round6(x: f64) -> f64 {
-    if x == 0.0 || !x.is_finite() {
-        return x;
-    }
-    let e = 10f64.powi(5 - x.abs().log10().floor() as i32);
-    (x * e).round() / e
-}
+use crate::firmware::round6;
 
 /// Largest PX4 rate feedforward the fit may propose, normalized torque per rad/s (a sanity bound:
 /// full torque for a 1 rad/s setpoint).
@@ -777,7 +834,9 @@ fn best_rounding<G: Copy>(prob: &LoopTuning, cands: Vec<(G, Vec<f64>)>, maximize
         let score = if ok {
             match maximize {
                 Maximize::IntegralGain => -th[1],
-                Maximize::Crossover => -loops.iter().map(|l| l.crossover_hz).fold(f64::INFINITY, f64::min),
+                Maximize::Crossover | Maximize::Tracking => {
+                    -loops.iter().map(|l| l.crossover_hz).fold(f64::INFINITY, f64::min)
+                }
             }
         } else {
             goals
@@ -812,6 +871,10 @@ impl TuneOutcome {
                 "goal": g.label, "value": g.value, "met": g.met, "active": g.active,
             })).collect::<Vec<_>>(),
             "cli": self.cli,
+            "loop": {
+                "extra_delay_s": self.extra_delay_s,
+                "definition": "L = plant * exp(-extra_delay_s*s) * feedback_controller: the loop the margins are computed for (extra_delay_s: the loop's sample and hold, half a loop period)",
+            },
             "defaults": self.defaults,
             "notes": self.notes,
             "feedforward": self.feedforward.map(|f| json!({

@@ -1,0 +1,200 @@
+//! A flown or proposed rate-PID gain set in the firmware's own units, with what the tuner needs of
+//! it: the continuous (Kp, Ki, Kd) of the loop's feedback path, the neighbouring gain sets a
+//! bounded change may reach (in the firmware's own resolution), the reference path, the JSON gains
+//! and the lines the pilot pastes. One value per firmware whose gains a log carries.
+
+use super::betaflight::{self, Axis};
+use super::px4;
+use crate::error::Result;
+use serde_json::{json, Value};
+use skyloop_lti::StateSpace;
+use skyloop_robust::structured::blocks::Block;
+
+/// A firmware's rate gains for one axis, with the filters and loop rate they fly with.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RateGains {
+    /// Betaflight integer P, I, D, F (D the constant D flown or proposed).
+    Betaflight {
+        /// The gains.
+        gains: betaflight::Gains,
+        /// The axis (yaw's I is scaled ×2.5).
+        axis: Axis,
+        /// Filters and loop rate.
+        filters: betaflight::Filters,
+    },
+    /// PX4 MC_*RATE_{K,P,I,D,FF}.
+    Px4 {
+        /// The gains.
+        gains: px4::Gains,
+        /// The axis.
+        axis: Axis,
+        /// Filters and loop rate.
+        filters: px4::Filters,
+    },
+}
+
+impl RateGains {
+    /// The feedback path's tunable structure (filters included): C_fb = block.realize(continuous()).
+    ///
+    /// # Errors
+    /// Invalid filter settings.
+    pub fn block(&self) -> Result<Block> {
+        match self {
+            RateGains::Betaflight { filters, .. } => betaflight::block(filters),
+            RateGains::Px4 { filters, .. } => px4::block(filters),
+        }
+    }
+
+    /// Continuous (Kp, Ki, Kd) in the plant's units.
+    pub fn continuous(&self) -> [f64; 3] {
+        match self {
+            RateGains::Betaflight { gains, axis, .. } => {
+                let (p, i, d, _) = betaflight::continuous(gains, *axis);
+                [p, i, d]
+            }
+            RateGains::Px4 { gains, .. } => {
+                let (p, i, d) = px4::continuous(gains);
+                [p, i, d]
+            }
+        }
+    }
+
+    /// The PID loop rate, Hz.
+    pub fn loop_hz(&self) -> f64 {
+        match self {
+            RateGains::Betaflight { filters, .. } => filters.loop_hz,
+            RateGains::Px4 { filters, .. } => filters.loop_hz,
+        }
+    }
+
+    /// C_fb(s) (y → u, plant units).
+    ///
+    /// # Errors
+    /// Invalid filter settings.
+    pub fn feedback_controller(&self) -> Result<StateSpace> {
+        Ok(self.block()?.realize(&self.continuous())?)
+    }
+
+    /// C_r(s) (setpoint → u).
+    ///
+    /// # Errors
+    /// A loop rate that is not positive.
+    pub fn reference_path(&self) -> Result<StateSpace> {
+        match self {
+            RateGains::Betaflight { gains, axis, filters } => betaflight::reference_path(gains, *axis, filters.loop_hz),
+            RateGains::Px4 { gains, .. } => px4::reference_path(gains),
+        }
+    }
+
+    /// The gains as JSON with the firmware's keys.
+    pub fn to_json(&self) -> Value {
+        match self {
+            RateGains::Betaflight { gains, .. } => json!(gains),
+            RateGains::Px4 { gains, axis, .. } => {
+                let n = px4::param_names(*axis);
+                let mut m = serde_json::Map::new();
+                for (k, v) in n.iter().zip([gains.k, gains.p, gains.i, gains.d, gains.ff]) {
+                    m.insert(k.clone(), json!(v));
+                }
+                Value::Object(m)
+            }
+        }
+    }
+
+    /// The pilot's lines that load these gains.
+    pub fn cli(&self) -> Vec<String> {
+        match self {
+            RateGains::Betaflight { gains, axis, .. } => betaflight::cli_lines(gains, *axis),
+            RateGains::Px4 { gains, axis, .. } => px4::cli_lines(gains, *axis),
+        }
+    }
+
+    /// The gains as (name, value) rows for a pilot's table: P, I, D, F (FF).
+    pub fn rows(&self) -> Vec<(&'static str, f64)> {
+        match self {
+            RateGains::Betaflight { gains: g, .. } => vec![
+                ("P", f64::from(g.p)),
+                ("I", f64::from(g.i)),
+                ("D", f64::from(g.d)),
+                ("F", f64::from(g.f)),
+            ],
+            RateGains::Px4 { gains: g, .. } => {
+                vec![("K", g.k), ("P", g.p), ("I", g.i), ("D", g.d), ("FF", g.ff)]
+            }
+        }
+    }
+
+    /// Every gain set whose P, I and D each lie within ±`span` (e.g. 0.4) of these, at most
+    /// `levels` values per gain in the firmware's resolution (Betaflight: whole units; PX4: six
+    /// significant digits); the feedforward and PX4's K are kept. A gain at 0 stays 0.
+    pub fn neighbours(&self, span: f64, levels: usize) -> Vec<RateGains> {
+        let steps = |x: f64, integer: bool| -> Vec<f64> {
+            if x <= 0.0 {
+                return vec![0.0];
+            }
+            let (mut lo, mut hi) = (x * (1.0 - span), x * (1.0 + span));
+            if integer {
+                // Whole units inside the bound (never beyond ±span).
+                (lo, hi) = ((lo - 1e-9).ceil(), (hi + 1e-9).floor());
+            }
+            let n = levels.max(2);
+            let mut v: Vec<f64> = (0..n)
+                .map(|k| lo + (hi - lo) * k as f64 / (n - 1) as f64)
+                .map(|y| if integer { y.round() } else { super::round6(y) })
+                .filter(|y| *y >= 0.0 && *y >= x * (1.0 - span) * (1.0 - 1e-9) && *y <= x * (1.0 + span) * (1.0 + 1e-9))
+                .collect();
+            v.push(x);
+            v.sort_by(f64::total_cmp);
+            v.dedup();
+            v
+        };
+        let mut out = Vec::new();
+        match self {
+            RateGains::Betaflight { gains, axis, filters } => {
+                let max = f64::from(betaflight::PID_GAIN_MAX);
+                for p in steps(f64::from(gains.p), true) {
+                    for i in steps(f64::from(gains.i), true) {
+                        for d in steps(f64::from(gains.d), true) {
+                            if p.max(i).max(d) > max {
+                                continue;
+                            }
+                            out.push(RateGains::Betaflight {
+                                gains: betaflight::Gains {
+                                    p: p as u32,
+                                    i: i as u32,
+                                    d: d as u32,
+                                    f: gains.f,
+                                },
+                                axis: *axis,
+                                filters: filters.clone(),
+                            });
+                        }
+                    }
+                }
+            }
+            RateGains::Px4 { gains, axis, filters } => {
+                for p in steps(gains.p, false) {
+                    for i in steps(gains.i, false) {
+                        for d in steps(gains.d, false) {
+                            out.push(RateGains::Px4 {
+                                gains: px4::Gains { p, i, d, ..*gains },
+                                axis: *axis,
+                                filters: *filters,
+                            });
+                        }
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// The relative change of each of P, I, D from `flown`, e.g. [+0.2, 0, −0.1].
+    pub fn change_from(&self, flown: &RateGains) -> Vec<(&'static str, f64)> {
+        self.rows()
+            .into_iter()
+            .zip(flown.rows())
+            .map(|((n, a), (_, b))| (n, if b != 0.0 { a / b - 1.0 } else { 0.0 }))
+            .collect()
+    }
+}

@@ -1,0 +1,68 @@
+//! The verdict of a log tune, in a pilot's words: a proposal and what it changes, "keep your tune",
+//! or why the log cannot support a proposal and what to fly.
+
+use serde_json::{json, Value};
+
+/// Which of the three answers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum VerdictKind {
+    /// New gains, better than the flown ones and verified.
+    Propose,
+    /// The flown tune is at the frontier of the model: no bounded change improves it.
+    Keep,
+    /// The model does not explain the flight (or the flight cannot be analysed): no proposal.
+    Cannot,
+}
+
+impl VerdictKind {
+    /// "propose", "keep" or "cannot".
+    pub fn name(&self) -> &'static str {
+        match self {
+            VerdictKind::Propose => "propose",
+            VerdictKind::Keep => "keep",
+            VerdictKind::Cannot => "cannot",
+        }
+    }
+}
+
+/// The verdict with its one-line text.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Verdict {
+    /// Which answer.
+    pub kind: VerdictKind,
+    /// The line a pilot reads first.
+    pub text: String,
+}
+
+impl Verdict {
+    /// `{kind, text}`.
+    pub fn to_json(&self) -> Value {
+        json!({"kind": self.kind.name(), "text": self.text})
+    }
+}
+
+/// "+35 %" style relative change of `new` against `old`.
+pub fn pct(new: f64, old: f64) -> String {
+    if old == 0.0 || !old.is_finite() || !new.is_finite() {
+        return "n/a".into();
+    }
+    format!("{:+.0} %", 100.0 * (new / old - 1.0))
+}
+
+/// The proposal's verdict line: crossover, robustness and noise against the flown tune.
+pub fn proposal_text(axis: &str, xo: (f64, f64), alpha: (f64, f64), noise_ratio: f64) -> String {
+    let robust = if (alpha.1 - alpha.0).abs() <= 0.02 * alpha.0.max(0.1) {
+        format!("same robustness (disk α {:.2})", alpha.1)
+    } else if alpha.1 > alpha.0 {
+        format!("more robust (disk α {:.2} → {:.2})", alpha.0, alpha.1)
+    } else {
+        format!("less robust (disk α {:.2} → {:.2}, above the floor)", alpha.0, alpha.1)
+    };
+    format!(
+        "{axis}: proposal: {} crossover ({:.1} → {:.1} Hz), {robust}, {} motor noise",
+        pct(xo.1, xo.0),
+        xo.0,
+        xo.1,
+        pct(noise_ratio, 1.0)
+    )
+}
