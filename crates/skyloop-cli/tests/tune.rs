@@ -489,3 +489,182 @@ fn tune_from_a_log_rejects_bad_requests() {
         assert!(err.contains(want), "{args:?}: {err}");
     }
 }
+
+/// C(jω) of an LTI JSON object by its own complex Gaussian elimination (no skyloop code):
+/// c·(jωI − A)⁻¹·b + d, SISO.
+fn lti_at(c: &Value, w: f64) -> (f64, f64) {
+    let rows = |k: &str| -> Vec<Vec<f64>> {
+        c[k].as_array()
+            .map(|r| {
+                r.iter()
+                    .map(|x| {
+                        x.as_array()
+                            .map(|v| v.iter().map(|y| y.as_f64().unwrap()).collect())
+                            .unwrap_or_default()
+                    })
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    let (a, b, cc, d) = (rows("a"), rows("b"), rows("c"), rows("d"));
+    let n = a.len();
+    let d0 = d.first().and_then(|r| r.first()).copied().unwrap_or(0.0);
+    if n == 0 {
+        return (d0, 0.0);
+    }
+    // M = jωI − A as (re, im), solve M x = b.
+    let mut m: Vec<Vec<(f64, f64)>> = (0..n)
+        .map(|i| {
+            (0..=n)
+                .map(|j| {
+                    if j == n {
+                        (b[i][0], 0.0)
+                    } else {
+                        (-a[i][j], if i == j { w } else { 0.0 })
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let mul = |x: (f64, f64), y: (f64, f64)| (x.0 * y.0 - x.1 * y.1, x.0 * y.1 + x.1 * y.0);
+    let div = |x: (f64, f64), y: (f64, f64)| {
+        let q = y.0 * y.0 + y.1 * y.1;
+        ((x.0 * y.0 + x.1 * y.1) / q, (x.1 * y.0 - x.0 * y.1) / q)
+    };
+    for col in 0..n {
+        let piv = (col..n)
+            .max_by(|&i, &j| (m[i][col].0.hypot(m[i][col].1)).total_cmp(&m[j][col].0.hypot(m[j][col].1)))
+            .unwrap();
+        m.swap(col, piv);
+        for i in 0..n {
+            if i != col {
+                let f = div(m[i][col], m[col][col]);
+                for j in col..=n {
+                    let t = mul(f, m[col][j]);
+                    m[i][j] = (m[i][j].0 - t.0, m[i][j].1 - t.1);
+                }
+            }
+        }
+    }
+    let mut y = (d0, 0.0);
+    for i in 0..n {
+        let x = div(m[i][n], m[i][i]);
+        y = (y.0 + cc[0][i] * x.0, y.1 + cc[0][i] * x.1);
+    }
+    y
+}
+
+/// The claimed disk α and crossover recomputed from the JSON alone (the printed controller, the
+/// identified K, τ, Td and `loop.extra_delay_s`) on a dense grid, by this test's own arithmetic.
+fn recompute_from_json(v: &Value, plant: impl Fn(f64) -> (f64, f64)) -> (f64, f64) {
+    let extra = v["loop"]["extra_delay_s"].as_f64().unwrap();
+    let mut alpha = f64::INFINITY;
+    let mut xo = 0.0;
+    let mut prev = f64::INFINITY;
+    for k in 0..40000 {
+        let w = 2.0 * std::f64::consts::PI * 0.2 * 10f64.powf(k as f64 / 10000.0);
+        let c = lti_at(&v["feedback_controller"], w);
+        let p = plant(w);
+        let e = (-w * extra).sin_cos();
+        let l0 = (c.0 * p.0 - c.1 * p.1, c.0 * p.1 + c.1 * p.0);
+        let l = (l0.0 * e.1 - l0.1 * e.0, l0.0 * e.0 + l0.1 * e.1);
+        let mag = l.0.hypot(l.1);
+        alpha = alpha.min(2.0 * (1.0 + l.0).hypot(l.1) / (1.0 - l.0).hypot(-l.1));
+        if xo == 0.0 && prev >= 1.0 && mag < 1.0 {
+            xo = w / (2.0 * std::f64::consts::PI);
+        }
+        prev = mag;
+    }
+    (alpha, xo)
+}
+
+/// K·e^(−Td·jω)/(jω·(τ·jω + 1)).
+fn rate_plant(k: f64, tau: f64, td: f64) -> impl Fn(f64) -> (f64, f64) {
+    move |w: f64| {
+        // 1/(jω(1 + jωτ)) = 1/(−ω²τ + jω)
+        let (re, im) = (-w * w * tau, w);
+        let q = re * re + im * im;
+        let g = (k * re / q, -k * im / q);
+        let e = (-w * td).sin_cos();
+        (g.0 * e.1 - g.1 * e.0, g.0 * e.0 + g.1 * e.1)
+    }
+}
+
+#[test]
+fn plant_mode_claims_recompute_from_the_json_alone() {
+    let v = json(&[
+        "tune",
+        "--plant",
+        "100*exp(-0.004*s)/(s*(0.0127*s+1))",
+        "--firmware",
+        "betaflight",
+        "--goal",
+        "disk_margin>=0.6",
+        "--maximize",
+        "crossover",
+        "--starts",
+        "2",
+        "--json",
+    ]);
+    let (alpha, xo) = recompute_from_json(&v, rate_plant(100.0, 0.0127, 0.004));
+    let m = &v["margins"];
+    let (ca, cx) = (m["disk_alpha"].as_f64().unwrap(), m["crossover_hz"].as_f64().unwrap());
+    assert!((alpha / ca - 1.0).abs() < 1e-3, "alpha {alpha} vs claimed {ca}");
+    assert!((xo / cx - 1.0).abs() < 1e-3, "crossover {xo} vs claimed {cx}");
+    assert!(v["loop"]["extra_delay_s"].as_f64().unwrap() > 0.0);
+}
+
+/// PID-Analyzer's smooth-tune log (Betaflight 3.1.5, no setpoint field): the model explains the
+/// flown step once the setpoint comes through the 3.x rate curve and the D-term filters are read
+/// under their 3.x names; every axis answers in one run; a roll proposal is neither slower nor less
+/// robust than P14 I10 D18 (or the verdict is to keep it), its noise is within the budget, and its
+/// claimed margins recompute from the JSON.
+#[test]
+fn smooth_tune_log_is_never_made_worse() {
+    let log = format!(
+        "{}/../../testdata/logs/pid-analyzer_example_smooth_tune.BBL",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let all = json(&["tune", &log, "--firmware", "betaflight", "--json"]);
+    for ax in ["roll", "pitch", "yaw"] {
+        assert!(all["axes"][ax].is_object(), "{ax}: {all}");
+    }
+    let v = &all["axes"]["roll"];
+    assert_eq!(v["current"]["gains"]["p"], 14);
+    assert!(
+        v["causal_step_rms"].as_f64().unwrap() <= 0.25,
+        "{}",
+        v["causal_step_rms"]
+    );
+    assert!(v["notes"].to_string().contains("rate curve"));
+    assert!(
+        v["filters"].to_string().contains("dterm_lowpass: PT1 at 100 Hz"),
+        "{}",
+        v["filters"]
+    );
+    let kind = v["verdict"]["kind"].as_str().unwrap();
+    assert!(kind == "keep" || kind == "propose", "{}", v["verdict"]);
+    let (cur, pro) = (&v["current"]["margins"], &v["proposed"]["margins"]);
+    let f = |m: &Value, k: &str| m[k].as_f64().unwrap();
+    assert!(f(pro, "crossover_hz") >= 0.999 * f(cur, "crossover_hz"));
+    assert!(f(pro, "disk_alpha") >= f(cur, "disk_alpha") - 1e-3);
+    assert!(v["noise"]["ratio"].as_f64().unwrap() <= 1.25 + 1e-9);
+    assert!(v["front"].as_array().unwrap().len() >= 3, "{}", v["front"]);
+    let id = &v["identification"]["params"];
+    let p = rate_plant(
+        id["K"].as_f64().unwrap(),
+        id["tau"].as_f64().unwrap(),
+        id["Td"].as_f64().unwrap(),
+    );
+    let (alpha, xo) = recompute_from_json(v, p);
+    assert!(
+        (alpha / f(&v["margins"], "disk_alpha") - 1.0).abs() < 1e-3,
+        "{alpha} vs {}",
+        v["margins"]
+    );
+    assert!(
+        (xo / f(&v["margins"], "crossover_hz") - 1.0).abs() < 1e-3,
+        "{xo} vs {}",
+        v["margins"]
+    );
+}

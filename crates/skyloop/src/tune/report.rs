@@ -237,7 +237,8 @@ pub fn write_log_outputs(out: &super::log::LogTuneOutcome, dir: &Path) -> Result
         )
     });
     bode.save(&dir.join("loop_bode.png"))?;
-    let mut rep = Report::new("skyloop tune: current and proposed gains");
+    let mut rep = Report::new(format!("skyloop tune, {}: flown and proposed gains", out.axis.name()));
+    verdict_section(&mut rep, out);
     let sec = rep.section("Identified plant");
     let mut rows: Vec<(&str, String)> = out
         .params
@@ -387,4 +388,76 @@ pub fn write_log_outputs(out: &super::log::LogTuneOutcome, dir: &Path) -> Result
     }
     rep.save(&dir.join("report.html"))?;
     Ok(())
+}
+
+/// The report's first section: the verdict, the gains flown / proposed / change in rows, the
+/// predicted motor noise and the trade-off front.
+fn verdict_section(rep: &mut Report, out: &super::log::LogTuneOutcome) {
+    let sec = rep.section("Verdict");
+    sec.text(out.verdict.text.clone());
+    let rows_of = |g: &serde_json::Value| -> Vec<(String, f64)> {
+        g.as_object()
+            .map(|m| m.iter().filter_map(|(k, v)| Some((k.clone(), v.as_f64()?))).collect())
+            .unwrap_or_default()
+    };
+    let flown = out.current.as_ref().map(|c| rows_of(&c.gains)).unwrap_or_default();
+    let mut rows: Vec<Vec<String>> = rows_of(&out.proposed_analysis.gains)
+        .into_iter()
+        .map(|(k, v)| {
+            let f = flown.iter().find(|(n, _)| *n == k).map(|x| x.1);
+            vec![
+                k.to_uppercase(),
+                f.map(|x| x.to_string()).unwrap_or_else(|| "-".into()),
+                v.to_string(),
+                f.map(|x| super::verdict::pct(v, x)).unwrap_or_default(),
+            ]
+        })
+        .collect();
+    if let Some(c) = &out.current {
+        let p = &out.proposed_analysis;
+        for (name, a, b) in [
+            ("crossover [Hz]", c.margins.crossover_hz, p.margins.crossover_hz),
+            ("disk margin α", c.margins.disk_alpha, p.margins.disk_alpha),
+            ("disk α, worst case", c.worst.disk_alpha, p.worst.disk_alpha),
+            (
+                "phase margin [deg]",
+                c.margins.phase_margin_deg,
+                p.margins.phase_margin_deg,
+            ),
+        ] {
+            rows.push(vec![
+                name.into(),
+                format!("{a:.3}"),
+                format!("{b:.3}"),
+                super::verdict::pct(b, a),
+            ]);
+        }
+    }
+    if let Some(n) = &out.noise {
+        rows.push(vec![
+            format!("motor noise {:.0}–{:.0} Hz (relative)", n.band_hz.0, n.band_hz.1),
+            "1".into(),
+            format!("{:.2}", n.ratio()),
+            super::verdict::pct(n.ratio(), 1.0),
+        ]);
+    }
+    sec.table(&["", "flown", "proposed", "change"], rows);
+    if !out.front.is_empty() {
+        sec.text("Trade-off front within the bounded change (screened on the frequency grid):");
+        sec.table(
+            &["gains", "crossover [Hz]", "disk α", "worst α", "noise ×"],
+            out.front
+                .iter()
+                .map(|(g, sc, r)| {
+                    vec![
+                        g.to_string(),
+                        format!("{:.1}", sc.crossover_hz),
+                        format!("{:.2}", sc.alpha),
+                        format!("{:.2}", sc.alpha_worst),
+                        format!("{r:.2}"),
+                    ]
+                })
+                .collect(),
+        );
+    }
 }
