@@ -119,53 +119,74 @@ pub fn bode_figure(title: &str, data: &[BodeData], marks: &BodeMarks) -> Figure 
 /// Builds the two-panel Bode figure with explicit phase-axis options. System `k` of `data` has
 /// palette colour `k` in both panels.
 pub fn bode_figure_with(title: &str, data: &[BodeData], marks: &BodeMarks, opts: &BodeOptions) -> Figure {
+    bode_figure_marked(title, data, std::slice::from_ref(marks), opts)
+}
+
+/// Builds the two-panel Bode figure with the margins of several systems: `marks[k]` belongs to
+/// system `k` of `data` and is drawn in its colour (its labels name the system when there are
+/// several), so two tunes' crossovers and margins can be compared on one plot.
+pub fn bode_figure_marked(title: &str, data: &[BodeData], marks: &[BodeMarks], opts: &BodeOptions) -> Figure {
     let (mut mag, mut phase) = bode_panels(data, opts);
     // The frequency axis is described once, under the phase (the panels share it).
     mag.x_label.clear();
-    if let Some(wc) = marks.crossover_hz {
-        mag.markers.push(Marker::Vertical {
-            x: wc,
-            label: format!("crossover {}", hz(wc)),
-        });
+    let named = |k: usize, text: String| -> String {
+        match data.get(k) {
+            Some(d) if marks.len() > 1 && !d.label.is_empty() => format!("{}: {text}", d.label),
+            _ => text,
+        }
+    };
+    for (k, m) in marks.iter().enumerate() {
+        if let Some(wc) = m.crossover_hz {
+            mag.markers.push(Marker::Vertical {
+                x: wc,
+                label: named(k, format!("crossover {}", hz(wc))),
+            });
+        }
+        // As MATLAB's `margin` draws them: the margins as solid segments from the curve to the
+        // critical level (0 dB, −180°), in the colour of the system whose margins they are.
+        if let Some((gm, f)) = m.gain_margin.filter(|(g, f)| g.is_finite() && f.is_finite()) {
+            mag.series.push(Series::line("", vec![f, f], vec![-gm, 0.0]).colored(k));
+        }
+        if let Some((pm, f)) = m.phase_margin.filter(|(p, f)| p.is_finite() && f.is_finite()) {
+            // The −180° nearest the curve there (the phase may sit a turn lower).
+            let at = data.get(k).and_then(|d| {
+                d.freq_hz
+                    .iter()
+                    .zip(&d.phase_deg)
+                    .min_by(|a, b| (a.0 - f).abs().total_cmp(&(b.0 - f).abs()))
+                    .map(|(_, p)| *p)
+            });
+            let base = at.map_or(-180.0, |p| -180.0 + 360.0 * ((p - pm + 180.0) / 360.0).round());
+            phase
+                .series
+                .push(Series::line("", vec![f, f], vec![base, base + pm]).colored(k));
+        }
+        if let Some((pm, f)) = m.phase_margin {
+            phase.markers.push(Marker::Vertical {
+                x: f,
+                label: named(k, format!("PM {pm:.1}° at {}", hz(f))),
+            });
+        }
+        if let Some((gm, f)) = m.gain_margin {
+            mag.markers.push(Marker::Vertical {
+                x: f,
+                label: named(k, format!("GM {gm:.2} dB at {}", hz(f))),
+            });
+        }
     }
-    if marks.crossover_hz.is_some() || marks.gain_margin.is_some() {
+    if marks
+        .iter()
+        .any(|m| m.crossover_hz.is_some() || m.gain_margin.is_some())
+    {
         mag.markers.push(Marker::Horizontal {
             y: 0.0,
             label: "0 dB".into(),
         });
     }
-    // As MATLAB's `margin` draws them: the margins as solid segments from the curve to the critical
-    // level (0 dB, −180°), in the colour of the first system, whose margins they are.
-    if let Some((gm, f)) = marks.gain_margin.filter(|(g, f)| g.is_finite() && f.is_finite()) {
-        mag.series.push(Series::line("", vec![f, f], vec![-gm, 0.0]).colored(0));
-    }
-    if let Some((pm, f)) = marks.phase_margin.filter(|(p, f)| p.is_finite() && f.is_finite()) {
-        // The −180° nearest the curve there (the phase may sit a turn lower).
-        let at = data.first().and_then(|d| {
-            d.freq_hz
-                .iter()
-                .zip(&d.phase_deg)
-                .min_by(|a, b| (a.0 - f).abs().total_cmp(&(b.0 - f).abs()))
-                .map(|(_, p)| *p)
-        });
-        let base = at.map_or(-180.0, |p| -180.0 + 360.0 * ((p - pm + 180.0) / 360.0).round());
-        phase
-            .series
-            .push(Series::line("", vec![f, f], vec![base, base + pm]).colored(0));
-    }
-    if let Some((pm, f)) = marks.phase_margin {
-        phase.markers.push(Marker::Vertical {
-            x: f,
-            label: format!("PM {pm:.1}° at {}", hz(f)),
-        });
-    }
-    if let Some((gm, f)) = marks.gain_margin {
-        mag.markers.push(Marker::Vertical {
-            x: f,
-            label: format!("GM {gm:.2} dB at {}", hz(f)),
-        });
-    }
-    if marks.gain_margin.is_some() || marks.phase_margin.is_some() {
+    if marks
+        .iter()
+        .any(|m| m.gain_margin.is_some() || m.phase_margin.is_some())
+    {
         phase.markers.push(Marker::Horizontal {
             y: -180.0,
             label: "-180°".into(),

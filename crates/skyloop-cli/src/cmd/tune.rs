@@ -160,6 +160,14 @@ fn run_log(log: std::path::PathBuf, a: &Args) -> skyloop::Result<()> {
             Err(e) => outs.push(Err((*axis, e))),
         }
     }
+    // No axis answered: the request itself is at fault (a firmware that does not match the log, a
+    // log without flight); its first error is the command's.
+    if outs.iter().all(|o| o.is_err()) {
+        if let Some(Err((_, e))) = outs.into_iter().next() {
+            return Err(e);
+        }
+        return Err(skyloop::Error::Input("no axis to tune".into()));
+    }
     eprintln!(
         "[{}] report …",
         if axes.len() == 1 { axes[0].name() } else { "all axes" }
@@ -334,6 +342,18 @@ fn print_log_outcome(out: &LogTuneOutcome) {
             "no measured step: {}",
             out.measured_step_error.as_deref().unwrap_or("unknown")
         ),
+    }
+    if let Some(c) = &out.closed_loop {
+        println!(
+            "model check: closed loop setpoint → gyro of the flown tune, {:.1}–{:.1} Hz: measured peak {:.1} dB at {:.1} Hz, predicted {:.1} dB at {:.1} Hz, RMS difference {:.1} dB",
+            c.freq_hz.first().copied().unwrap_or(0.0),
+            c.freq_hz.last().copied().unwrap_or(0.0),
+            c.measured_peak.0,
+            c.measured_peak.1,
+            c.predicted_peak.0,
+            c.predicted_peak.1,
+            c.rms_db
+        );
     }
     if let (Some(m), Some(r)) = (&out.causal_step, out.causal_step_rms) {
         println!(

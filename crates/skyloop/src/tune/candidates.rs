@@ -148,12 +148,17 @@ impl Screen {
 
     /// Predicted motor-command noise power of gains `k`: Σ |C_fb(j2πf)|²·S_gyro(f)·Δf.
     pub fn noise(&self, k: [f64; 3]) -> f64 {
+        self.noise_terms(k).into_iter().sum()
+    }
+
+    /// The terms of [`noise`](Self::noise), one per noise-grid point: |C_fb(j2πf)|²·S_gyro(f)·Δf.
+    pub fn noise_terms(&self, k: [f64; 3]) -> Vec<f64> {
         (0..self.noise_weight.len())
             .map(|i| {
                 let c = self.noise_basis[0][i] * k[0] + self.noise_basis[1][i] * k[1] + self.noise_basis[2][i] * k[2];
                 c.norm_sqr() * self.noise_weight[i]
             })
-            .sum()
+            .collect()
     }
 }
 

@@ -29,6 +29,7 @@ pub mod feedforward;
 pub mod fir_step;
 pub mod flight;
 pub mod log;
+pub mod model_check;
 pub mod noise;
 pub mod report;
 pub mod verdict;

@@ -107,6 +107,25 @@ pub struct NoiseReport {
     pub bands: Vec<((f64, f64), f64, f64)>,
     /// Logged D-term power over predicted, flown tune, noise band (1: the prediction holds).
     pub dterm_check: Option<f64>,
+    /// Spectra for the report, from 1 Hz to Nyquist: frequency (Hz), the gyro PSD, and the
+    /// predicted PID-output PSD of the flown and the proposed tune (units²/Hz), and the logged
+    /// D term's PSD where logged.
+    pub spectra: Spectra,
+}
+
+/// The noise spectra a report draws (see [`NoiseReport::spectra`]).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Spectra {
+    /// Frequencies, Hz.
+    pub freq_hz: Vec<f64>,
+    /// Gyro PSD, (gyro unit)²/Hz.
+    pub gyro: Vec<f64>,
+    /// Predicted PID-output PSD of the flown tune.
+    pub flown: Vec<f64>,
+    /// Predicted PID-output PSD of the proposal.
+    pub proposed: Vec<f64>,
+    /// The logged D term's PSD (empty when not logged).
+    pub dterm: Vec<f64>,
 }
 
 impl NoiseReport {
@@ -128,6 +147,13 @@ impl NoiseReport {
                 "ratio": p / f.max(f64::MIN_POSITIVE),
             })).collect::<Vec<_>>(),
             "dterm_check": self.dterm_check,
+            "spectra": {
+                "freq_hz": self.spectra.freq_hz,
+                "gyro_psd": self.spectra.gyro,
+                "flown_output_psd": self.spectra.flown,
+                "proposed_output_psd": self.spectra.proposed,
+                "dterm_psd": self.spectra.dterm,
+            },
         })
     }
 }

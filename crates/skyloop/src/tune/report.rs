@@ -8,7 +8,7 @@ use skyloop_lti::freqresp::{dynamics_range, logspace};
 use skyloop_lti::interconnect::{feedback, series};
 use skyloop_lti::json::LtiJson;
 use skyloop_lti::{c64, Mat, StateSpace};
-use skyloop_plot::bode::{bode_figure, BodeMarks};
+use skyloop_plot::bode::{bode_figure, bode_figure_marked, BodeMarks};
 use skyloop_plot::nyquist::{nyquist_figure, NyquistData};
 use skyloop_plot::traces::{traces_figure, Trace, TracePanel};
 use skyloop_plot::Report;
@@ -169,16 +169,24 @@ pub fn write_log_outputs(out: &super::log::LogTuneOutcome, dir: &Path) -> Result
             im: l.iter().map(|z| z.im).collect(),
         });
     }
-    let m = &out.proposed_analysis.margins;
     let fin = |x: f64| x.is_finite().then_some(x);
-    let bode = bode_figure(
-        "Loop transfer L = P·C_fb, current and proposed (identified plant, exact delay)",
+    // Both tunes' crossovers and margins, each in its curve's colour.
+    let marks: Vec<BodeMarks> = tunes
+        .iter()
+        .map(|(_, t)| {
+            let m = &t.margins;
+            BodeMarks {
+                crossover_hz: fin(m.crossover_hz),
+                gain_margin: None,
+                phase_margin: fin(m.phase_margin_deg).zip(fin(m.crossover_hz)),
+            }
+        })
+        .collect();
+    let bode = bode_figure_marked(
+        "Loop transfer L = P·C_fb, flown and proposed (identified plant, exact delay)",
         &bode_series,
-        &BodeMarks {
-            crossover_hz: fin(m.crossover_hz),
-            gain_margin: None,
-            phase_margin: fin(m.phase_margin_deg).zip(fin(m.crossover_hz)),
-        },
+        &marks,
+        &skyloop_plot::bode::BodeOptions::default(),
     );
     let nyquist = nyquist_figure("Nyquist plot of L, current and proposed", &nyq, Some(3.0));
     let mut traces: Vec<Trace> = tunes
@@ -239,6 +247,17 @@ pub fn write_log_outputs(out: &super::log::LogTuneOutcome, dir: &Path) -> Result
     bode.save(&dir.join("loop_bode.png"))?;
     let mut rep = Report::new(format!("skyloop tune, {}: flown and proposed gains", out.axis.name()));
     verdict_section(&mut rep, out);
+    if let Some(n) = &out.noise {
+        rep.section("Noise").figure(
+            noise_figure(n),
+            format!(
+                "The logged gyro's spectrum and the PID output it makes through each tune's C_fb (predicted; the logged D term beside it where logged). Motor noise is compared over {:.0}–{:.0} Hz: proposed/flown power {:.2}.",
+                n.band_hz.0,
+                n.band_hz.1,
+                n.ratio()
+            ),
+        );
+    }
     let sec = rep.section("Identified plant");
     let mut rows: Vec<(&str, String)> = out
         .params
@@ -460,4 +479,27 @@ fn verdict_section(rep: &mut Report, out: &super::log::LogTuneOutcome) {
                 .collect(),
         );
     }
+}
+
+/// The noise spectra in dB: gyro, predicted PID output of both tunes, the logged D term.
+fn noise_figure(n: &super::noise::NoiseReport) -> skyloop_plot::figure::Figure {
+    use skyloop_plot::figure::{Figure, Panel, Series};
+    let db = |v: &[f64]| v.iter().map(|x| 10.0 * x.max(1e-30).log10()).collect::<Vec<_>>();
+    let sp = &n.spectra;
+    let mut panel = Panel::frequency("PSD [dB re unit²/Hz]");
+    panel
+        .series
+        .push(Series::line("gyro (logged)", sp.freq_hz.clone(), db(&sp.gyro)).colored(2));
+    panel
+        .series
+        .push(Series::line("PID output, flown (predicted)", sp.freq_hz.clone(), db(&sp.flown)).colored(0));
+    panel
+        .series
+        .push(Series::line("PID output, proposed (predicted)", sp.freq_hz.clone(), db(&sp.proposed)).colored(1));
+    if sp.dterm.len() == sp.freq_hz.len() {
+        panel
+            .series
+            .push(Series::line("D term, flown (logged)", sp.freq_hz.clone(), db(&sp.dterm)).colored(3));
+    }
+    Figure::new("Noise: the logged gyro and the PID output it makes", vec![panel])
 }
