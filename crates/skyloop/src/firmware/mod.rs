@@ -24,6 +24,78 @@ use skyloop_lti::interconnect::series;
 use skyloop_lti::{Mat, StateSpace};
 use std::f64::consts::PI;
 
+/// The flight-control firmware whose controller structure, gains and pasteable lines a tune uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Firmware {
+    /// Betaflight PIDF (integers p, i, d, f).
+    Betaflight,
+    /// PX4 multicopter rate PID (MC_*RATE_*).
+    Px4,
+    /// ArduPilot multicopter rate PID (ATC_RAT_*).
+    Ardupilot,
+    /// C = kp + ki/s + kd·s/(tf·s + 1) in the plant's units.
+    Generic,
+}
+
+impl Firmware {
+    /// Parses "betaflight", "px4", "ardupilot" or "generic".
+    ///
+    /// # Errors
+    /// Any other text.
+    pub fn parse(s: &str) -> Result<Self> {
+        match s {
+            "betaflight" => Ok(Firmware::Betaflight),
+            "px4" => Ok(Firmware::Px4),
+            "ardupilot" => Ok(Firmware::Ardupilot),
+            "generic" => Ok(Firmware::Generic),
+            _ => Err(Error::Input(format!(
+                "--firmware must be betaflight, px4, ardupilot or generic, got `{s}`"
+            ))),
+        }
+    }
+
+    /// The name `--firmware` takes.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Firmware::Betaflight => "betaflight",
+            Firmware::Px4 => "px4",
+            Firmware::Ardupilot => "ardupilot",
+            Firmware::Generic => "generic",
+        }
+    }
+
+    /// The name a pilot knows it by ("Betaflight", "PX4", ...).
+    pub fn display_name(&self) -> &'static str {
+        match self {
+            Firmware::Betaflight => "Betaflight",
+            Firmware::Px4 => "PX4",
+            Firmware::Ardupilot => "ArduPilot",
+            Firmware::Generic => "generic",
+        }
+    }
+
+    /// The firmware that wrote `log` (None: a CSV file, which names none).
+    pub fn of_log(log: &skyloop_sysid::logs::Log) -> Option<Firmware> {
+        use skyloop_sysid::logs::flight::FlightFirmware;
+        match FlightFirmware::of(log).ok()? {
+            FlightFirmware::Betaflight => Some(Firmware::Betaflight),
+            FlightFirmware::Px4 => Some(Firmware::Px4),
+        }
+    }
+
+    /// The units of its logged rate loop, for the 6-DOF check: (gyro unit in rad/s, largest
+    /// controller output), None for a firmware whose log units are not known.
+    pub fn flight_units(&self) -> Option<(f64, f64)> {
+        match self {
+            // gyroADC in deg/s; the PID sum is limited to ±500 (pidsum_limit).
+            Firmware::Betaflight => Some((PI / 180.0, 500.0)),
+            // rad/s; normalized torque in [−1, 1].
+            Firmware::Px4 => Some((1.0, 1.0)),
+            Firmware::Ardupilot | Firmware::Generic => None,
+        }
+    }
+}
+
 /// Interprets a freshly read log for the firmware that wrote it: channels the firmware computes but
 /// does not record are derived (Betaflight 3.x: the setpoint from rcCommand through the rate
 /// curve). Returns notes saying what was derived.

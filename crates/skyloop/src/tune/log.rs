@@ -251,24 +251,19 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
     )?;
     let derived = crate::firmware::prepare_log(&mut log);
     let id = identify_log(&log, &idreq)?;
-    let log_fw = id.preset.as_ref().map(|p| p.0.clone()).unwrap_or_default();
-    match (req.firmware, log_fw.as_str()) {
-        (Firmware::Betaflight, "Betaflight") | (Firmware::Px4, "PX4") | (Firmware::Generic, _) => {}
-        (Firmware::Ardupilot, l) => {
-            return Err(Error::Input(format!(
-                "--firmware ardupilot does not match the log, which is a {l} log (ArduPilot DataFlash logs are not read yet: identify the axis elsewhere and give --plant)"
-            )))
-        }
-        (f, l) => {
-            return Err(Error::Input(format!(
+    let log_fw = Firmware::of_log(&log);
+    if req.firmware != Firmware::Generic && log_fw != Some(req.firmware) {
+        let l = log_fw.map_or("CSV", |f| f.display_name());
+        return Err(Error::Input(if req.firmware == Firmware::Ardupilot {
+            format!(
+                "--firmware ardupilot does not match the log, which is a {l} log (ArduPilot DataFlash logs are not tuned from yet: identify the axis elsewhere and give --plant)"
+            )
+        } else {
+            format!(
                 "--firmware {} does not match the log, which is a {l} log",
-                match f {
-                    Firmware::Betaflight => "betaflight",
-                    Firmware::Px4 => "px4",
-                    Firmware::Ardupilot | Firmware::Generic => "generic",
-                }
-            )))
-        }
+                req.firmware.name()
+            )
+        }));
     }
     let (_, fit) = id
         .fit
@@ -472,9 +467,8 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
     let held: Vec<StateSpace> = plants.iter().map(|p| with_hold(p, loop_hz)).collect::<Result<_>>()?;
     // The nonlinear check flies the identified axis with the log's own units and limits:
     // (loop rate, gyro unit in rad/s, output limit).
-    let flight_units = match log_fw.as_str() {
-        "Betaflight" => Some((treq.betaflight.loop_hz, std::f64::consts::PI / 180.0, 500.0)),
-        "PX4" => Some((treq.px4.loop_hz, 1.0, 1.0)),
+    let flight_units = match (log_fw.and_then(|f| f.flight_units()), loop_hz) {
+        (Some((unit, limit)), Some(hz)) => Some((hz, unit, limit)),
         _ => None,
     };
     let flight_setup = flight_units.map(|(loop_hz, gyro_unit_rad_s, output_limit)| FlightSetup {
@@ -546,7 +540,7 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
         (Some(g), Some(cur)) => {
             let spans: Vec<(f64, f64)> = id.segments.iter().map(|s| (s.from_s, s.to_s)).collect();
             let dterm = format!("axisD[{ax}]");
-            let dterm = (log_fw == "Betaflight" && log.series(&dterm).is_ok()).then_some(dterm.as_str());
+            let dterm = log.series(&dterm).is_ok().then_some(dterm.as_str());
             let gn = noise::measure(&log, &id.output, dterm, &spans, cur.margins.crossover_hz)?;
             if let Some(why) = &refusal {
                 let mut out = outcome_for_gains(g, &held, &req.goals, Vec::new())?;

@@ -34,36 +34,7 @@ pub mod noise;
 pub mod report;
 pub mod verdict;
 
-/// Which firmware's controller structure and gains.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Firmware {
-    /// Betaflight PIDF (integers p, i, d, f).
-    Betaflight,
-    /// PX4 multicopter rate PID (MC_*RATE_*).
-    Px4,
-    /// ArduPilot multicopter rate PID (ATC_RAT_*).
-    Ardupilot,
-    /// C = kp + ki/s + kd·s/(tf·s + 1) in the plant's units.
-    Generic,
-}
-
-impl Firmware {
-    /// Parses "betaflight", "px4", "ardupilot" or "generic".
-    ///
-    /// # Errors
-    /// Any other text.
-    pub fn parse(s: &str) -> Result<Self> {
-        match s {
-            "betaflight" => Ok(Firmware::Betaflight),
-            "px4" => Ok(Firmware::Px4),
-            "ardupilot" => Ok(Firmware::Ardupilot),
-            "generic" => Ok(Firmware::Generic),
-            _ => Err(Error::Input(format!(
-                "--firmware must be betaflight, px4 or generic (or ardupilot), got `{s}`"
-            ))),
-        }
-    }
-}
+pub use crate::firmware::Firmware;
 
 /// The generic controller's structure.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

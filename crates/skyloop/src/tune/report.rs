@@ -154,7 +154,7 @@ pub fn write_log_outputs(out: &super::log::LogTuneOutcome, dir: &Path) -> Result
     let plant = response(&p.loop_plant, &f_hz)?;
     let mut tunes: Vec<(&str, &TuneAnalysis)> = Vec::new();
     if let Some(c) = &out.current {
-        tunes.push(("current", c));
+        tunes.push(("flown", c));
     }
     tunes.push(("proposed", &out.proposed_analysis));
     let mut bode_series = Vec::new();
@@ -188,7 +188,7 @@ pub fn write_log_outputs(out: &super::log::LogTuneOutcome, dir: &Path) -> Result
         &marks,
         &skyloop_plot::bode::BodeOptions::default(),
     );
-    let nyquist = nyquist_figure("Nyquist plot of L, current and proposed", &nyq, Some(3.0));
+    let nyquist = nyquist_figure("Nyquist plot of L, flown and proposed", &nyq, Some(3.0));
     let mut traces: Vec<Trace> = tunes
         .iter()
         .map(|(name, t)| Trace {
@@ -274,12 +274,12 @@ pub fn write_log_outputs(out: &super::log::LogTuneOutcome, dir: &Path) -> Result
         rows.push(("WARNING", w.clone()));
     }
     sec.key_values(&rows);
-    let sec = rep.section("Current vs proposed");
+    let sec = rep.section("Flown vs proposed");
     let cur = out.current.as_ref();
     let pro = &out.proposed_analysis;
     let both = |f: &dyn Fn(&TuneAnalysis) -> String| {
         format!(
-            "current {}  |  proposed {}",
+            "flown {}  |  proposed {}",
             cur.map(f).unwrap_or_else(|| "-".into()),
             f(pro)
         )
@@ -461,6 +461,9 @@ fn verdict_section(rep: &mut Report, out: &super::log::LogTuneOutcome) {
         ]);
     }
     sec.table(&["", "flown", "proposed", "change"], rows);
+    if let Some(n) = out.notes.iter().find(|n| n.starts_with("d_min ")) {
+        sec.text(format!("D: {n}; the change of D is against the header's d."));
+    }
     if !out.front.is_empty() {
         sec.text("Trade-off front within the bounded change (screened on the frequency grid):");
         sec.table(
