@@ -96,6 +96,23 @@ impl Firmware {
     }
 }
 
+/// Reads a log (blackbox `session` counted from 1; None: the longest) and prepares it for its
+/// firmware ([`prepare_log`]); returns it with the notes of what was derived.
+///
+/// # Errors
+/// An unreadable or unrecognised file.
+pub fn open_log(path: &std::path::Path, session: Option<usize>) -> Result<(skyloop_sysid::logs::Log, Vec<String>)> {
+    let mut log = skyloop_sysid::logs::Log::open(
+        path,
+        &skyloop_sysid::logs::OpenOptions {
+            session,
+            ..Default::default()
+        },
+    )?;
+    let notes = prepare_log(&mut log);
+    Ok((log, notes))
+}
+
 /// Interprets a freshly read log for the firmware that wrote it: channels the firmware computes but
 /// does not record are derived (Betaflight 3.x: the setpoint from rcCommand through the rate
 /// curve). Returns notes saying what was derived.

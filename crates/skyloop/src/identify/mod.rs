@@ -27,7 +27,7 @@ use report::fit_warnings;
 use request::{apply_bounds, fit_options, param_specs};
 use skyloop_sysid::fit::{evaluate, fit_expr, fit_tf, DelaySpec, FitOptions, FitResult, ParamSpec};
 use skyloop_sysid::logs::flight::{airborne_segments, Axis, Span};
-use skyloop_sysid::logs::{median_rate_hz, segments_where, Condition, Log, LogFormat, OpenOptions};
+use skyloop_sysid::logs::{median_rate_hz, segments_where, Condition, Log, LogFormat};
 use skyloop_sysid::spectral::{default_nfft_records, estimate, estimate_records, Frf, IoData, Method, Options, Window};
 
 /// The channels a column spec (a channel, or channels joined by + and −) reads.
@@ -122,14 +122,7 @@ pub fn identify(a: &IdentifyRequest) -> Result<Identification> {
             a.blocks
         )));
     }
-    let mut log = Log::open(
-        &a.data,
-        &OpenOptions {
-            session: a.session,
-            ..Default::default()
-        },
-    )?;
-    let derived = crate::firmware::prepare_log(&mut log);
+    let (log, derived) = crate::firmware::open_log(&a.data, a.session)?;
     let mut id = identify_log(&log, a)?;
     id.notes.extend(derived);
     Ok(id)

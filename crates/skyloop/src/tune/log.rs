@@ -35,7 +35,7 @@ use skyloop_lti::interconnect::{feedback, series};
 use skyloop_lti::{c64, StateSpace};
 use skyloop_robust::structured::verify::{check_loop, sampled_peak, LoopCheck};
 use skyloop_sysid::logs::tuning::{self as fw, FirmwareTuning};
-use skyloop_sysid::logs::{Log, OpenOptions};
+use skyloop_sysid::logs::Log;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
@@ -242,14 +242,7 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
         fmax_hz: req.fmax_hz,
         ..Default::default()
     };
-    let mut log = Log::open(
-        &req.log,
-        &OpenOptions {
-            session: req.session,
-            ..Default::default()
-        },
-    )?;
-    let derived = crate::firmware::prepare_log(&mut log);
+    let (log, derived) = crate::firmware::open_log(&req.log, req.session)?;
     let id = identify_log(&log, &idreq)?;
     let log_fw = Firmware::of_log(&log);
     if req.firmware != Firmware::Generic && log_fw != Some(req.firmware) {

@@ -321,16 +321,7 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
             }
         },
     };
-    let mut goals: Vec<Goal> = req.goals.iter().map(|g| parse_goal(g)).collect::<Result<_>>()?;
-    let mut defaults = Vec::new();
-    if !goals.iter().any(|g| g.req == Requirement::DiskMargin) {
-        goals.push(Goal::hard(
-            Requirement::DiskMargin,
-            Bound::AtLeast(0.5),
-            "disk_margin>=0.5 (default floor)",
-        ));
-        defaults.push("disk_margin>=0.5: the loop tolerates ±5.6 dB and ±28° at once".to_string());
-    }
+    let (mut goals, mut defaults) = goals_with_floor(&req.goals)?;
     if req.maximize != Maximize::IntegralGain && !goals.iter().any(|g| g.req == Requirement::IntegralCorner) {
         let (lo, hi) = DEFAULT_INTEGRAL_CORNER;
         goals.push(Goal::hard(
@@ -612,6 +603,25 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
     })
 }
 
+/// The user's goals parsed, with the default disk-margin floor α ≥ 0.5 added unless a disk-margin
+/// goal is given; returns the goals and the defaults stated.
+///
+/// # Errors
+/// A goal that does not parse (named).
+fn goals_with_floor(texts: &[String]) -> Result<(Vec<Goal>, Vec<String>)> {
+    let mut goals: Vec<Goal> = texts.iter().map(|g| parse_goal(g)).collect::<Result<_>>()?;
+    let mut defaults = Vec::new();
+    if !goals.iter().any(|g| g.req == Requirement::DiskMargin) {
+        goals.push(Goal::hard(
+            Requirement::DiskMargin,
+            Bound::AtLeast(0.5),
+            "disk_margin>=0.5 (default floor)",
+        ));
+        defaults.push("disk_margin>=0.5: the loop tolerates ±5.6 dB and ±28° at once".to_string());
+    }
+    Ok((goals, defaults))
+}
+
 /// The outcome of given firmware gains (no optimization): C_fb and its discrete form, the exact
 /// check of the nominal loop `held[0]` (hold included), the user's `goals` and the default disk floor
 /// evaluated over every plant of `held`, and the pilot's lines.
@@ -624,16 +634,7 @@ pub fn outcome_for_gains(
     goals: &[String],
     notes: Vec<String>,
 ) -> Result<TuneOutcome> {
-    let mut gl: Vec<Goal> = goals.iter().map(|t| parse_goal(t)).collect::<Result<_>>()?;
-    let mut defaults = Vec::new();
-    if !gl.iter().any(|x| x.req == Requirement::DiskMargin) {
-        gl.push(Goal::hard(
-            Requirement::DiskMargin,
-            Bound::AtLeast(0.5),
-            "disk_margin>=0.5 (default floor)",
-        ));
-        defaults.push("disk_margin>=0.5: the loop tolerates ±5.6 dB and ±28° at once".to_string());
-    }
+    let (gl, defaults) = goals_with_floor(goals)?;
     let prob = LoopTuning {
         plants: held.to_vec(),
         structure: Structure::new(g.block()?),
