@@ -20,7 +20,7 @@ use crate::error::{Error, Result};
 use serde::Serialize;
 use skyloop_lti::StateSpace;
 use skyloop_robust::structured::blocks::Block;
-use skyloop_sysid::logs::tuning::Rates;
+use skyloop_sysid::logs::tuning::{BetaflightTuning, Lowpass as HeaderLowpass, Rates};
 use skyloop_sysid::logs::{Channel, Log};
 
 /// `PTERM_SCALE` of Betaflight's pid.h.
@@ -68,6 +68,15 @@ impl Axis {
             "pitch" => Ok(Axis::Pitch),
             "yaw" => Ok(Axis::Yaw),
             _ => Err(Error::Input(format!("axis must be roll, pitch or yaw, got `{s}`"))),
+        }
+    }
+
+    /// 0, 1, 2 for roll, pitch, yaw (the order of the firmware's per-axis arrays).
+    pub fn index(&self) -> usize {
+        match self {
+            Axis::Roll => 0,
+            Axis::Pitch => 1,
+            Axis::Yaw => 2,
         }
     }
 
@@ -273,6 +282,142 @@ pub fn cli_lines(g: &Gains, axis: Axis) -> Vec<String> {
         format!("set f_{a} = {}", g.f),
         "save".to_string(),
     ]
+}
+
+/// The flown tune of one axis as a Betaflight header states it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FlownHeader {
+    /// The controller's filters (the D-term chain; the gyro chain is inside a plant identified from
+    /// the logged gyro) and the PID loop rate.
+    pub filters: Filters,
+    /// The header's gains and the D the firmware applies away from fast stick moves (d_min when
+    /// active); None when the header has no gains for the axis.
+    pub gains: Option<(Gains, u32)>,
+    /// The filter settings as a report lists them.
+    pub lines: Vec<String>,
+    /// What the analysis assumes.
+    pub notes: Vec<String>,
+}
+
+/// Reads the flown tune of `axis` from a Betaflight header (3.x and 4.x names).
+pub fn flown_from_header(b: &BetaflightTuning, axis: Axis, log: &Log) -> FlownHeader {
+    let (mut lines, mut notes) = (Vec::new(), Vec::new());
+    let mut dterm = Vec::new();
+    for (l, name) in [
+        (&b.dterm_lowpass, "dterm_lowpass"),
+        (&b.dterm_lowpass2, "dterm_lowpass2"),
+    ] {
+        if let Some(l) = l {
+            if let Some(lp) = lowpass_of(l, &mut notes, name) {
+                lines.push(format!(
+                    "{name}: {} at {} Hz (in the controller)",
+                    l.kind,
+                    lp.cutoff_hz()
+                ));
+                dterm.push(lp);
+            }
+        }
+    }
+    if let Some(n) = b.dterm_notch {
+        lines.push(format!(
+            "dterm_notch: {} Hz, cutoff {} Hz (in the controller)",
+            n.center_hz, n.cutoff_hz
+        ));
+        dterm.push(Lowpass::Notch(n.center_hz, n.cutoff_hz));
+    }
+    for (l, name) in [(&b.gyro_lowpass, "gyro_lowpass"), (&b.gyro_lowpass2, "gyro_lowpass2")] {
+        if let Some(l) = l {
+            lines.push(format!(
+                "{name}: {} at {} Hz{} (inside the identified plant: gyroADC is logged after it)",
+                l.kind,
+                l.cutoff_hz,
+                l.dynamic_hz
+                    .map(|(a, c)| format!(", dynamic {a}–{c} Hz"))
+                    .unwrap_or_default()
+            ));
+        }
+    }
+    if b.dynamic_notch.is_some() || b.rpm_filter.is_some() {
+        lines.push("dynamic notch / RPM filter: inside the identified plant (on the gyro)".into());
+    }
+    let loop_hz = b.pid_rate_hz.unwrap_or_else(|| {
+        notes.push("the header has no loop time: a 4 kHz PID loop is assumed".into());
+        4000.0
+    });
+    lines.push(format!("PID loop {loop_hz} Hz"));
+    let filters = Filters {
+        gyro: Vec::new(),
+        dterm,
+        loop_hz,
+    };
+    let mut gains = None;
+    if let Some(p) = b.pidf.get(axis.index()) {
+        let to_u = |v: f64| v.round().clamp(0.0, 1000.0) as u32;
+        let g = Gains {
+            p: to_u(p.p),
+            i: to_u(p.i),
+            d: to_u(p.d),
+            f: to_u(p.f.unwrap_or(0.0)),
+        };
+        // With d_min active (0 < d_min < d) Betaflight applies d_min and raises D towards d
+        // only in fast stick moves and prop wash: on the testdata acro flight the logged
+        // axisD follows DTERM_SCALE·d_min from gyroADC (tests/betaflight_log_scales.rs),
+        // 23 % below DTERM_SCALE·d. The flown tune is analysed with d_min.
+        let d_applied = match p.d_min {
+            Some(dm) if dm > 0.0 && dm < p.d => {
+                notes.push(format!(
+                    "d_min {dm} < d {}: the flown tune is analysed with D = d_min (what the firmware applies away from fast stick moves and prop wash; D rises towards d only there)",
+                    p.d
+                ));
+                to_u(dm)
+            }
+            _ => g.d,
+        };
+        gains = Some((g, d_applied));
+    }
+    notes.push("not modelled: TPA, anti-gravity, I-term relax, d_min's boost towards d, feedforward smoothing".into());
+    if let Some(w) = log
+        .setting("dtermSetpointWeight")
+        .and_then(|v| v.trim().parse::<f64>().ok())
+        .filter(|w| *w > 0.0)
+    {
+        // Betaflight 3.x differentiates c·setpoint − gyro, c growing with stick deflection
+        // up to dtermSetpointWeight/100: the setpoint path is faster than modelled here
+        // (the margins, on the feedback path, are not affected).
+        notes.push(format!(
+            "dtermSetpointWeight {w}: the 3.x D term also acts on the setpoint (weighted by stick deflection), not modelled in the reference path; the predicted setpoint → gyro response is slower than flown above a few Hz"
+        ));
+    }
+    FlownHeader {
+        filters,
+        gains,
+        lines,
+        notes,
+    }
+}
+
+/// The model of a header's lowpass stage (a dynamic one at the low end of its range: hover
+/// throttle, the most lag); None when it is off.
+fn lowpass_of(l: &HeaderLowpass, notes: &mut Vec<String>, name: &str) -> Option<Lowpass> {
+    let f = match l.dynamic_hz {
+        Some((lo, _)) => lo,
+        None => l.cutoff_hz,
+    };
+    if !(f > 0.0) {
+        return None;
+    }
+    Some(match l.kind.as_str() {
+        "PT1" => Lowpass::Pt1(f),
+        "PT2" => Lowpass::Pt2(f),
+        "PT3" => Lowpass::Pt3(f),
+        "BIQUAD" => Lowpass::Biquad(f),
+        other => {
+            notes.push(format!(
+                "{name}: unknown filter type {other}, modelled as PT1 at {f} Hz"
+            ));
+            Lowpass::Pt1(f)
+        }
+    })
 }
 
 #[cfg(test)]

@@ -16,6 +16,7 @@ use crate::firmware::betaflight::Axis;
 use serde::Serialize;
 use skyloop_lti::StateSpace;
 use skyloop_robust::structured::blocks::Block;
+use skyloop_sysid::logs::tuning::Px4Tuning;
 
 /// `MC_<AXIS>RATE_{K,P,I,D,FF}`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -127,6 +128,41 @@ pub fn cli_lines(g: &Gains, axis: Axis) -> Vec<String> {
         // The shortest text that reads back as the value: the analysis used exactly these numbers.
         .map(|(v, name)| format!("param set {name} {}", super::round6(*v)))
         .collect()
+}
+
+/// Reads the flown tune of `axis` from PX4's parameters: the controller's filters (IMU_DGYRO_CUTOFF
+/// on D; IMU_GYRO_CUTOFF is inside a plant identified from `vehicle_angular_velocity`) and loop
+/// rate, the gains (None when a parameter is missing), and the filter lines for a report.
+pub fn flown_from_header(p: &Px4Tuning, axis: Axis) -> (Filters, Option<Gains>, Vec<String>) {
+    let mut lines = Vec::new();
+    let loop_hz = p.gyro_rate_max_hz.filter(|&r| r > 0.0).unwrap_or(400.0);
+    let dgyro = p.dgyro_cutoff_hz.unwrap_or(30.0);
+    lines.push(format!("IMU_DGYRO_CUTOFF {dgyro} Hz (in the controller)"));
+    if let Some(g) = p.gyro_cutoff_hz {
+        lines.push(format!(
+            "IMU_GYRO_CUTOFF {g} Hz (inside the identified plant: vehicle_angular_velocity is logged after it)"
+        ));
+    }
+    lines.push(format!("rate loop {loop_hz} Hz"));
+    let filters = Filters {
+        gyro_cutoff_hz: 0.0,
+        dgyro_cutoff_hz: dgyro,
+        loop_hz,
+    };
+    let mut gains = None;
+    if let Some(r) = p.rate.get(axis.index()) {
+        if let (Some(pp), Some(ii), Some(dd)) = (r.p, r.i, r.d) {
+            let g = Gains {
+                k: r.k.unwrap_or(1.0),
+                p: pp,
+                i: ii,
+                d: dd,
+                ff: r.ff.unwrap_or(0.0),
+            };
+            gains = Some(g);
+        }
+    }
+    (filters, gains, lines)
 }
 
 #[cfg(test)]

@@ -27,14 +27,14 @@ use super::verdict::{proposal_text, Verdict, VerdictKind};
 use super::{outcome_for_gains, tune, with_hold, Firmware, GenericStructure, Maximize, TuneOutcome, TuneRequest};
 use crate::error::{Error, Result};
 use crate::firmware::betaflight::{self, Axis};
+use crate::firmware::px4;
 use crate::firmware::rate_gains::RateGains;
-use crate::firmware::{px4, Lowpass};
 use crate::identify::{identify_log, Identification, IdentifyRequest};
 use serde_json::{json, Value};
 use skyloop_lti::interconnect::{feedback, series};
 use skyloop_lti::{c64, StateSpace};
 use skyloop_robust::structured::verify::{check_loop, sampled_peak, LoopCheck};
-use skyloop_sysid::logs::tuning::{self as fw, FirmwareTuning};
+use skyloop_sysid::logs::tuning::FirmwareTuning;
 use skyloop_sysid::logs::Log;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -187,36 +187,6 @@ pub const FLIGHT_OVERSHOOT_MAX: f64 = 30.0;
 /// ([`MeasuredStep::acausal_fraction`]) for which the measured step is taken as unbiased.
 pub const ACAUSAL_MAX: f64 = 0.1;
 
-fn lowpass_of(l: &fw::Lowpass, notes: &mut Vec<String>, name: &str) -> Option<Lowpass> {
-    let f = match l.dynamic_hz {
-        Some((lo, _)) => lo,
-        None => l.cutoff_hz,
-    };
-    if !(f > 0.0) {
-        return None;
-    }
-    Some(match l.kind.as_str() {
-        "PT1" => Lowpass::Pt1(f),
-        "PT2" => Lowpass::Pt2(f),
-        "PT3" => Lowpass::Pt3(f),
-        "BIQUAD" => Lowpass::Biquad(f),
-        other => {
-            notes.push(format!(
-                "{name}: unknown filter type {other}, modelled as PT1 at {f} Hz"
-            ));
-            Lowpass::Pt1(f)
-        }
-    })
-}
-
-fn axis_index(a: Axis) -> usize {
-    match a {
-        Axis::Roll => 0,
-        Axis::Pitch => 1,
-        Axis::Yaw => 2,
-    }
-}
-
 /// The rate-loop model K·e^(−Td·s)/(s·(τ·s + 1)) with the given parameters.
 fn rate_model(k: f64, tau: f64, td: f64) -> Result<StateSpace> {
     // Rust prints f64 without exponents, which the expression parser reads.
@@ -225,7 +195,8 @@ fn rate_model(k: f64, tau: f64, td: f64) -> Result<StateSpace> {
     ))?)
 }
 
-/// Tunes from a log (see the module documentation).
+/// Tunes from a log (see the module documentation): read and identify, the flown tune from the
+/// header, the flown tune analysed and the model checked, candidates and verdict, warnings.
 ///
 /// # Errors
 /// An identification that fails (its error names the cause and the flags that change it), a
@@ -234,6 +205,58 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
     if !(req.sigma.is_finite() && (0.0..=5.0).contains(&req.sigma)) {
         return Err(Error::Input(format!("--sigma must be in 0..=5, got {}", req.sigma)));
     }
+    progress(req, "identify");
+    let mut idn = identify_stage(req)?;
+    let mut notes = std::mem::take(&mut idn.notes);
+    let hdr = header_stage(req, &idn, &mut notes)?;
+    progress(req, "the flown tune");
+    let fl = flown_stage(req, &idn, &hdr, &mut notes)?;
+    progress(req, "candidates and 6-DOF");
+    let pr = propose_stage(req, &idn, &hdr, &fl)?;
+    let warnings = warnings_of(req, &fl, &pr.analysis);
+    Ok(LogTuneOutcome {
+        params: BTreeMap::from([
+            ("K".to_string(), idn.k),
+            ("tau".to_string(), idn.tau),
+            ("Td".to_string(), idn.td),
+        ]),
+        identification: idn.id,
+        plant: idn.plant,
+        plants: idn.plants,
+        filters: hdr.filters,
+        current: fl.current,
+        proposed: pr.proposed,
+        proposed_analysis: pr.analysis,
+        measured_step: fl.measured_step,
+        measured_step_error: fl.measured_step_error,
+        model_step_rms: fl.model_step_rms,
+        causal_step: fl.causal_step,
+        causal_step_rms: fl.causal_step_rms,
+        notes,
+        warnings,
+        verdict: pr.verdict,
+        noise: pr.noise,
+        front: pr.front,
+        axis: req.axis,
+        closed_loop: fl.closed_loop,
+    })
+}
+
+/// Stage 1: the log read once, the axis identified, the nominal plant and its uncertainty set.
+struct Identified {
+    log: Log,
+    id: Identification,
+    /// (value, standard error) of K, tau, Td.
+    k: (f64, f64),
+    tau: (f64, f64),
+    td: (f64, f64),
+    plant: StateSpace,
+    plants: Vec<StateSpace>,
+    log_fw: Option<Firmware>,
+    notes: Vec<String>,
+}
+
+fn identify_stage(req: &LogTuneRequest) -> Result<Identified> {
     let idreq = IdentifyRequest {
         data: req.log.clone(),
         axis: Some(req.axis.name().to_string()),
@@ -310,10 +333,30 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
             req.sigma, k, dk, tau, dtau, td, dtd
         ));
     }
+    Ok(Identified {
+        log,
+        k: (k, sk),
+        tau: (tau, stau),
+        td: (td, std_),
+        plant,
+        plants,
+        log_fw,
+        notes,
+        id,
+    })
+}
 
-    // The header's tuning.
-    let header = FirmwareTuning::from_log(&log);
-    let ax = axis_index(req.axis);
+/// Stage 2: the flown tune from the header: the tuning request with the firmware's filters and
+/// loop rate, the filter lines for the report, and the flown gains.
+struct Header {
+    treq: TuneRequest,
+    filters: Vec<String>,
+    current_gains: Option<CurrentGains>,
+}
+
+fn header_stage(req: &LogTuneRequest, idn: &Identified, notes: &mut Vec<String>) -> Result<Header> {
+    let (log, plant, plants) = (&idn.log, &idn.plant, &idn.plants);
+    let header = FirmwareTuning::from_log(log);
     let mut filters = Vec::new();
     let mut treq = TuneRequest::new(plant.clone(), req.firmware);
     treq.extra_plants = plants[1..].to_vec();
@@ -327,122 +370,22 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
     let mut current_gains: Option<CurrentGains> = None;
     match (&header, req.firmware) {
         (Some(FirmwareTuning::Betaflight(b)), Firmware::Betaflight) => {
-            let mut dterm = Vec::new();
-            for (l, name) in [
-                (&b.dterm_lowpass, "dterm_lowpass"),
-                (&b.dterm_lowpass2, "dterm_lowpass2"),
-            ] {
-                if let Some(l) = l {
-                    if let Some(lp) = lowpass_of(l, &mut notes, name) {
-                        filters.push(format!(
-                            "{name}: {} at {} Hz (in the controller)",
-                            l.kind,
-                            lp.cutoff_hz()
-                        ));
-                        dterm.push(lp);
-                    }
-                }
-            }
-            if let Some(n) = b.dterm_notch {
-                filters.push(format!(
-                    "dterm_notch: {} Hz, cutoff {} Hz (in the controller)",
-                    n.center_hz, n.cutoff_hz
-                ));
-                dterm.push(Lowpass::Notch(n.center_hz, n.cutoff_hz));
-            }
-            for (l, name) in [(&b.gyro_lowpass, "gyro_lowpass"), (&b.gyro_lowpass2, "gyro_lowpass2")] {
-                if let Some(l) = l {
-                    filters.push(format!(
-                        "{name}: {} at {} Hz{} (inside the identified plant: gyroADC is logged after it)",
-                        l.kind,
-                        l.cutoff_hz,
-                        l.dynamic_hz
-                            .map(|(a, c)| format!(", dynamic {a}–{c} Hz"))
-                            .unwrap_or_default()
-                    ));
-                }
-            }
-            if b.dynamic_notch.is_some() || b.rpm_filter.is_some() {
-                filters.push("dynamic notch / RPM filter: inside the identified plant (on the gyro)".into());
-            }
-            let loop_hz = b.pid_rate_hz.unwrap_or_else(|| {
-                notes.push("the header has no loop time: a 4 kHz PID loop is assumed".into());
-                4000.0
-            });
-            filters.push(format!("PID loop {loop_hz} Hz"));
-            treq.betaflight = betaflight::Filters {
-                gyro: Vec::new(),
-                dterm,
-                loop_hz,
-            };
-            if let Some(p) = b.pidf.get(ax) {
-                let to_u = |v: f64| v.round().clamp(0.0, 1000.0) as u32;
-                let g = betaflight::Gains {
-                    p: to_u(p.p),
-                    i: to_u(p.i),
-                    d: to_u(p.d),
-                    f: to_u(p.f.unwrap_or(0.0)),
-                };
+            let h = betaflight::flown_from_header(b, req.axis, log);
+            filters = h.lines;
+            notes.extend(h.notes);
+            treq.betaflight = h.filters;
+            if let Some((g, d_applied)) = h.gains {
                 treq.betaflight_f = Some(g.f);
-                // With d_min active (0 < d_min < d) Betaflight applies d_min and raises D towards d
-                // only in fast stick moves and prop wash: on the testdata acro flight the logged
-                // axisD follows DTERM_SCALE·d_min from gyroADC (tests/betaflight_log_scales.rs),
-                // 23 % below DTERM_SCALE·d. The flown tune is analysed with d_min.
-                let d_applied = match p.d_min {
-                    Some(dm) if dm > 0.0 && dm < p.d => {
-                        notes.push(format!(
-                            "d_min {dm} < d {}: the flown tune is analysed with D = d_min (what the firmware applies away from fast stick moves and prop wash; D rises towards d only there)",
-                            p.d
-                        ));
-                        to_u(dm)
-                    }
-                    _ => g.d,
-                };
                 current_gains = Some(CurrentGains::Betaflight(g, d_applied));
-            }
-            notes.push(
-                "not modelled: TPA, anti-gravity, I-term relax, d_min's boost towards d, feedforward smoothing".into(),
-            );
-            if let Some(w) = log
-                .setting("dtermSetpointWeight")
-                .and_then(|v| v.trim().parse::<f64>().ok())
-                .filter(|w| *w > 0.0)
-            {
-                // Betaflight 3.x differentiates c·setpoint − gyro, c growing with stick deflection
-                // up to dtermSetpointWeight/100: the setpoint path is faster than modelled here
-                // (the margins, on the feedback path, are not affected).
-                notes.push(format!(
-                    "dtermSetpointWeight {w}: the 3.x D term also acts on the setpoint (weighted by stick deflection), not modelled in the reference path; the predicted setpoint → gyro response is slower than flown above a few Hz"
-                ));
             }
         }
         (Some(FirmwareTuning::Px4(p)), Firmware::Px4) => {
-            let loop_hz = p.gyro_rate_max_hz.filter(|&r| r > 0.0).unwrap_or(400.0);
-            let dgyro = p.dgyro_cutoff_hz.unwrap_or(30.0);
-            filters.push(format!("IMU_DGYRO_CUTOFF {dgyro} Hz (in the controller)"));
-            if let Some(g) = p.gyro_cutoff_hz {
-                filters.push(format!(
-                    "IMU_GYRO_CUTOFF {g} Hz (inside the identified plant: vehicle_angular_velocity is logged after it)"
-                ));
-            }
-            filters.push(format!("rate loop {loop_hz} Hz"));
-            treq.px4 = px4::Filters {
-                gyro_cutoff_hz: 0.0,
-                dgyro_cutoff_hz: dgyro,
-                loop_hz,
-            };
-            if let Some(r) = p.rate.get(ax) {
-                if let (Some(pp), Some(ii), Some(dd)) = (r.p, r.i, r.d) {
-                    let g = px4::Gains {
-                        k: r.k.unwrap_or(1.0),
-                        p: pp,
-                        i: ii,
-                        d: dd,
-                        ff: r.ff.unwrap_or(0.0),
-                    };
-                    treq.px4_ff = Some(g.ff);
-                    current_gains = Some(CurrentGains::Px4(g));
-                }
+            let (f, g, lines) = px4::flown_from_header(p, req.axis);
+            filters = lines;
+            treq.px4 = f;
+            if let Some(g) = g {
+                treq.px4_ff = Some(g.ff);
+                current_gains = Some(CurrentGains::Px4(g));
             }
         }
         (_, Firmware::Generic) => {
@@ -450,7 +393,34 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
         }
         _ => notes.push("the log header carries no rate-controller tuning: nothing to compare".into()),
     }
+    Ok(Header {
+        treq,
+        filters,
+        current_gains,
+    })
+}
 
+/// Stage 3: the flown tune analysed on the identified plant (exact margins over the uncertainty
+/// set, 6-DOF), and the model checked against the flight (the causal step, the closed loop).
+struct Flown {
+    held: Vec<StateSpace>,
+    flight_setup: Option<FlightSetup>,
+    wn: f64,
+    flown_rg: Option<RateGains>,
+    current: Option<TuneAnalysis>,
+    measured_step: Option<MeasuredStep>,
+    measured_step_error: Option<String>,
+    causal_step: Option<MeasuredStep>,
+    model_step_rms: Option<f64>,
+    causal_step_rms: Option<f64>,
+    closed_loop: Option<super::model_check::ClosedLoopCheck>,
+    refusal: Option<String>,
+}
+
+fn flown_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, notes: &mut Vec<String>) -> Result<Flown> {
+    let (log, id, plants, log_fw) = (&idn.log, &idn.id, &idn.plants, idn.log_fw);
+    let (k, tau, td) = (idn.k.0, idn.tau.0, idn.td.0);
+    let (treq, current_gains) = (&hdr.treq, &hdr.current_gains);
     let loop_hz = match req.firmware {
         Firmware::Betaflight => Some(treq.betaflight.loop_hz),
         Firmware::Px4 => Some(treq.px4.loop_hz),
@@ -473,8 +443,7 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
         output_limit,
     });
     let wn = 3.0 * skyloop_robust::structured::systune::ultimate_point(&held[0])?.0;
-    progress(req, "the flown tune");
-    let flown_rg = flown_rate_gains(current_gains.as_ref(), &treq);
+    let flown_rg = flown_rate_gains(current_gains.as_ref(), treq);
     let current = match &flown_rg {
         Some(g) => {
             if let Some(CurrentGains::Betaflight(full, d_applied)) = &current_gains {
@@ -505,7 +474,7 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
     };
 
     // The measured step: setpoint (the instrument) → gyro over the airborne segments.
-    let (wiener, causal) = measured(&log, &id);
+    let (wiener, causal) = measured(log, id);
     let (measured_step, measured_step_error) = match wiener {
         Ok(s) => (Some(s), None),
         Err(e) => (None, Some(e.to_string())),
@@ -520,25 +489,54 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
         _ => None,
     };
     let closed_loop = current.as_ref().and_then(|c| {
-        super::model_check::closed_loop_check(&log, &id, &held[0], &c.feedback_controller, &c.reference_path)
+        super::model_check::closed_loop_check(log, id, &held[0], &c.feedback_controller, &c.reference_path)
             .map_err(|e| notes.push(format!("no closed-loop check: {e}")))
             .ok()
     });
     let refusal = refusal(req, current.as_ref(), causal_step_rms);
+    Ok(Flown {
+        held,
+        flight_setup,
+        wn,
+        flown_rg,
+        current,
+        measured_step,
+        measured_step_error,
+        causal_step,
+        model_step_rms,
+        causal_step_rms,
+        closed_loop,
+        refusal,
+    })
+}
 
-    progress(req, "candidates");
+/// Stage 4: candidates, their verification and the verdict (the bounded search around the flown
+/// gains where the header has them, the optimizer otherwise).
+struct Proposal {
+    proposed: TuneOutcome,
+    analysis: TuneAnalysis,
+    verdict: Verdict,
+    front: Vec<(Value, Scores, f64)>,
+    noise: Option<NoiseReport>,
+}
+
+fn propose_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, fl: &Flown) -> Result<Proposal> {
+    let (log, id) = (&idn.log, &idn.id);
+    let (treq, current_gains) = (&hdr.treq, &hdr.current_gains);
+    let (held, wn, refusal) = (&fl.held, fl.wn, &fl.refusal);
+    let ax = req.axis.index();
     let mut front_pts = Vec::new();
     let mut noise_report = None;
-    let (proposed, proposed_analysis, verdict) = match (&flown_rg, &current) {
+    let (proposed, proposed_analysis, verdict) = match (&fl.flown_rg, &fl.current) {
         (Some(g), Some(cur)) => {
             let spans: Vec<(f64, f64)> = id.segments.iter().map(|s| (s.from_s, s.to_s)).collect();
             let dterm = format!("axisD[{ax}]");
             let dterm = log.series(&dterm).is_ok().then_some(dterm.as_str());
-            let gn = noise::measure(&log, &id.output, dterm, &spans, cur.margins.crossover_hz)?;
+            let gn = noise::measure(log, &id.output, dterm, &spans, cur.margins.crossover_hz)?;
             if let Some(why) = &refusal {
-                let mut out = outcome_for_gains(g, &held, &req.goals, Vec::new())?;
+                let mut out = outcome_for_gains(g, held, &req.goals, Vec::new())?;
                 out.cli.clear();
-                let nr = noise_of(&gn, g, g, &held)?;
+                let nr = noise_of(&gn, g, g, held)?;
                 noise_report = Some(nr);
                 (
                     out,
@@ -549,22 +547,22 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
                     },
                 )
             } else {
-                let r = grid_proposal(req, g, cur, &held, &gn, wn, flight_setup.as_ref())?;
+                let r = grid_proposal(req, g, cur, held, &gn, wn, fl.flight_setup.as_ref())?;
                 front_pts = r.front;
                 noise_report = Some(r.noise);
                 (r.outcome, r.analysis, r.verdict)
             }
         }
         _ => {
-            let mut proposed = tune(&treq)?;
-            let c_r_proposed = proposed_reference_path(req, &treq, &proposed)?;
+            let mut proposed = tune(treq)?;
+            let c_r_proposed = proposed_reference_path(req, treq, &proposed)?;
             let pa = analyse(
                 proposed.gains.clone(),
                 &proposed.feedback_controller,
                 &c_r_proposed,
-                &held,
+                held,
                 wn,
-                flight_setup.as_ref(),
+                fl.flight_setup.as_ref(),
             )?;
             let verdict = match &refusal {
                 Some(why) => {
@@ -583,7 +581,8 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
         }
     };
     let mut proposed = proposed;
-    if verdict.kind == VerdictKind::Propose && matches!(current_gains, Some(CurrentGains::Betaflight(g, d)) if d != g.d)
+    if verdict.kind == VerdictKind::Propose
+        && matches!(current_gains, Some(CurrentGains::Betaflight(g, d)) if *d != g.d)
     {
         // The proposal is analysed with a constant D; with d_min left active the firmware would
         // fly d_min instead whenever d_min < d.
@@ -594,7 +593,19 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
             "`{line}`: the proposed D is meant constant (d_min would otherwise replace it away from fast moves)"
         ));
     }
+    Ok(Proposal {
+        proposed,
+        analysis: proposed_analysis,
+        verdict,
+        front: front_pts,
+        noise: noise_report,
+    })
+}
 
+/// Stage 5: what the pilot must act on.
+fn warnings_of(req: &LogTuneRequest, fl: &Flown, proposed_analysis: &TuneAnalysis) -> Vec<String> {
+    let (current, measured_step, causal_step) = (&fl.current, &fl.measured_step, &fl.causal_step);
+    let (causal_step_rms, model_step_rms, closed_loop) = (fl.causal_step_rms, fl.model_step_rms, &fl.closed_loop);
     // The flown tune flew: a model that calls it unstable, or predicts a step far from the one
     // measured, is wrong, and so would be gains tuned on it.
     let mut warnings = Vec::new();
@@ -608,7 +619,7 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
     // The causal fit is the check's reference where it exists: the deconvolution is biased by a
     // pilot in the loop (and by coloured disturbances), the causal fit much less.
     let acausal = measured_step.as_ref().map_or(0.0, |m| m.acausal_fraction);
-    match (causal_step_rms, &causal_step) {
+    match (causal_step_rms, causal_step) {
         (Some(r), Some(c)) if r > MODEL_STEP_RMS_MAX => warnings.push(format!(
             "the predicted step of the flown tune differs from the step measured in the log (causal fit) by {r:.3} RMS (more than {MODEL_STEP_RMS_MAX}): the model does not describe this craft well; treat the proposal with care{}",
             if c.acausal_fraction > ACAUSAL_MAX {
@@ -666,32 +677,7 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
             ));
         }
     }
-    Ok(LogTuneOutcome {
-        params: BTreeMap::from([
-            ("K".to_string(), (k, sk)),
-            ("tau".to_string(), (tau, stau)),
-            ("Td".to_string(), (td, std_)),
-        ]),
-        identification: id,
-        plant,
-        plants,
-        filters,
-        current,
-        proposed,
-        proposed_analysis,
-        measured_step,
-        measured_step_error,
-        model_step_rms,
-        causal_step,
-        causal_step_rms,
-        notes,
-        warnings,
-        verdict,
-        noise: noise_report,
-        front: front_pts,
-        axis: req.axis,
-        closed_loop,
-    })
+    warnings
 }
 
 enum CurrentGains {
