@@ -152,22 +152,27 @@ fn run_log(log: std::path::PathBuf, a: &Args) -> skyloop::Result<()> {
         req.starts = a.starts;
         req.tune_feedforward = !a.keep_feedforward;
         req.noise_budget = a.noise_budget;
-        req.progress = true;
+        req.progress = Some(show_stage);
         match tune_from_log(&req) {
             Ok(o) => outs.push(Ok(o)),
             // One axis given: its error is the command's. Several: the others still answer.
-            Err(e) if axes.len() == 1 => return Err(e),
+            Err(e) if axes.len() == 1 => {
+                finish_progress();
+                return Err(e);
+            }
             Err(e) => outs.push(Err((*axis, e))),
         }
     }
     // No axis answered: the request itself is at fault (a firmware that does not match the log, a
     // log without flight); its first error is the command's.
     if outs.iter().all(|o| o.is_err()) {
+        finish_progress();
         if let Some(Err((_, e))) = outs.into_iter().next() {
             return Err(e);
         }
         return Err(skyloop::Error::Input("no axis to tune".into()));
     }
+    finish_progress();
     eprintln!(
         "[{}] report …",
         if axes.len() == 1 { axes[0].name() } else { "all axes" }
@@ -218,6 +223,35 @@ fn run_log(log: std::path::PathBuf, a: &Args) -> skyloop::Result<()> {
         }
     }
     Ok(())
+}
+
+/// The spinner a terminal sees (None when stderr is not one: then each stage is a line).
+fn spinner() -> Option<&'static indicatif::ProgressBar> {
+    use std::io::IsTerminal;
+    static BAR: std::sync::OnceLock<Option<indicatif::ProgressBar>> = std::sync::OnceLock::new();
+    BAR.get_or_init(|| {
+        std::io::stderr().is_terminal().then(|| {
+            let b = indicatif::ProgressBar::new_spinner();
+            b.enable_steady_tick(std::time::Duration::from_millis(120));
+            b
+        })
+    })
+    .as_ref()
+}
+
+/// Shows a stage of a log tune on stderr.
+fn show_stage(axis: Axis, stage: &str) {
+    match spinner() {
+        Some(b) => b.set_message(format!("{}: {stage}", axis.name())),
+        None => eprintln!("[{}] {stage} …", axis.name()),
+    }
+}
+
+/// Clears the spinner before the results are printed.
+fn finish_progress() {
+    if let Some(b) = spinner() {
+        b.finish_and_clear();
+    }
 }
 
 /// The pasteable lines of every axis with a proposal, one `save` at the end.

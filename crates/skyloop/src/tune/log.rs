@@ -70,8 +70,9 @@ pub struct LogTuneRequest {
     pub tune_feedforward: bool,
     /// Largest predicted motor-noise power of a proposal relative to the flown tune's.
     pub noise_budget: f64,
-    /// Report each stage on stderr.
-    pub progress: bool,
+    /// Called with the axis and the name of each stage as it starts (no terminal I/O here: the CLI
+    /// draws it).
+    pub progress: Option<fn(Axis, &str)>,
 }
 
 impl LogTuneRequest {
@@ -93,7 +94,7 @@ impl LogTuneRequest {
             sigma: 2.0,
             tune_feedforward: true,
             noise_budget: 1.25,
-            progress: false,
+            progress: None,
         }
     }
 }
@@ -887,10 +888,10 @@ impl LogTuneOutcome {
     }
 }
 
-/// Reports a stage on stderr (progress of a long log tune).
+/// Reports a stage to the caller's progress callback.
 fn progress(req: &LogTuneRequest, stage: &str) {
-    if req.progress {
-        eprintln!("[{}] {stage} …", req.axis.name());
+    if let Some(f) = req.progress {
+        f(req.axis, stage);
     }
 }
 
