@@ -859,7 +859,8 @@ fn mixsyn(
 /// last ``nmeas`` outputs of P are y, the last ``ncon`` inputs are u, u = K·y), a controller of
 /// ``order`` states (0..=50; P's order is hinfsyn's full-order problem) from ``starts`` random starts
 /// (1..=1000, run in parallel; start k uses ``seed`` + k). Dict as ``skyloop hinfstruct --json``:
-/// {gamma (‖lft(P, K)‖∞ re-verified), controller (StateSpace K), stabilized_starts}.
+/// {gamma (‖lft(P, K)‖∞ re-verified), controller (StateSpace K), stabilized_starts of starts_run
+/// (the requested starts plus added_starts central-controller ones)}.
 #[pyfunction]
 #[pyo3(signature = (P, nmeas, ncon, order, starts=8, seed=1))]
 #[allow(non_snake_case)]
@@ -884,6 +885,8 @@ fn _hinfstruct(
     d.set_item("gamma", sol.gamma)?;
     d.set_item("controller", wrap(sol.controller))?;
     d.set_item("stabilized_starts", sol.stabilized_starts)?;
+    d.set_item("starts_run", sol.starts_run)?;
+    d.set_item("added_starts", sol.added_starts)?;
     d.into_py_any(py)
 }
 

@@ -283,3 +283,36 @@ fn monte_carlo_seed_ranges_write_csv_that_splits_a_campaign() {
         .expect("runs");
     assert_eq!(bad.status.code(), Some(2));
 }
+
+/// A relative mass or inertia spread above 1 is refused with the option and its range named (the
+/// campaign's `mass_sd = 1e9` was accepted).
+#[test]
+fn monte_carlo_spreads_are_bounded() {
+    let src = std::fs::read_to_string(format!(
+        "{}/../../examples/quadrotor-ssi.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap();
+    let dir = std::env::temp_dir().join(format!("skyloop-mc-sd-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("s.toml");
+    std::fs::write(
+        &path,
+        src.replace("mass_sd = 0.05", "mass_sd = 1e9")
+            .replace("runs = 100", "runs = 2"),
+    )
+    .unwrap();
+    let out = skyloop()
+        .args([
+            "simulate",
+            path.to_str().unwrap(),
+            "--monte-carlo",
+            "--out",
+            dir.join("o.csv").to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("monte_carlo.mass_sd") && err.contains("0..=1"), "{err}");
+}

@@ -344,6 +344,14 @@ fn hinfstruct_json_gamma_is_the_closed_loop_norm() {
         gamma >= opt * (1.0 - 1e-3) && gamma <= opt * 1.05,
         "{gamma} vs slicot {opt}"
     );
+    // Counts are of starts actually run: never more stabilized than run, and the run ones are
+    // the 4 requested plus those the tool added, said so (the campaign saw "6 of 2").
+    let (st, run, added) = (
+        v["stabilized_starts"].as_u64().unwrap(),
+        v["starts_run"].as_u64().unwrap(),
+        v["added_starts"].as_u64().unwrap(),
+    );
+    assert!(st <= run && run == 4 + added, "{v}");
 }
 
 /// The header line `H <key>:a,b,c` read straight from the log's bytes (independent of the
@@ -667,4 +675,27 @@ fn smooth_tune_log_is_never_made_worse() {
         "{xo} vs {}",
         v["margins"]
     );
+}
+
+/// A goal that only "no feedback" meets is refused (exit 2), not printed as P = I = D = 0 with
+/// every goal "met" (the robustness campaign's finding 2).
+#[test]
+fn no_feedback_is_refused() {
+    let (code, out, err) = skyloop(&[
+        "tune",
+        "--plant",
+        "1500*exp(-0.003*s)/(s*(0.02*s+1))",
+        "--firmware",
+        "betaflight",
+        "--goal",
+        "ms<=1.01",
+        "--starts",
+        "2",
+    ]);
+    assert_eq!(code, 2, "{out}{err}");
+    assert!(
+        err.contains("no controller meets the goals") && err.contains("ms<=1.01"),
+        "{err}"
+    );
+    assert!(!out.contains("set p_roll = 0"), "{out}");
 }

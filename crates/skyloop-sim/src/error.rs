@@ -35,6 +35,15 @@ pub(crate) fn check_min(v: f64, lo: f64, what: &str) -> Result<()> {
     }
 }
 
+/// Fails with a message naming `what` unless `lo <= v <= hi`.
+pub(crate) fn check_range(v: f64, lo: f64, hi: f64, what: &str) -> Result<()> {
+    if v.is_finite() && v >= lo && v <= hi {
+        Ok(())
+    } else {
+        Err(SimError::Param(format!("{what} = {v} (must be in {lo}..={hi})")))
+    }
+}
+
 /// Fails with a message naming `what` unless `v` is finite and `v > 0`.
 pub(crate) fn check_pos(v: f64, what: &str) -> Result<()> {
     if v.is_finite() && v > 0.0 {

@@ -2,7 +2,7 @@
 //! parallel (rayon) with a progress bar; summary statistics of the metrics.
 
 use crate::disturbance::DisturbanceSpec;
-use crate::error::{check_min, Result, SimError};
+use crate::error::{check_min, check_range, Result, SimError};
 pub use crate::scenario::MonteCarloSpec;
 use crate::scenario::Scenario;
 use crate::sim::{log_every, Metrics, Simulation};
@@ -146,8 +146,10 @@ pub fn run_indices(
     if indices.is_empty() {
         return Err(SimError::Param("a Monte Carlo study needs at least one run".into()));
     }
-    check_min(mc.mass_sd, 0.0, "monte_carlo.mass_sd")?;
-    check_min(mc.inertia_sd, 0.0, "monte_carlo.inertia_sd")?;
+    // A relative standard deviation above 1 samples masses and inertias mostly at the clamp
+    // (0.2 of nominal) or many times nominal: not a study of one craft.
+    check_range(mc.mass_sd, 0.0, 1.0, "monte_carlo.mass_sd (relative)")?;
+    check_range(mc.inertia_sd, 0.0, 1.0, "monte_carlo.inertia_sd (relative)")?;
     check_min(mc.disturbance_sd, 0.0, "monte_carlo.disturbance_sd")?;
     // Fail fast on a bad scenario before spawning work.
     Simulation::new(scn, mc.seed)?;

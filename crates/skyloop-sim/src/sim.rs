@@ -414,7 +414,9 @@ pub fn metrics(trace: &[Sample], refs: &[(f64, V3)], band_abs: f64, sat: u64, ct
         (sum2 / trace.len() as f64).sqrt()
     };
     let end = trace.last().map_or(0.0, |s| s.t);
+    // A crashed run never settled, whatever its trace shows before the crash.
     let settling = match last_out {
+        _ if crashed => None,
         None => Some(0.0),
         Some(t) if t < end && !crashed => Some(t - t_last),
         _ => None,
@@ -491,4 +493,18 @@ pub fn write_csv<W: std::io::Write>(w: &mut W, trace: &[Sample], nu: usize) -> s
         writeln!(w, ",{}", s.saturated as u8)?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+
+    /// A crashed run has no settling time, even when nothing in its trace left the band (it used to
+    /// report 0 s and count as settled).
+    #[test]
+    fn a_crashed_run_never_settles() {
+        assert_eq!(metrics(&[], &[], 0.1, 0, 0, true).settling_time_s, None);
+        assert_eq!(metrics(&[], &[], 0.1, 0, 0, false).settling_time_s, Some(0.0));
+    }
 }

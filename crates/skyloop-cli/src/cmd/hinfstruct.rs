@@ -47,11 +47,21 @@ pub fn run(a: Args) -> skyloop::Result<()> {
             "gamma": sol.gamma,
             "controller": LtiJson::from_ss(&sol.controller),
             "stabilized_starts": sol.stabilized_starts,
+            "starts_run": sol.starts_run,
+            "added_starts": sol.added_starts,
         }));
     }
     println!(
-        "gamma {:.6}  (closed loop re-verified; {} of {} starts stabilized)",
-        sol.gamma, sol.stabilized_starts, a.starts
+        "gamma {:.6}  (closed loop re-verified; {} of {} starts stabilized: the {} requested{})",
+        sol.gamma,
+        sol.stabilized_starts,
+        sol.starts_run,
+        a.starts,
+        if sol.added_starts > 0 {
+            format!(" and {} from central H-inf controllers", sol.added_starts)
+        } else {
+            String::new()
+        }
     );
     let k = &sol.controller;
     for (name, m) in [("A", &k.a), ("B", &k.b), ("C", &k.c), ("D", &k.d)] {

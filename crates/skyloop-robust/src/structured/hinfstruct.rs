@@ -47,8 +47,12 @@ pub struct HinfstructSolution {
     pub controller: StateSpace,
     /// ‖lft(P, K)‖∞ recomputed with skyloop-lti's `lft_lower` and `hinf_norm`.
     pub gamma: f64,
-    /// Starts that reached a stabilizing controller.
+    /// Starts that reached a stabilizing controller, of [`starts_run`](Self::starts_run).
     pub stabilized_starts: usize,
+    /// Starts run: the requested ones plus [`added_starts`](Self::added_starts).
+    pub starts_run: usize,
+    /// Central-H∞-controller starts added below full order beyond the requested ones.
+    pub added_starts: usize,
 }
 
 /// Fixed-order H∞ synthesis (see the module documentation).
@@ -141,6 +145,7 @@ pub fn hinfstruct(
         })
         .collect();
     let stabilized_starts = runs.iter().filter(|r| r.is_some()).count();
+    let starts_run = runs.len();
     let best = runs
         .into_iter()
         .flatten()
@@ -165,6 +170,8 @@ pub fn hinfstruct(
         controller,
         gamma,
         stabilized_starts,
+        starts_run,
+        added_starts: starts_run - opts.starts,
     })
 }
 

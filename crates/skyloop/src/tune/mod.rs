@@ -582,6 +582,7 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
         }
     };
     let (goal_reports, loops) = evaluate(&prob, &theta)?;
+    no_feedback_is_no_tune(&gains, &loops[0], &req.goals)?;
     let feedback_controller = prob.structure.realize(&theta)?;
     Ok(TuneOutcome {
         gains,
@@ -601,6 +602,25 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
             None => 0.0,
         },
     })
+}
+
+/// Gains that leave the loop without a gain crossover (P = I = D = 0 after rounding, or so small
+/// that |L| < 1 everywhere) are no controller: the plant flies open loop, whatever the margins say.
+///
+/// # Errors
+/// Always in that case, naming the gains and the goals that drove them there.
+fn no_feedback_is_no_tune(gains: &Value, m: &LoopCheck, goals: &[String]) -> Result<()> {
+    if m.crossover_hz.is_finite() && m.crossover_hz > 0.0 {
+        return Ok(());
+    }
+    Err(Error::Failed(format!(
+        "no controller meets the goals: the best gains found, {gains}, leave the loop without a gain crossover (no feedback at all: the plant would fly open loop, so the margins printed for it would mean nothing); relax the goals{}",
+        if goals.is_empty() {
+            String::new()
+        } else {
+            format!(" ({})", goals.join(", "))
+        }
+    )))
 }
 
 /// The user's goals parsed, with the default disk-margin floor α ≥ 0.5 added unless a disk-margin
