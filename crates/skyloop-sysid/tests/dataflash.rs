@@ -127,7 +127,11 @@ fn copter_like() -> Writer {
     w.units(0, 135, "skkk-", "F000-");
     w.msg("UNIT", &[V::I(0), V::N(f64::from(b's')), V::T("s".into())]);
     w.msg("MULT", &[V::I(0), V::N(f64::from(b'F')), V::N(1e-6)]);
-    for (name, v) in [("ATC_RAT_RLL_P", 0.135), ("INS_GYRO_FILTER", 20.0), ("ATC_RAT_RLL_P", 0.14)] {
+    for (name, v) in [
+        ("ATC_RAT_RLL_P", 0.135),
+        ("INS_GYRO_FILTER", 20.0),
+        ("ATC_RAT_RLL_P", 0.14),
+    ] {
         w.msg("PARM", &[V::I(100), V::T(name.into()), V::N(v)]);
     }
     for m in ["ArduCopter V4.3.7 (abcdef12)", "CubeOrange 0001", "Frame: QUAD/X"] {
@@ -135,11 +139,20 @@ fn copter_like() -> Writer {
     }
     for k in 0..40u64 {
         let t = 1_000_000 + 2500 * k;
-        w.msg("RATE", &[V::I(t.into()), V::N(1.0), V::N(k as f64), V::N(0.5), V::N(0.0)]);
+        w.msg(
+            "RATE",
+            &[V::I(t.into()), V::N(1.0), V::N(k as f64), V::N(0.5), V::N(0.0)],
+        );
         for inst in 0..2 {
             w.msg(
                 "IMU",
-                &[V::I((t + 7).into()), V::N(inst as f64), V::N(inst as f64 + 0.5), V::N(0.0), V::N(0.0)],
+                &[
+                    V::I((t + 7).into()),
+                    V::N(inst as f64),
+                    V::N(inst as f64 + 0.5),
+                    V::N(0.0),
+                    V::N(0.0),
+                ],
             );
         }
     }
@@ -159,8 +172,13 @@ fn instances_parameters_and_banner() {
     assert_eq!(log.setting("Frame"), Some("QUAD/X"));
     let rate = log.info().into_iter().find(|g| g.name == "RATE").unwrap();
     assert!((rate.rate_hz - 400.0).abs() < 1e-6, "{}", rate.rate_hz);
-    let Some(FirmwareTuning::ArduPilot(t)) = FirmwareTuning::from_log(&log) else { panic!("no tuning") };
-    assert_eq!((t.vehicle.as_deref(), t.version.as_deref()), (Some("ArduCopter"), Some("4.3.7")));
+    let Some(FirmwareTuning::ArduPilot(t)) = FirmwareTuning::from_log(&log) else {
+        panic!("no tuning")
+    };
+    assert_eq!(
+        (t.vehicle.as_deref(), t.version.as_deref()),
+        (Some("ArduCopter"), Some("4.3.7"))
+    );
     assert_eq!(t.rate[0].p, Some(0.14));
     assert_eq!(t.rate[0].i, None);
     assert_eq!(t.gyro_filter_hz, Some(20.0));
@@ -225,7 +243,9 @@ fn bad_definitions_are_noted() {
     w.bytes.extend([0xA3, 0x95, 140, 0, 0, 0, 0, 0, 0, 0, 0, 9]);
     let log = read(&w.bytes);
     assert!(
-        log.notes.iter().any(|n| n.contains("BAD") && n.contains("unknown format character 'x'")),
+        log.notes
+            .iter()
+            .any(|n| n.contains("BAD") && n.contains("unknown format character 'x'")),
         "{:?}",
         log.notes
     );
@@ -235,7 +255,13 @@ fn bad_definitions_are_noted() {
     w.msg("RATE", &[V::I(2_000_000), V::N(3.0)]);
     let log = read(&w.bytes);
     assert_eq!(ch(&log, "RATE.R").len(), 40);
-    assert!(log.notes.iter().any(|n| n.contains("redefined") && n.contains("RATE (1)")), "{:?}", log.notes);
+    assert!(
+        log.notes
+            .iter()
+            .any(|n| n.contains("redefined") && n.contains("RATE (1)")),
+        "{:?}",
+        log.notes
+    );
 }
 
 #[test]
@@ -318,7 +344,10 @@ proptest! {
 fn matches_pymavlink_row_for_row() {
     for name in ["mavparser_00000081", "synthetic_arducopter"] {
         let ext = if name.starts_with("mavparser") { "BIN" } else { "bin" };
-        compare_with_pymavlink(&format!("{name}.{ext}"), &format!("tests/fixtures/dataflash/{name}.json"));
+        compare_with_pymavlink(
+            &format!("{name}.{ext}"),
+            &format!("tests/fixtures/dataflash/{name}.json"),
+        );
     }
 }
 

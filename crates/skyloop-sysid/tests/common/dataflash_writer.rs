@@ -105,7 +105,10 @@ impl Writer {
 
     /// Writes an FMT message for `type_id`.
     pub fn define(&mut self, type_id: u8, name: &str, format: &str, labels: &str) {
-        assert!(format.len() <= 16 && labels.len() <= 64 && name.len() <= 4, "{name}: FMT holds 16 format characters");
+        assert!(
+            format.len() <= 16 && labels.len() <= 64 && name.len() <= 4,
+            "{name}: FMT holds 16 format characters"
+        );
         let len = 3 + format.chars().map(size).sum::<usize>();
         self.bytes.extend([0xA3, 0x95, 128, type_id, len as u8]);
         self.bytes.extend(padded(name, 4));

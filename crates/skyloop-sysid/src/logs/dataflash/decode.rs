@@ -55,7 +55,9 @@ pub(crate) fn definitions(bytes: &[u8]) -> (Vec<Option<TypeInfo>>, usize) {
                 }
             }
             Frame::Message { type_id, payload, .. } => {
-                let Some(t) = &types[usize::from(type_id)] else { continue };
+                let Some(t) = &types[usize::from(type_id)] else {
+                    continue;
+                };
                 let Ok(l) = &t.layout else { continue };
                 if t.def.name != "FMTU" {
                     continue;
@@ -71,7 +73,9 @@ pub(crate) fn definitions(bytes: &[u8]) -> (Vec<Option<TypeInfo>>, usize) {
         }
     }
     for (type_id, ids) in units {
-        let Some(t) = types[usize::from(type_id)].as_mut() else { continue };
+        let Some(t) = types[usize::from(type_id)].as_mut() else {
+            continue;
+        };
         let Ok(l) = &t.layout else { continue };
         t.instance = ids.chars().position(|c| c == '#').filter(|&k| k < l.fields.len());
     }
@@ -124,9 +128,8 @@ pub(crate) fn is_firmware_banner(text: &str) -> bool {
     let (Some(first), Some(second)) = (words.next(), words.next()) else {
         return false;
     };
-    let vehicle = first.starts_with("Ardu")
-        || first.starts_with("APM:")
-        || matches!(first, "Rover" | "AntennaTracker" | "Blimp");
+    let vehicle =
+        first.starts_with("Ardu") || first.starts_with("APM:") || matches!(first, "Rover" | "AntennaTracker" | "Blimp");
     vehicle && second.starts_with('V') && second[1..].starts_with(|c: char| c.is_ascii_digit())
 }
 
@@ -194,7 +197,8 @@ impl Decoder {
             bump(&mut self.redefined, &t.def.name);
             return;
         }
-        self.settings.extend(special(&t.def.name, layout, payload, &self.settings));
+        self.settings
+            .extend(special(&t.def.name, layout, payload, &self.settings));
         let Some((tk, per)) = state.time else {
             bump(&mut self.untimed, &t.def.name);
             return;
@@ -202,7 +206,10 @@ impl Decoder {
         let Some(time_us) = layout.unsigned(tk, payload).and_then(|v| v.checked_mul(per)) else {
             return;
         };
-        let suffix = t.instance.map(|k| instance_suffix(layout, k, payload)).unwrap_or_default();
+        let suffix = t
+            .instance
+            .map(|k| instance_suffix(layout, k, payload))
+            .unwrap_or_default();
         let b = match state.instances.iter().find(|(s, _)| *s == suffix) {
             Some(&(_, b)) => b,
             None if state.instances.len() >= MAX_INSTANCES => {

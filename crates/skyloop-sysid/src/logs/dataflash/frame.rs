@@ -44,7 +44,11 @@ pub(crate) enum Frame<'a> {
     /// An FMT message (already applied to the framer's length table).
     Fmt { offset: usize, def: Def },
     /// Any other message of a defined type.
-    Message { offset: usize, type_id: u8, payload: &'a [u8] },
+    Message {
+        offset: usize,
+        type_id: u8,
+        payload: &'a [u8],
+    },
 }
 
 /// Walks a file's messages. Bytes that do not start a message of a defined type are skipped up to
