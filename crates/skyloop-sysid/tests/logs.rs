@@ -179,7 +179,7 @@ fn truncated_and_corrupt_files() {
     // Neither format, not text.
     let p = temp_with("noise.bin", &[0u8, 159, 146, 150, 1, 2, 3, 255]);
     let e = Log::open(&p, &OpenOptions::default()).unwrap_err().to_string();
-    assert!(e.contains("not a ULog, blackbox or CSV"), "{e}");
+    assert!(e.contains("not a ULog, blackbox, DataFlash or CSV"), "{e}");
     let e = Log::open(Path::new("/nonexistent/x.ulg"), &OpenOptions::default())
         .unwrap_err()
         .to_string();

@@ -1,11 +1,11 @@
 //! `skyloop log info FILE`: topics/fields, rates, duration and the firmware's tuning of a ULog,
-//! blackbox or CSV log; `skyloop log export FILE --fields .. --out F.csv`: raw channels as CSV;
+//! blackbox, ArduPilot DataFlash or CSV log; `skyloop log export FILE --fields .. --out F.csv`: raw channels as CSV;
 //! `skyloop log plot FILE --fields .. --out F.png|svg`: channels against time, airborne segments shaded.
 
 use std::path::{Path, PathBuf};
 
 use skyloop::flightlog::{export_csv, plot_fields};
-use skyloop::sysid::logs::tuning::FirmwareTuning;
+use skyloop::sysid::logs::tuning::{ArduPilotTuning, FirmwareTuning};
 use skyloop::sysid::logs::{blackbox, detect, Log, LogFormat, OpenOptions};
 
 use crate::output::print_json;
@@ -21,7 +21,7 @@ pub struct Args {
 enum Action {
     /// List groups (topics), their fields, sample rates and the duration.
     Info {
-        /// The log file (.ulg, blackbox .bbl/.bfl, or CSV).
+        /// The log file (.ulg, blackbox .bbl/.bfl, ArduPilot DataFlash .bin, or CSV).
         file: PathBuf,
         /// Blackbox session (counted from 1); default: the longest.
         #[arg(long)]
@@ -31,7 +31,8 @@ enum Action {
         json: bool,
     },
     /// Write time_s (the flight controller's clock, s) and the fields as CSV, one row per logged
-    /// frame, values as decoded (no resampling); the fields must share one group (ULog: one topic).
+    /// frame, values as decoded (no resampling); the fields must share one group (ULog: one topic;
+    /// DataFlash: one message and instance, as `RATE.R,RATE.RDes` or `IMU[1].GyrX`).
     Export {
         /// The log file.
         file: PathBuf,
@@ -168,6 +169,7 @@ fn opt(x: Option<f64>) -> String {
 
 fn print_tuning(t: &FirmwareTuning) {
     match t {
+        FirmwareTuning::ArduPilot(a) => print_ardupilot(a),
         FirmwareTuning::Betaflight(b) => {
             println!("tuning ({}):", b.firmware_revision);
             for (axis, g) in ["roll", "pitch", "yaw"].iter().zip(&b.pidf) {
@@ -240,5 +242,48 @@ fn print_tuning(t: &FirmwareTuning) {
                 named("IMU_GYRO_RATEMAX".into(), p.gyro_rate_max_hz, " Hz")
             );
         }
+    }
+}
+
+/// ArduPilot: every parameter under its own name, as PX4's (DataFlash PARM messages).
+fn print_ardupilot(a: &ArduPilotTuning) {
+    let named = |name: String, v: Option<f64>, unit: &str| match v {
+        Some(x) => format!("{name} = {x}{unit}"),
+        None => format!("{name} not in the log"),
+    };
+    let firmware = match (&a.vehicle, &a.version) {
+        (Some(v), Some(n)) => format!("{v} {n}"),
+        _ if a.firmware_revision.is_empty() => "ArduPilot, version not in the log".to_string(),
+        _ => a.firmware_revision.clone(),
+    };
+    let frame = a.frame.as_ref().map(|f| format!(", frame {f}")).unwrap_or_default();
+    println!("tuning ({firmware}{frame}; ArduPilot parameters):");
+    if !a.firmware_revision.is_empty() {
+        println!("  firmware: {}", a.firmware_revision);
+    }
+    for (axis, g) in ["RLL", "PIT", "YAW"].iter().zip(&a.rate) {
+        let items: Vec<String> = [("P", g.p, ""), ("I", g.i, ""), ("D", g.d, ""), ("FF", g.ff, "")]
+            .into_iter()
+            .chain([("FLTT", g.fltt_hz, " Hz"), ("FLTE", g.flte_hz, " Hz"), ("FLTD", g.fltd_hz, " Hz")])
+            .map(|(k, v, unit)| named(format!("ATC_RAT_{axis}_{k}"), v, unit))
+            .collect();
+        println!("  {}", items.join(", "));
+    }
+    println!(
+        "  {}, {}",
+        named("INS_GYRO_FILTER".into(), a.gyro_filter_hz, " Hz"),
+        named("SCHED_LOOP_RATE".into(), a.loop_rate_hz, " Hz")
+    );
+    if a.harmonic_notch.is_empty() {
+        println!("  harmonic notch: no INS_HNTCH_* parameters in the log");
+    } else {
+        let items: Vec<String> = a.harmonic_notch.iter().map(|n| format!("{} = {}", n.name, n.value)).collect();
+        println!("  harmonic notch: {}", items.join(", "));
+    }
+    if a.log_rates_hz.is_empty() {
+        println!("  logging rates: no RATE, PIDR/PIDP/PIDY, IMU, GYR or RCOU messages");
+    } else {
+        let items: Vec<String> = a.log_rates_hz.iter().map(|n| format!("{} {:.1} Hz", n.name, n.value)).collect();
+        println!("  logging rates: {}", items.join(", "));
     }
 }

@@ -62,6 +62,10 @@ impl FlightFirmware {
         match log.format {
             LogFormat::Blackbox => Ok(FlightFirmware::Betaflight),
             LogFormat::Ulog => Ok(FlightFirmware::Px4),
+            LogFormat::Dataflash => Err(invalid(format!(
+                "{}: identify --axis does not know ArduPilot's channels yet; give --input, --output and --excitation (e.g. PIDR.Tar, RATE.R)",
+                log.source
+            ))),
             LogFormat::Csv => Err(invalid(format!(
                 "{}: a CSV log names no firmware, so --axis cannot choose its channels; give --input, --output and --excitation",
                 log.source

@@ -1,4 +1,5 @@
-//! Flight logs as named time series: CSV, PX4 ULog and Betaflight blackbox readers, resampling onto
+//! Flight logs as named time series: CSV, PX4 ULog, Betaflight blackbox and ArduPilot DataFlash
+//! readers, resampling onto
 //! a uniform grid, detrending and segment selection.
 //!
 //! A log is a list of [`Group`]s; every group has one time vector shared by its channels (a ULog
@@ -7,13 +8,16 @@
 //! - ULog: `topic.field` (e.g. `vehicle_angular_velocity.xyz[0]`), and `topic[k].field` for
 //!   instance k > 0 of a multi-instance topic;
 //! - blackbox: Betaflight's field names (`gyroADC[0]` in deg/s, `setpoint[0]`, `axisP[0]`,
-//!   `loopIteration` as the firmware's loop counter, ...); `time` is the group's time vector.
+//!   `loopIteration` as the firmware's loop counter, ...); `time` is the group's time vector;
+//! - DataFlash: `MESSAGE.Field` (e.g. `RATE.RDes`), and `MESSAGE[k].Field` for instance k > 0 of a
+//!   message with an instance field (`IMU[1].GyrX`), see [`dataflash`].
 //!
 //! A column spec may also be a sum or difference of channels, such as
 //! `axisP[0]+axisI[0]+axisD[0]+axisF[0]` (Betaflight's roll PID sum).
 
 pub mod blackbox;
 pub mod csv;
+pub mod dataflash;
 pub mod flight;
 pub mod tuning;
 pub mod ulog;
@@ -34,12 +38,15 @@ pub enum LogFormat {
     Ulog,
     /// Betaflight/INAV blackbox (one session of a possibly multi-session file).
     Blackbox,
+    /// ArduPilot DataFlash (`.bin`).
+    Dataflash,
 }
 
 /// Samples of several channels that share one time vector.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Group {
-    /// Group name: ULog `topic` or `topic[k]`, blackbox `main`/`slow`/`gps`, CSV `csv`.
+    /// Group name: ULog `topic` or `topic[k]`, blackbox `main`/`slow`/`gps`, DataFlash `MESSAGE` or
+    /// `MESSAGE[k]`, CSV `csv`.
     pub name: String,
     /// When `Some(p)`, channels are addressed as `p.field`; when `None`, by bare field name.
     pub prefix: Option<String>,
@@ -72,7 +79,8 @@ pub struct Log {
     pub notes: Vec<String>,
     /// The firmware's settings as the log records them, in file order (a later entry overrides an
     /// earlier one of the same name): blackbox `H name:value` header lines (value as written), ULog
-    /// parameters (value as decimal text, the last value logged). Empty for CSV.
+    /// parameters (value as decimal text, the last value logged), DataFlash PARM messages plus
+    /// `Firmware revision` and `Frame` from its MSG texts. Empty for CSV.
     pub settings: Vec<(String, String)>,
     /// The flight controller's clock at time 0 of [`Group::time_s`], s: a sample's time as the firmware
     /// logged it is `time_s + clock_origin_s` (0 for CSV, whose times are as in the file).
@@ -104,8 +112,8 @@ pub struct GroupInfo {
 }
 
 impl Log {
-    /// Reads a log, choosing the reader from the file's first bytes (ULog magic, blackbox marker) or
-    /// else treating it as CSV.
+    /// Reads a log, choosing the reader from the file's first bytes (ULog magic, blackbox marker,
+    /// DataFlash sync bytes 0xA3 0x95) or else treating it as CSV.
     pub fn open(path: &Path, opts: &OpenOptions) -> Result<Log> {
         let bytes = std::fs::read(path).map_err(|e| SysidError::Io(format!("cannot read {}: {e}", path.display())))?;
         let name = path.display().to_string();
@@ -117,10 +125,11 @@ impl Log {
         match detect(&bytes) {
             LogFormat::Ulog => ulog::read_bytes(&bytes, &name),
             LogFormat::Blackbox => blackbox::read_bytes(&bytes, &name, opts.session),
+            LogFormat::Dataflash => dataflash::read_bytes(&bytes, &name),
             LogFormat::Csv => {
                 let text = std::str::from_utf8(&bytes).map_err(|_| {
                     SysidError::Log(format!(
-                        "{name}: not a ULog, blackbox or CSV file (binary content that is not UTF-8 text)"
+                        "{name}: not a ULog, blackbox, DataFlash or CSV file (binary content that is not UTF-8 text)"
                     ))
                 })?;
                 csv::read_str(text, &name, opts.time_column.as_deref())
@@ -320,6 +329,8 @@ pub fn detect(bytes: &[u8]) -> LogFormat {
         || bytes.windows(18).take(4096).any(|w| w == b"H Product:Blackbox")
     {
         LogFormat::Blackbox
+    } else if dataflash::looks_like_dataflash(bytes) {
+        LogFormat::Dataflash
     } else {
         LogFormat::Csv
     }
