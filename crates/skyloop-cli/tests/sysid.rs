@@ -650,11 +650,24 @@ fn dataflash_log_info_and_export() {
     assert!(t["gyro_filter_hz"].as_f64().is_some(), "{t}");
     assert!(!t["harmonic_notch"].as_array().unwrap().is_empty(), "{t}");
     let rates = t["log_rates_hz"].as_array().unwrap();
-    let rate = |n: &str| rates.iter().find(|r| r["name"] == n).unwrap()["value"].as_f64().unwrap();
-    assert!((rate("PIDR") - 10.0).abs() < 0.5 && (rate("IMU[2]") - 25.0).abs() < 1.0, "{rates:?}");
+    let rate = |n: &str| {
+        rates.iter().find(|r| r["name"] == n).unwrap()["value"]
+            .as_f64()
+            .unwrap()
+    };
+    assert!(
+        (rate("PIDR") - 10.0).abs() < 0.5 && (rate("IMU[2]") - 25.0).abs() < 1.0,
+        "{rates:?}"
+    );
     let text = skyloop(&["log", "info", &log]);
     let text = String::from_utf8_lossy(&text.stdout);
-    for needle in ["ArduCopter 4.5.7, frame QUAD/X", "ATC_RAT_PIT_FLTD = ", "INS_GYRO_FILTER = ", "INS_HNTCH_", "logging rates: "] {
+    for needle in [
+        "ArduCopter 4.5.7, frame QUAD/X",
+        "ATC_RAT_PIT_FLTD = ",
+        "INS_GYRO_FILTER = ",
+        "INS_HNTCH_",
+        "logging rates: ",
+    ] {
         assert!(text.contains(needle), "{needle}: {text}");
     }
 
@@ -665,7 +678,9 @@ fn dataflash_log_info_and_export() {
     let text = std::fs::read_to_string(&out_csv).unwrap();
     let mut lines = text.lines();
     assert_eq!(lines.next().unwrap(), "time_s,IMU[1].GyrX,IMU[1].GyrY");
-    let rows: Vec<Vec<f64>> = lines.map(|l| l.split(',').map(|x| x.parse().unwrap()).collect()).collect();
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
     let fx = format!(
         "{}/../skyloop-sysid/tests/fixtures/dataflash/mavparser_00000081.json",
         env!("CARGO_MANIFEST_DIR")
@@ -676,9 +691,18 @@ fn dataflash_log_info_and_export() {
     let wv = want["values"].as_array().unwrap();
     assert_eq!(rows.len(), wt.len());
     for (i, r) in rows.iter().enumerate() {
-        assert!((r[0] - wt[i].as_f64().unwrap()).abs() < 5e-7, "row {i}: {} vs {}", r[0], wt[i]);
+        assert!(
+            (r[0] - wt[i].as_f64().unwrap()).abs() < 5e-7,
+            "row {i}: {} vs {}",
+            r[0],
+            wt[i]
+        );
         let w = wv[i].as_f64().unwrap();
-        assert!((r[1] - w).abs() <= 2.0 * f64::EPSILON * w.abs(), "row {i}: {} vs {w}", r[1]);
+        assert!(
+            (r[1] - w).abs() <= 2.0 * f64::EPSILON * w.abs(),
+            "row {i}: {} vs {w}",
+            r[1]
+        );
     }
     // Instances are separate groups, exported one at a time.
     fails_with(

@@ -231,3 +231,16 @@ fn px4_unused_motor_outputs_are_not_saturation() {
         assert!(seg.to_s - seg.from_s >= 2.0, "{seg:?}");
     }
 }
+
+/// A never-ending binary device is refused from its first bytes (it used to be read until the
+/// memory cap, 31 s, before the format check).
+#[cfg(unix)]
+#[test]
+fn an_endless_binary_stream_is_refused_at_once() {
+    let p = Path::new("/dev/urandom");
+    if !p.exists() {
+        return;
+    }
+    let e = Log::open(p, &OpenOptions::default()).unwrap_err().to_string();
+    assert!(e.contains("not a ULog, blackbox, DataFlash or CSV file"), "{e}");
+}

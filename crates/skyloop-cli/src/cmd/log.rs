@@ -264,7 +264,11 @@ fn print_ardupilot(a: &ArduPilotTuning) {
     for (axis, g) in ["RLL", "PIT", "YAW"].iter().zip(&a.rate) {
         let items: Vec<String> = [("P", g.p, ""), ("I", g.i, ""), ("D", g.d, ""), ("FF", g.ff, "")]
             .into_iter()
-            .chain([("FLTT", g.fltt_hz, " Hz"), ("FLTE", g.flte_hz, " Hz"), ("FLTD", g.fltd_hz, " Hz")])
+            .chain([
+                ("FLTT", g.fltt_hz, " Hz"),
+                ("FLTE", g.flte_hz, " Hz"),
+                ("FLTD", g.fltd_hz, " Hz"),
+            ])
             .map(|(k, v, unit)| named(format!("ATC_RAT_{axis}_{k}"), v, unit))
             .collect();
         println!("  {}", items.join(", "));
@@ -277,13 +281,21 @@ fn print_ardupilot(a: &ArduPilotTuning) {
     if a.harmonic_notch.is_empty() {
         println!("  harmonic notch: no INS_HNTCH_* parameters in the log");
     } else {
-        let items: Vec<String> = a.harmonic_notch.iter().map(|n| format!("{} = {}", n.name, n.value)).collect();
+        let items: Vec<String> = a
+            .harmonic_notch
+            .iter()
+            .map(|n| format!("{} = {}", n.name, n.value))
+            .collect();
         println!("  harmonic notch: {}", items.join(", "));
     }
     if a.log_rates_hz.is_empty() {
         println!("  logging rates: no RATE, PIDR/PIDP/PIDY, IMU, GYR or RCOU messages");
     } else {
-        let items: Vec<String> = a.log_rates_hz.iter().map(|n| format!("{} {:.1} Hz", n.name, n.value)).collect();
+        let items: Vec<String> = a
+            .log_rates_hz
+            .iter()
+            .map(|n| format!("{} {:.1} Hz", n.name, n.value))
+            .collect();
         println!("  logging rates: {}", items.join(", "));
     }
 }

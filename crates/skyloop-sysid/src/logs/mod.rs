@@ -115,7 +115,7 @@ impl Log {
     /// Reads a log, choosing the reader from the file's first bytes (ULog magic, blackbox marker,
     /// DataFlash sync bytes 0xA3 0x95) or else treating it as CSV.
     pub fn open(path: &Path, opts: &OpenOptions) -> Result<Log> {
-        let bytes = std::fs::read(path).map_err(|e| SysidError::Io(format!("cannot read {}: {e}", path.display())))?;
+        let bytes = read_capped(path)?;
         let name = path.display().to_string();
         if bytes.is_empty() {
             // Detection reads the first bytes; with none, the CSV reader's "empty CSV file" would
@@ -319,6 +319,42 @@ pub fn median_rate_hz(t: &[f64]) -> f64 {
     let mid = d.len() / 2;
     let (_, m, _) = d.select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
     1.0 / *m
+}
+
+/// Largest log file read, bytes (4 GiB): beyond it a file is no flight log this tool reads.
+pub const MAX_LOG_BYTES: u64 = 4 << 30;
+
+/// Reads a file for [`Log::open`]: the first 64 KiB decide the format; a file whose start is
+/// neither a log's magic nor text is refused there, before the rest is read (a device such as
+/// /dev/urandom never ends), and no file is read beyond [`MAX_LOG_BYTES`].
+fn read_capped(path: &Path) -> Result<Vec<u8>> {
+    use std::io::Read;
+    let io = |e: std::io::Error| SysidError::Io(format!("cannot read {}: {e}", path.display()));
+    let mut f = std::fs::File::open(path).map_err(io)?;
+    let mut bytes = Vec::new();
+    (&mut f).take(64 << 10).read_to_end(&mut bytes).map_err(io)?;
+    if detect(&bytes) == LogFormat::Csv {
+        // A UTF-8 character cut at the 64 KiB boundary is still text.
+        let text_start = match std::str::from_utf8(&bytes) {
+            Ok(_) => true,
+            Err(e) => e.error_len().is_none(),
+        };
+        if !text_start {
+            return Err(SysidError::Log(format!(
+                "{}: not a ULog, blackbox, DataFlash or CSV file (its first bytes are binary, not a log's magic or UTF-8 text)",
+                path.display()
+            )));
+        }
+    }
+    f.take(MAX_LOG_BYTES).read_to_end(&mut bytes).map_err(io)?;
+    if bytes.len() as u64 >= MAX_LOG_BYTES {
+        return Err(SysidError::Log(format!(
+            "{}: larger than {} GiB, the most a log may be",
+            path.display(),
+            MAX_LOG_BYTES >> 30
+        )));
+    }
+    Ok(bytes)
 }
 
 /// Guesses the reader from a file's first bytes.
