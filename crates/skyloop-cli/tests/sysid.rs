@@ -710,3 +710,33 @@ fn dataflash_log_info_and_export() {
         "one group",
     );
 }
+
+/// Sizes a user sets are checked before anything is allocated, with the option and the bound
+/// named (the campaign aborted with "memory allocation of … bytes failed" on these).
+#[test]
+fn huge_sizes_are_refused_up_front() {
+    let log = format!("{}/../../testdata/logs/btfl_all.bbl", env!("CARGO_MANIFEST_DIR"));
+    let run = |args: &[&str]| {
+        let o = skyloop(args);
+        (
+            o.status.code().unwrap_or(-1),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        )
+    };
+    let (code, err) = run(&["identify", &log, "--axis", "roll", "--rate", "1e9"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--rate") && err.contains("250000000"), "{err}");
+    let scn = format!("{}/../../examples/quadrotor-ssi.toml", env!("CARGO_MANIFEST_DIR"));
+    let out = std::env::temp_dir().join(format!("skyloop-seeds-{}.csv", std::process::id()));
+    let (code, err) = run(&[
+        "simulate",
+        &scn,
+        "--monte-carlo",
+        "--seeds",
+        "0..1000000000",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--seeds") && err.contains("1000000"), "{err}");
+}

@@ -11,6 +11,10 @@ use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 use rayon::prelude::*;
 
+/// Most runs one call runs (a million runs of a few seconds of flight each is days of CPU; a
+/// larger campaign is split into ranges, e.g. Slurm array jobs with `--seeds A..B`).
+pub const MAX_RUNS: usize = 1_000_000;
+
 /// Statistics of one metric over the runs.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Stat {
@@ -121,8 +125,11 @@ pub fn run(
     mc: &MonteCarloSpec,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<(Vec<Metrics>, Summary)> {
-    if mc.runs == 0 {
-        return Err(SimError::Param("monte_carlo.runs must be at least 1".into()));
+    if mc.runs == 0 || mc.runs > MAX_RUNS {
+        return Err(SimError::Param(format!(
+            "monte_carlo.runs = {} must be in 1..={MAX_RUNS} (split a larger campaign with --seeds A..B)",
+            mc.runs
+        )));
     }
     let indices: Vec<usize> = (0..mc.runs).collect();
     let all = run_indices(scn, mc, &indices, progress)?;
@@ -145,6 +152,12 @@ pub fn run_indices(
 ) -> Result<Vec<Metrics>> {
     if indices.is_empty() {
         return Err(SimError::Param("a Monte Carlo study needs at least one run".into()));
+    }
+    if indices.len() > MAX_RUNS {
+        return Err(SimError::Param(format!(
+            "{} runs asked for in one call, more than {MAX_RUNS}: split the campaign into ranges (--seeds A..B)",
+            indices.len()
+        )));
     }
     // A relative standard deviation above 1 samples masses and inertias mostly at the clamp
     // (0.2 of nominal) or many times nominal: not a study of one craft.

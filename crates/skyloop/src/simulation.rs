@@ -122,6 +122,14 @@ pub fn parse_seed_range(text: &str) -> Result<Vec<usize>> {
     if a >= b {
         return Err(bad());
     }
+    // Checked before the index list is allocated.
+    let max = skyloop_sim::montecarlo::MAX_RUNS;
+    if b - a > max {
+        return Err(Error::Input(format!(
+            "--seeds {text}: {} runs, more than the {max} one call may run; split the range",
+            b - a
+        )));
+    }
     Ok((a..b).collect())
 }
 

@@ -289,8 +289,12 @@ fn steady_samples(names: &[&str], series: &[(Vec<f64>, Vec<f64>)], lo: f64, hi: 
     })
 }
 
+/// Most values (samples × columns) a uniform grid may hold: 2.5e8, 2 GiB of f64.
+pub const MAX_GRID_VALUES: usize = 250_000_000;
+
 /// Resamples several series onto one uniform grid (see [`crate::logs::Log::uniform`]); series of one
 /// steadily logged group are taken sample for sample instead.
+
 pub fn resample(
     names: &[&str],
     series: &[(Vec<f64>, Vec<f64>)],
@@ -333,6 +337,16 @@ pub fn resample(
         }
     }
     let dt = 1.0 / rate;
+    // The grid's size is checked before it is allocated: columns × samples × 8 bytes.
+    let samples = (hi - lo) / dt + 1.0;
+    if samples * series.len().max(1) as f64 > MAX_GRID_VALUES as f64 {
+        return Err(invalid(format!(
+            "resampling {} columns over {:.1} s at {rate} Hz needs {samples:.3e} samples each, more than the {MAX_GRID_VALUES} values in all (2 GiB) a uniform grid may hold: give a lower --rate (at most {:.0} Hz here)",
+            series.len(),
+            hi - lo,
+            MAX_GRID_VALUES as f64 / series.len().max(1) as f64 / (hi - lo)
+        )));
+    }
     let n = ((hi - lo) / dt).floor() as usize + 1;
     if n < 2 {
         return Err(SysidError::NotEnoughData(format!(
