@@ -699,3 +699,22 @@ fn no_feedback_is_refused() {
     );
     assert!(!out.contains("set p_roll = 0"), "{out}");
 }
+
+/// High orders that used to run for minutes with no answer are refused at once, the order and the
+/// bound named (the campaign's hangs: tune, step --closed-loop and rlocus).
+#[test]
+fn high_orders_are_refused_up_front() {
+    let out = std::env::temp_dir().join(format!("skyloop-rl-{}.svg", std::process::id()));
+    for (args, bound) in [
+        (vec!["tune", "--plant", "1/(s+1)^400", "--firmware", "generic"], "60"),
+        (vec!["step", "--closed-loop", "1/(s+1)^400", "--json"], "150"),
+        (vec!["rlocus", "1/(s+1)^120", "--out", out.to_str().unwrap()], "80"),
+    ] {
+        let (code, _, err) = skyloop(&args);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(
+            err.contains("order") && err.contains(bound) && err.contains("reduce"),
+            "{args:?}: {err}"
+        );
+    }
+}

@@ -24,6 +24,28 @@ pub struct Labeled {
     pub sys: StateSpace,
 }
 
+/// Refuses a model above `max` states for `what`, naming the order, the bound and the way out
+/// (the cost of these computations grows as the cube of the order, and past the bound a run takes
+/// minutes).
+///
+/// # Errors
+/// When `sys` has more than `max` states.
+pub fn check_order(sys: &StateSpace, label: &str, what: &str, max: usize) -> Result<()> {
+    if sys.nx() > max {
+        return Err(format!(
+            "{label}: order {} is above the {max} states {what} handles in reasonable time; reduce it first (skyloop reduce MODEL --order K)",
+            sys.nx()
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// Largest loop order `step --closed-loop` simulates.
+pub const MAX_CLOSED_LOOP_ORDER: usize = 150;
+/// Largest loop order a root locus traces.
+pub const MAX_RLOCUS_ORDER: usize = 80;
+
 impl Labeled {
     /// Pairs a model with its legend text.
     pub fn new(label: impl Into<String>, sys: StateSpace) -> Self {

@@ -53,6 +53,7 @@ fn same_time_domain(models: &[Labeled]) -> Result<bool> {
 /// range that is not 0 < k_min < k_max < ∞.
 pub fn root_locus_data(l: &Labeled, gains: Option<(f64, f64)>) -> Result<RootLocusData> {
     l.siso("a root locus")?;
+    super::check_order(&l.sys, &l.label, "a root locus", super::MAX_RLOCUS_ORDER)?;
     let sys = &l.sys;
     if sys.has_delay() {
         return Err(format!(

@@ -56,6 +56,11 @@ pub fn step(models: &[Labeled], closed_loop: bool, t_final_s: Option<f64>) -> Re
     if models.is_empty() {
         return Err("give at least one model".into());
     }
+    if closed_loop {
+        for m in models {
+            super::check_order(&m.sys, &m.label, "a closed-loop step", super::MAX_CLOSED_LOOP_ORDER)?;
+        }
+    }
     let prepared = models
         .iter()
         .map(|m| prepare(m, closed_loop))

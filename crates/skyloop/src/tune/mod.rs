@@ -193,6 +193,9 @@ pub struct TuneOutcome {
     pub extra_delay_s: f64,
 }
 
+/// Largest plant order `tune` accepts.
+pub const MAX_PLANT_ORDER: usize = 60;
+
 /// The default integral-corner band with `--maximize crossover`: ω_c/15 ≤ ki/kp ≤ ω_c/4.
 ///
 /// Why the floor: maximizing the crossover alone can drive ki to 0 (integral action costs phase
@@ -276,6 +279,12 @@ fn with_hold(g: &StateSpace, loop_hz: Option<f64>) -> Result<StateSpace> {
 pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
     for (i, p) in std::iter::once(&req.plant).chain(&req.extra_plants).enumerate() {
         p.validate()?;
+        if p.nx() > MAX_PLANT_ORDER {
+            return Err(Error::Input(format!(
+                "plant {i}: order {} is above the {MAX_PLANT_ORDER} states tune handles (its optimizer evaluates the loop thousands of times); reduce it first (skyloop reduce MODEL --order K)",
+                p.nx()
+            )));
+        }
         if p.ny() != 1 || p.nu() != 1 || p.dt != 0.0 {
             return Err(Error::Input(format!(
                 "plant {i}: tune needs a continuous SISO model, got {}x{} with dt = {}",
