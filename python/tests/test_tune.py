@@ -140,8 +140,8 @@ def test_pid2_and_ardupilot():
 
 
 def test_tune_bad_input_names_the_argument():
-    with pytest.raises(sk.InputError, match="betaflight, px4 or generic"):
-        sk.tune("1/(s+1)", "inav")
+    with pytest.raises(sk.InputError, match="--firmware must be betaflight"):
+        sk.tune("1/(s+1)", "dji")
     with pytest.raises(sk.InputError, match="allowed: ms, mt"):
         sk.tune("1/(s+1)", "generic", goals=["bandwidth>=3"])
     with pytest.raises(sk.SkyloopError, match="> 1"):

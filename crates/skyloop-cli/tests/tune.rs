@@ -269,8 +269,8 @@ fn ardupilot_prints_parameter_names() {
 fn bad_input_exits_2_with_the_allowed_range() {
     let cases: [(&[&str], &str); 4] = [
         (
-            &["tune", "--plant", "1/(s+1)", "--firmware", "inav"],
-            "betaflight, px4 or generic",
+            &["tune", "--plant", "1/(s+1)", "--firmware", "dji"],
+            "--firmware must be betaflight",
         ),
         (
             &[
