@@ -2,7 +2,7 @@
 //!
 //! Every message is `0xA3 0x95 <type u8>` followed by a payload laid out by that type's FMT
 //! message (type 128: type u8, length u8 of the whole message, name char\[4\], format char\[16\],
-//! labels char\[64\]). The format characters and their scaling are in [`fields`]; in short, values
+//! labels char\[64\]). The format characters and their scaling are in the `fields` module; in short, values
 //! are as logged except `c C e E` (÷100) and `L` (latitude/longitude, ÷1e7, degrees), the scaling
 //! the format letter itself states. The FMTU/MULT multipliers are **not** applied (pymavlink does
 //! not apply them either, and the values then match its output): a field whose FMTU multiplier is,
