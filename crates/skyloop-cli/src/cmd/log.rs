@@ -220,6 +220,47 @@ fn print_tuning(t: &FirmwareTuning) {
                 opt(b.d_min_advance)
             );
         }
+        FirmwareTuning::Inav(t) => {
+            println!("tuning (INAV: {}):", t.firmware_revision);
+            for (axis, g) in ["roll", "pitch", "yaw"].iter().zip(&t.pid) {
+                println!(
+                    "  {axis:<5} mc_p {} mc_i {} mc_d {} mc_cd {}",
+                    g.p,
+                    g.i,
+                    g.d,
+                    opt(g.cd)
+                );
+            }
+            let lp = |name: &str, l: &Option<skyloop::sysid::logs::tuning::Lowpass>| match l {
+                Some(l) => println!("  {name}: {} {} Hz", l.kind, l.cutoff_hz),
+                None => println!("  {name}: off"),
+            };
+            lp("gyro main lowpass", &t.gyro_lowpass);
+            lp("D-term lowpass (dterm_lpf)", &t.dterm_lowpass);
+            if t.dterm_lowpass2.is_some() {
+                lp("D-term lowpass 2 (dterm_lpf2)", &t.dterm_lowpass2);
+            }
+            if let Some(n) = &t.dterm_notch {
+                println!("  D-term notch: {} Hz, cutoff {} Hz", n.center_hz, n.cutoff_hz);
+            }
+            for n in &t.gyro_notches {
+                println!("  gyro notch: {} Hz, cutoff {} Hz", n.center_hz, n.cutoff_hz);
+            }
+            println!(
+                "  yaw_lpf_hz {}, mc_cd_lpf_hz {}; loop: PID {} Hz; TPA {} % from {} us",
+                opt(t.yaw_lpf_hz),
+                opt(t.cd_lpf_hz),
+                opt(t.pid_rate_hz.map(|h| (h * 10.0).round() / 10.0)),
+                opt(t.tpa_rate_percent),
+                opt(t.tpa_breakpoint_us)
+            );
+            println!(
+                "  motorOutput {}, minthrottle {}, maxthrottle {}",
+                t.motor_output.map_or("-".into(), |(a, b)| format!("{a}..{b}")),
+                opt(t.min_throttle),
+                opt(t.max_throttle)
+            );
+        }
         FirmwareTuning::Px4(p) => {
             // Each parameter under its own name; "not in the log" where the firmware version has
             // none (older PX4 has no MC_*RATE_K, i.e. K = 1).

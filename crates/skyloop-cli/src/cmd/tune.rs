@@ -12,13 +12,13 @@ use skyloop::tune::{report::write_outputs, tune as run_tune, Firmware, GenericSt
 /// Arguments of `skyloop tune`.
 #[derive(ClapArgs)]
 pub struct Args {
-    /// A flight log (Betaflight blackbox or PX4 ULog): identify --axis from it, read the flown gains and filters from its header, and compare.
+    /// A flight log (Betaflight or INAV blackbox, or PX4 ULog): identify --axis from it, read the flown gains and filters from its header, and compare.
     #[arg(conflicts_with = "plant", required_unless_present = "plant")]
     pub log: Option<std::path::PathBuf>,
-    /// The rate-loop plant (expression or LTI JSON), in the firmware's units (Betaflight: PID sum → deg/s; PX4: normalized torque → rad/s).
+    /// The rate-loop plant (expression or LTI JSON), in the firmware's units (Betaflight, INAV: PID sum → deg/s; PX4: normalized torque → rad/s).
     #[arg(long, allow_hyphen_values = true)]
     pub plant: Option<String>,
-    /// betaflight, px4, ardupilot (ATC_RAT_* of ArduCopter/QuadPlane; with --plant only) or generic.
+    /// betaflight, inav, px4, ardupilot (ATC_RAT_* of ArduCopter/QuadPlane; with --plant only) or generic.
     #[arg(long)]
     pub firmware: String,
     /// generic only: pi, pid or pidf (pidf = pid: kp + ki/s + kd·s/(tf·s+1)), or pid2 (the same with setpoint weights b, c fitted for tracking: u = kp(b·r−y) + ki/s(r−y) + kd·s/(tf·s+1)(c·r−y)).

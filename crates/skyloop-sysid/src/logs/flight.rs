@@ -50,16 +50,26 @@ impl std::str::FromStr for Axis {
 /// The firmware family a log comes from, as far as its channel names and units go.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FlightFirmware {
-    /// Betaflight, and the forks that log its layout (INAV, EmuFlight): blackbox logs.
+    /// Betaflight, and the forks that log its layout (EmuFlight): blackbox logs.
     Betaflight,
+    /// INAV: blackbox logs whose header names INAV (`Firmware revision:INAV …` or `Firmware type:INAV`).
+    Inav,
     /// PX4: ULog logs.
     Px4,
+}
+
+/// Whether a blackbox log's header names INAV.
+pub fn is_inav(log: &Log) -> bool {
+    let rev = log.setting("Firmware revision").unwrap_or_default().trim();
+    let kind = log.setting("Firmware type").unwrap_or_default().trim();
+    rev.get(..4).is_some_and(|p| p.eq_ignore_ascii_case("INAV")) || kind.eq_ignore_ascii_case("INAV")
 }
 
 impl FlightFirmware {
     /// Recognises the firmware from the log's format; CSV logs carry no firmware and are refused.
     pub fn of(log: &Log) -> Result<FlightFirmware> {
         match log.format {
+            LogFormat::Blackbox if is_inav(log) => Ok(FlightFirmware::Inav),
             LogFormat::Blackbox => Ok(FlightFirmware::Betaflight),
             LogFormat::Ulog => Ok(FlightFirmware::Px4),
             LogFormat::Dataflash => Err(invalid(format!(
@@ -73,10 +83,11 @@ impl FlightFirmware {
         }
     }
 
-    /// "Betaflight" or "PX4".
+    /// "Betaflight", "INAV" or "PX4".
     pub fn name(self) -> &'static str {
         match self {
             FlightFirmware::Betaflight => "Betaflight",
+            FlightFirmware::Inav => "INAV",
             FlightFirmware::Px4 => "PX4",
         }
     }
@@ -128,8 +139,8 @@ impl RateLoopChannels {
             })
         };
         match firmware {
-            FlightFirmware::Betaflight => {
-                // Betaflight does not log a term that is always zero (axisD[2] when yaw D is 0).
+            FlightFirmware::Betaflight | FlightFirmware::Inav => {
+                // Betaflight and INAV do not log a term that is always zero (axisD[2] when yaw D is 0).
                 let terms: Vec<String> = ["axisP", "axisI", "axisD", "axisF"]
                     .iter()
                     .map(|t| format!("{t}[{i}]"))
@@ -147,7 +158,15 @@ impl RateLoopChannels {
                     axis,
                     input: terms.join("+"),
                     output: first(&[format!("gyroADC[{i}]")], "gyro")?,
-                    instrument: first(&[format!("setpoint[{i}]"), format!("rcCommand[{i}]")], "setpoint")?,
+                    // INAV logs its rate target (deg/s) as `axisRate[i]`.
+                    instrument: first(
+                        &[
+                            format!("setpoint[{i}]"),
+                            format!("axisRate[{i}]"),
+                            format!("rcCommand[{i}]"),
+                        ],
+                        "setpoint",
+                    )?,
                     input_unit: "PID unit",
                     output_unit: "deg/s",
                 })
@@ -272,6 +291,24 @@ impl AirborneCriteria {
                     push(format!("gyroADC[{i}]"), -g, g, "gyro saturation");
                 }
             }
+            FlightFirmware::Inav => {
+                let (thr_lo, motor) = inav_throttle_and_motor_range(log);
+                push(
+                    "rcCommand[3]".into(),
+                    thr_lo + 0.05 * 1000.0,
+                    f64::INFINITY,
+                    "idle throttle",
+                );
+                let (lo, hi) = motor;
+                let edge = MOTOR_EDGE * (hi - lo);
+                for k in 0..8 {
+                    push(format!("motor[{k}]"), lo + edge, hi - edge, "motor saturation");
+                }
+                let g = GYRO_SATURATED * GYRO_FULL_SCALE_DEG_S;
+                for i in 0..3 {
+                    push(format!("gyroADC[{i}]"), -g, g, "gyro saturation");
+                }
+            }
             FlightFirmware::Px4 => {
                 push("vehicle_land_detected.landed".into(), f64::NEG_INFINITY, 0.5, "landed");
                 if has("vehicle_rates_setpoint.thrust_body[2]") {
@@ -316,6 +353,47 @@ impl AirborneCriteria {
             crash_tail_s: 1.0,
         })
     }
+}
+
+/// INAV's throttle floor (the low end of `rcCommand[3]`) and motor output range, from its header:
+/// `motorOutput` (low, high), else `minthrottle`/`maxthrottle`, else 1000–2000. INAV's header range is
+/// in its mixer's units, which with DShot and since INAV 7 (idle as `throttle_idle` percent) need not
+/// be the units `motor[k]` is logged in: a range that holds fewer than half of the logged motor
+/// samples is not the logged one, and the motors' own logged span is used instead (a motor pinned at
+/// the largest value logged is still saturation), so a flight is never taken for saturated because
+/// the header's scale differs.
+pub fn inav_throttle_and_motor_range(log: &Log) -> (f64, (f64, f64)) {
+    let one = |k: &str| {
+        log.setting(k)
+            .and_then(|v| v.split(',').next()?.trim().parse::<f64>().ok())
+    };
+    let pair = |k: &str| {
+        log.setting(k).and_then(|v| {
+            let mut it = v.split(',').map(|x| x.trim().parse::<f64>().ok());
+            Some((it.next()??, it.next()??))
+        })
+    };
+    let thr_lo = one("minthrottle").filter(|v| (800.0..1500.0).contains(v)).unwrap_or(1000.0);
+    let header = pair("motorOutput")
+        .or_else(|| Some((one("minthrottle")?, one("maxthrottle")?)))
+        .filter(|(a, b)| b > a)
+        .unwrap_or((1000.0, 2000.0));
+    let mut values = Vec::new();
+    for k in 0..8 {
+        if let Ok((_, v)) = log.channel(&format!("motor[{k}]")) {
+            values.extend(v.iter().copied().filter(|x| x.is_finite()));
+        }
+    }
+    if values.is_empty() {
+        return (thr_lo, header);
+    }
+    let inside = values.iter().filter(|v| **v > header.0 && **v < header.1).count();
+    if 2 * inside >= values.len() {
+        return (thr_lo, header);
+    }
+    let lo = values.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    (thr_lo, (lo, hi))
 }
 
 /// The airborne segments and what was excluded.

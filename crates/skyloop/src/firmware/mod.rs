@@ -4,6 +4,9 @@
 //!
 //! - [`betaflight`]: Betaflight's PIDF (P and I on the error, D on the measurement, F on the
 //!   setpoint derivative) with its scale factors from `pid.h` and the gyro / D-term lowpass chain.
+//! - [`inav`]: INAV's multicopter rate PID (P and I on the error, D on the measurement through the
+//!   D-term lowpass, the control derivative `mc_cd` on the target) with its `FP_PID_RATE_*`
+//!   multipliers.
 //! - [`px4`]: PX4's multicopter rate PID `MC_{ROLL,PITCH,YAW}RATE_{K,P,I,D,FF}` (parallel form,
 //!   K scales P, I and D), D on the measurement through `IMU_DGYRO_CUTOFF`, P and I through
 //!   `IMU_GYRO_CUTOFF`.
@@ -15,6 +18,7 @@
 
 pub mod ardupilot;
 pub mod betaflight;
+pub mod inav;
 pub mod px4;
 pub mod rate_gains;
 
@@ -29,6 +33,8 @@ use std::f64::consts::PI;
 pub enum Firmware {
     /// Betaflight PIDF (integers p, i, d, f).
     Betaflight,
+    /// INAV multicopter rate PID (integers mc_p, mc_i, mc_d, mc_cd).
+    Inav,
     /// PX4 multicopter rate PID (MC_*RATE_*).
     Px4,
     /// ArduPilot multicopter rate PID (ATC_RAT_*).
@@ -38,18 +44,19 @@ pub enum Firmware {
 }
 
 impl Firmware {
-    /// Parses "betaflight", "px4", "ardupilot" or "generic".
+    /// Parses "betaflight", "inav", "px4", "ardupilot" or "generic".
     ///
     /// # Errors
     /// Any other text.
     pub fn parse(s: &str) -> Result<Self> {
         match s {
             "betaflight" => Ok(Firmware::Betaflight),
+            "inav" => Ok(Firmware::Inav),
             "px4" => Ok(Firmware::Px4),
             "ardupilot" => Ok(Firmware::Ardupilot),
             "generic" => Ok(Firmware::Generic),
             _ => Err(Error::Input(format!(
-                "--firmware must be betaflight, px4, ardupilot or generic, got `{s}`"
+                "--firmware must be betaflight, inav, px4, ardupilot or generic, got `{s}`"
             ))),
         }
     }
@@ -58,6 +65,7 @@ impl Firmware {
     pub fn name(&self) -> &'static str {
         match self {
             Firmware::Betaflight => "betaflight",
+            Firmware::Inav => "inav",
             Firmware::Px4 => "px4",
             Firmware::Ardupilot => "ardupilot",
             Firmware::Generic => "generic",
@@ -68,6 +76,7 @@ impl Firmware {
     pub fn display_name(&self) -> &'static str {
         match self {
             Firmware::Betaflight => "Betaflight",
+            Firmware::Inav => "INAV",
             Firmware::Px4 => "PX4",
             Firmware::Ardupilot => "ArduPilot",
             Firmware::Generic => "generic",
@@ -79,6 +88,7 @@ impl Firmware {
         use skyloop_sysid::logs::flight::FlightFirmware;
         match FlightFirmware::of(log).ok()? {
             FlightFirmware::Betaflight => Some(Firmware::Betaflight),
+            FlightFirmware::Inav => Some(Firmware::Inav),
             FlightFirmware::Px4 => Some(Firmware::Px4),
         }
     }
@@ -87,8 +97,8 @@ impl Firmware {
     /// controller output), None for a firmware whose log units are not known.
     pub fn flight_units(&self) -> Option<(f64, f64)> {
         match self {
-            // gyroADC in deg/s; the PID sum is limited to ±500 (pidsum_limit).
-            Firmware::Betaflight => Some((PI / 180.0, 500.0)),
+            // gyroADC in deg/s; the PID sum is limited to ±500 (pidsum_limit; INAV's too).
+            Firmware::Betaflight | Firmware::Inav => Some((PI / 180.0, 500.0)),
             // rad/s; normalized torque in [−1, 1].
             Firmware::Px4 => Some((1.0, 1.0)),
             Firmware::Ardupilot | Firmware::Generic => None,

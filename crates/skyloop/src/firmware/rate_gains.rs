@@ -4,6 +4,7 @@
 //! and the lines the pilot pastes. One value per firmware whose gains a log carries.
 
 use super::betaflight::{self, Axis};
+use super::inav;
 use super::px4;
 use crate::error::Result;
 use serde_json::{json, Value};
@@ -21,6 +22,15 @@ pub enum RateGains {
         axis: Axis,
         /// Filters and loop rate.
         filters: betaflight::Filters,
+    },
+    /// INAV integer mc_p, mc_i, mc_d, mc_cd.
+    Inav {
+        /// The gains.
+        gains: inav::Gains,
+        /// The axis.
+        axis: Axis,
+        /// Filters and loop rate.
+        filters: inav::Filters,
     },
     /// PX4 MC_*RATE_{K,P,I,D,FF}.
     Px4 {
@@ -41,6 +51,7 @@ impl RateGains {
     pub fn block(&self) -> Result<Block> {
         match self {
             RateGains::Betaflight { filters, .. } => betaflight::block(filters),
+            RateGains::Inav { filters, .. } => inav::block(filters),
             RateGains::Px4 { filters, .. } => px4::block(filters),
         }
     }
@@ -50,6 +61,10 @@ impl RateGains {
         match self {
             RateGains::Betaflight { gains, axis, .. } => {
                 let (p, i, d, _) = betaflight::continuous(gains, *axis);
+                [p, i, d]
+            }
+            RateGains::Inav { gains, .. } => {
+                let (p, i, d, _) = inav::continuous(gains);
                 [p, i, d]
             }
             RateGains::Px4 { gains, .. } => {
@@ -63,6 +78,7 @@ impl RateGains {
     pub fn loop_hz(&self) -> f64 {
         match self {
             RateGains::Betaflight { filters, .. } => filters.loop_hz,
+            RateGains::Inav { filters, .. } => filters.loop_hz,
             RateGains::Px4 { filters, .. } => filters.loop_hz,
         }
     }
@@ -82,6 +98,7 @@ impl RateGains {
     pub fn reference_path(&self) -> Result<StateSpace> {
         match self {
             RateGains::Betaflight { gains, axis, filters } => betaflight::reference_path(gains, *axis, filters.loop_hz),
+            RateGains::Inav { gains, filters, .. } => inav::reference_path(gains, filters),
             RateGains::Px4 { gains, .. } => px4::reference_path(gains),
         }
     }
@@ -90,6 +107,7 @@ impl RateGains {
     pub fn to_json(&self) -> Value {
         match self {
             RateGains::Betaflight { gains, .. } => json!(gains),
+            RateGains::Inav { gains, .. } => json!(gains),
             RateGains::Px4 { gains, axis, .. } => {
                 let n = px4::param_names(*axis);
                 let mut m = serde_json::Map::new();
@@ -105,6 +123,7 @@ impl RateGains {
     pub fn cli(&self) -> Vec<String> {
         match self {
             RateGains::Betaflight { gains, axis, .. } => betaflight::cli_lines(gains, *axis),
+            RateGains::Inav { gains, axis, .. } => inav::cli_lines(gains, *axis),
             RateGains::Px4 { gains, axis, .. } => px4::cli_lines(gains, *axis),
         }
     }
@@ -118,6 +137,12 @@ impl RateGains {
                 ("D", f64::from(g.d)),
                 ("F", f64::from(g.f)),
             ],
+            RateGains::Inav { gains: g, .. } => vec![
+                ("P", f64::from(g.p)),
+                ("I", f64::from(g.i)),
+                ("D", f64::from(g.d)),
+                ("CD", f64::from(g.cd)),
+            ],
             RateGains::Px4 { gains: g, .. } => {
                 vec![("K", g.k), ("P", g.p), ("I", g.i), ("D", g.d), ("FF", g.ff)]
             }
@@ -125,7 +150,7 @@ impl RateGains {
     }
 
     /// Every gain set whose P, I and D each lie within ±`span` (e.g. 0.4) of these, at most
-    /// `levels` values per gain in the firmware's resolution (Betaflight: whole units; PX4: six
+    /// `levels` values per gain in the firmware's resolution (Betaflight, INAV: whole units; PX4: six
     /// significant digits); the feedforward and PX4's K are kept. A gain at 0 stays 0.
     pub fn neighbours(&self, span: f64, levels: usize) -> Vec<RateGains> {
         let steps = |x: f64, integer: bool| -> Vec<f64> {
@@ -164,6 +189,28 @@ impl RateGains {
                                     i: i as u32,
                                     d: d as u32,
                                     f: gains.f,
+                                },
+                                axis: *axis,
+                                filters: filters.clone(),
+                            });
+                        }
+                    }
+                }
+            }
+            RateGains::Inav { gains, axis, filters } => {
+                let max = f64::from(inav::GAIN_MAX);
+                for p in steps(f64::from(gains.p), true) {
+                    for i in steps(f64::from(gains.i), true) {
+                        for d in steps(f64::from(gains.d), true) {
+                            if p.max(i).max(d) > max {
+                                continue;
+                            }
+                            out.push(RateGains::Inav {
+                                gains: inav::Gains {
+                                    p: p as u32,
+                                    i: i as u32,
+                                    d: d as u32,
+                                    cd: gains.cd,
                                 },
                                 axis: *axis,
                                 filters: filters.clone(),

@@ -27,7 +27,7 @@ use super::verdict::{proposal_text, Verdict, VerdictKind};
 use super::{outcome_for_gains, tune, with_hold, Firmware, GenericStructure, Maximize, TuneOutcome, TuneRequest};
 use crate::error::{Error, Result};
 use crate::firmware::betaflight::{self, Axis};
-use crate::firmware::px4;
+use crate::firmware::{inav, px4};
 use crate::firmware::rate_gains::RateGains;
 use crate::identify::{identify_log, Identification, IdentifyRequest};
 use serde_json::{json, Value};
@@ -380,6 +380,16 @@ fn header_stage(req: &LogTuneRequest, idn: &Identified, notes: &mut Vec<String>)
                 current_gains = Some(CurrentGains::Betaflight(g, d_applied));
             }
         }
+        (Some(FirmwareTuning::Inav(t)), Firmware::Inav) => {
+            let h = inav::flown_from_header(t, req.axis);
+            filters = h.lines;
+            notes.extend(h.notes);
+            treq.inav = h.filters;
+            if let Some(g) = h.gains {
+                treq.inav_cd = Some(g.cd);
+                current_gains = Some(CurrentGains::Inav(g));
+            }
+        }
         (Some(FirmwareTuning::Px4(p)), Firmware::Px4) => {
             let (f, g, lines) = px4::flown_from_header(p, req.axis);
             filters = lines;
@@ -424,6 +434,7 @@ fn flown_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, notes: &mut
     let (treq, current_gains) = (&hdr.treq, &hdr.current_gains);
     let loop_hz = match req.firmware {
         Firmware::Betaflight => Some(treq.betaflight.loop_hz),
+        Firmware::Inav => Some(treq.inav.loop_hz),
         Firmware::Px4 => Some(treq.px4.loop_hz),
         Firmware::Ardupilot => Some(treq.ardupilot.loop_hz),
         Firmware::Generic => None,
@@ -684,6 +695,7 @@ fn warnings_of(req: &LogTuneRequest, fl: &Flown, proposed_analysis: &TuneAnalysi
 enum CurrentGains {
     /// The header's gains and the D the firmware applies (d_min when active).
     Betaflight(betaflight::Gains, u32),
+    Inav(inav::Gains),
     Px4(px4::Gains),
 }
 
@@ -903,6 +915,11 @@ fn flown_rate_gains(cur: Option<&CurrentGains>, treq: &TuneRequest) -> Option<Ra
             axis: treq.axis,
             filters: treq.betaflight.clone(),
         }),
+        CurrentGains::Inav(g) => Some(RateGains::Inav {
+            gains: *g,
+            axis: treq.axis,
+            filters: treq.inav.clone(),
+        }),
         CurrentGains::Px4(g) => Some(RateGains::Px4 {
             gains: *g,
             axis: treq.axis,
@@ -934,6 +951,23 @@ fn proposed_reference_path(req: &LogTuneRequest, treq: &TuneRequest, proposed: &
         Firmware::Betaflight => {
             let g: betaflight::Gains = gains_bf(&proposed.gains)?;
             betaflight::reference_path(&g, req.axis, treq.betaflight.loop_hz)?
+        }
+        Firmware::Inav => {
+            let v = &proposed.gains;
+            let g = |k: &str| {
+                v[k].as_u64()
+                    .map(|x| x as u32)
+                    .ok_or_else(|| Error::Failed(format!("proposed gains lack {k}")))
+            };
+            inav::reference_path(
+                &inav::Gains {
+                    p: g("p")?,
+                    i: g("i")?,
+                    d: g("d")?,
+                    cd: g("cd")?,
+                },
+                &treq.inav,
+            )?
         }
         Firmware::Px4 => {
             let names = px4::param_names(req.axis);

@@ -11,7 +11,7 @@
 use crate::error::{Error, Result};
 use crate::firmware::betaflight::{self, Axis};
 use crate::firmware::rate_gains::RateGains;
-use crate::firmware::{self, ardupilot, px4};
+use crate::firmware::{self, ardupilot, inav, px4};
 use serde_json::{json, Value};
 use skyloop_lti::json::LtiJson;
 use skyloop_lti::StateSpace;
@@ -118,6 +118,8 @@ pub struct TuneRequest {
     pub maximize: Maximize,
     /// Betaflight filters and loop rate.
     pub betaflight: betaflight::Filters,
+    /// INAV filters and loop rate.
+    pub inav: inav::Filters,
     /// PX4 filters and loop rate.
     pub px4: px4::Filters,
     /// ArduPilot filters and loop rate.
@@ -127,6 +129,8 @@ pub struct TuneRequest {
     /// Betaflight: the flown F gain, kept when `tune_feedforward` is false (None: 120,
     /// Betaflight 4.4's default).
     pub betaflight_f: Option<u32>,
+    /// INAV: the flown mc_cd_<axis>, kept when `tune_feedforward` is false (None: 0).
+    pub inav_cd: Option<u32>,
     /// PX4: the flown MC_*RATE_FF, kept when `tune_feedforward` is false (None: 0).
     pub px4_ff: Option<f64>,
     /// ArduPilot: the ATC_RAT_*_FF to keep when `tune_feedforward` is false (None: 0).
@@ -149,10 +153,12 @@ impl TuneRequest {
             goals: Vec::new(),
             maximize: Maximize::IntegralGain,
             betaflight: betaflight::Filters::default(),
+            inav: inav::Filters::default(),
             px4: px4::Filters::default(),
             ardupilot: ardupilot::Filters::default(),
             starts: 8,
             betaflight_f: None,
+            inav_cd: None,
             px4_ff: None,
             ardupilot_ff: None,
             tune_feedforward: true,
@@ -299,6 +305,7 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
     }
     let loop_hz = match req.firmware {
         Firmware::Betaflight => Some(req.betaflight.loop_hz),
+        Firmware::Inav => Some(req.inav.loop_hz),
         Firmware::Px4 => Some(req.px4.loop_hz),
         Firmware::Ardupilot => Some(req.ardupilot.loop_hz),
         Firmware::Generic => None,
@@ -309,6 +316,7 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
         .collect::<Result<_>>()?;
     let block = match req.firmware {
         Firmware::Betaflight => betaflight::block(&req.betaflight)?,
+        Firmware::Inav => inav::block(&req.inav)?,
         Firmware::Px4 => px4::block(&req.px4)?,
         Firmware::Ardupilot => ardupilot::block(&req.ardupilot)?,
         Firmware::Generic => match (req.structure, req.d_filter_tau_s) {
@@ -496,6 +504,45 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
                 theta,
                 betaflight::cli_lines(&bg, req.axis),
                 Some(firmware::discrete(&c, req.betaflight.loop_hz)?),
+            )
+        }
+        Firmware::Inav => {
+            let mut ig = inav::from_continuous(th[0], th[1], th[2], req.inav_cd.unwrap_or(0), req.axis)?;
+            let c = inav::feedback_controller(&ig, &req.inav)?;
+            let unit = 1.0 / inav::CD_MULTIPLIER;
+            let fit = fit_feedforward(
+                req,
+                &plants[0],
+                &c,
+                || {
+                    Ok((
+                        inav::reference_path(&inav::Gains { cd: 0, ..ig }, &req.inav)?,
+                        inav::feedforward_unit(&req.inav)?,
+                    ))
+                },
+                f64::from(inav::GAIN_MAX) * unit,
+                &mut notes,
+            )?;
+            if let Some(fit) = fit {
+                ig.cd = (fit.gain / unit).round().clamp(0.0, f64::from(inav::GAIN_MAX)) as u32;
+                notes.push(feedforward_note(&format!("mc_cd_{} = {}", req.axis.name(), ig.cd), &fit));
+                ff_fit = Some(fit);
+            } else {
+                notes.push(format!(
+                    "mc_cd_{} = {} is not tuned ({}){}",
+                    req.axis.name(),
+                    ig.cd,
+                    keep_reason(req),
+                    if req.inav_cd.is_some() { "; kept as flown" } else { "" }
+                ));
+            }
+            notes.push("plant units: input INAV's PID sum, output gyro deg/s".into());
+            let (kp, ki, kd, _) = inav::continuous(&ig);
+            (
+                serde_json::to_value(ig)?,
+                vec![kp, ki, kd],
+                inav::cli_lines(&ig, req.axis),
+                Some(firmware::discrete(&c, req.inav.loop_hz)?),
             )
         }
         Firmware::Ardupilot => {
