@@ -602,3 +602,116 @@ mod tests {
         assert!(RateLoopChannels::find(&l, Axis::Pitch).is_err());
     }
 }
+
+#[cfg(test)]
+mod inav_tests {
+    use super::*;
+    use crate::logs::{Channel, Group};
+
+    /// A 10 s synthetic INAV session at 100 Hz whose header's `motorOutput` is not the scale
+    /// `motor[k]` is logged in (as on INAV 9 with DShot): read as Betaflight, every sample would be
+    /// "motor saturation"; read as INAV, only the motor pinned at its largest logged value is.
+    fn inav_log(settings: Vec<(&str, &str)>) -> Log {
+        let n = 1000;
+        let t = |i: usize| i as f64 * 0.01;
+        let m0: Vec<f64> = (0..n)
+            .map(|i| if (5.0..5.5).contains(&t(i)) { 1850.0 } else { 1300.0 + 100.0 * (t(i)).sin() })
+            .collect();
+        let channels = vec![
+            ("rcCommand[3]", vec![1400.0; n]),
+            ("motor[0]", m0),
+            // One low sample sets the logged span's floor (1100) away from the sine's trough.
+            ("motor[1]", (0..n).map(|i| if i == 0 { 1100.0 } else { 1350.0 }).collect()),
+            ("gyroADC[0]", vec![10.0; n]),
+            ("axisP[0]", vec![0.0; n]),
+            ("axisI[0]", vec![0.0; n]),
+            ("axisD[0]", vec![0.0; n]),
+            ("axisRate[0]", vec![0.0; n]),
+            ("rcCommand[0]", vec![0.0; n]),
+        ];
+        Log {
+            source: "inav".into(),
+            format: LogFormat::Blackbox,
+            groups: vec![Group {
+                name: "main".into(),
+                prefix: None,
+                time_s: (0..n).map(t).collect(),
+                channels: channels
+                    .into_iter()
+                    .map(|(name, values)| Channel {
+                        name: name.into(),
+                        values,
+                    })
+                    .collect(),
+            }],
+            notes: vec![],
+            settings: settings.into_iter().map(|(k, v)| (k.to_string(), v.to_string())).collect(),
+            clock_origin_s: 0.0,
+        }
+    }
+
+    #[test]
+    fn inav_is_recognised_and_its_motor_range_gives_no_false_saturation() {
+        let l = inav_log(vec![
+            ("Firmware type", "Cleanflight"),
+            ("Firmware revision", "INAV 9.0.1 (d44f2cf6) IFLIGHT_BLITZ_F722"),
+            ("motorOutput", "48,1000"),
+            ("minthrottle", "1000"),
+            ("maxthrottle", "2000"),
+        ]);
+        assert_eq!(FlightFirmware::of(&l).unwrap(), FlightFirmware::Inav);
+        assert_eq!(FlightFirmware::Inav.name(), "INAV");
+        let ch = RateLoopChannels::find(&l, Axis::Roll).unwrap();
+        assert_eq!(ch.input, "axisP[0]+axisI[0]+axisD[0]");
+        assert_eq!(ch.instrument, "axisRate[0]");
+        assert_eq!(ch.output, "gyroADC[0]");
+        let (_, range) = inav_throttle_and_motor_range(&l);
+        assert_eq!(range, (1100.0, 1850.0));
+        let c = AirborneCriteria::for_log(&l).unwrap();
+        let a = airborne_segments(&l, "gyroADC[0]", &c, None, None).unwrap();
+        let sat = a.excluded_s.iter().find(|(r, _)| *r == "motor saturation").unwrap().1;
+        assert!((sat - 0.5).abs() < 0.05, "{sat}");
+        assert_eq!(a.segments.len(), 2, "{:?}", a.segments);
+        // The same data read as Betaflight (no INAV in the header) is saturated throughout.
+        let mut bf = l.clone();
+        bf.settings.retain(|(k, _)| !k.starts_with("Firmware"));
+        assert_eq!(FlightFirmware::of(&bf).unwrap(), FlightFirmware::Betaflight);
+        let c = AirborneCriteria::for_log(&bf).unwrap();
+        assert!(airborne_segments(&bf, "gyroADC[0]", &c, None, None).is_err());
+        // `Firmware type:INAV` alone also names INAV; a header range that holds the motors is used.
+        let l2 = inav_log(vec![("Firmware type", "INAV"), ("motorOutput", "1000,2000")]);
+        assert_eq!(FlightFirmware::of(&l2).unwrap(), FlightFirmware::Inav);
+        assert_eq!(inav_throttle_and_motor_range(&l2).1, (1000.0, 2000.0));
+    }
+
+    #[test]
+    fn inav_header_is_read_with_inav_keys() {
+        use crate::logs::tuning::FirmwareTuning;
+        let l = inav_log(vec![
+            ("Firmware revision", "INAV 9.0.1 (d44f2cf6) IFLIGHT_BLITZ_F722"),
+            ("rollPID", "44,75,25,60"),
+            ("pitchPID", "46,80,26,60"),
+            ("yawPID", "35,80,0,60"),
+            ("gyro_main_lpf_hz", "110"),
+            ("gyro_main_lpf_type", "PT1"),
+            ("dterm_lpf_hz", "110"),
+            ("dterm_lpf_type", "3"),
+            ("yaw_lpf_hz", "30"),
+            ("looptime", "1022"),
+            ("motorOutput", "48,1000"),
+        ]);
+        let Some(FirmwareTuning::Inav(t)) = FirmwareTuning::from_log(&l) else {
+            panic!("not read as INAV")
+        };
+        assert_eq!(t.version_major, Some(9));
+        assert_eq!((t.pid[0].p, t.pid[0].i, t.pid[0].d, t.pid[0].cd), (44.0, 75.0, 25.0, Some(60.0)));
+        assert_eq!(t.pid.len(), 3);
+        let g = t.gyro_lowpass.as_ref().unwrap();
+        assert_eq!((g.kind.as_str(), g.cutoff_hz), ("PT1", 110.0));
+        let d = t.dterm_lowpass.as_ref().unwrap();
+        assert_eq!((d.kind.as_str(), d.cutoff_hz), ("PT3", 110.0));
+        assert!((t.pid_rate_hz.unwrap() - 978.47).abs() < 0.01);
+        assert_eq!(t.motor_output, Some((48.0, 1000.0)));
+        assert_eq!(t.yaw_lpf_hz, Some(30.0));
+    }
+}
