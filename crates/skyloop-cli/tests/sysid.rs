@@ -739,4 +739,52 @@ fn huge_sizes_are_refused_up_front() {
     ]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("--seeds") && err.contains("1000000"), "{err}");
+
+/// No real INAV log is in testdata: the Betaflight acro flight with its header relabelled INAV
+/// (`Firmware revision:INAV 9.0.1 …`, `Firmware type:INAV`) is read as INAV: its channels, an
+/// airborne test from INAV's keys, and the header interpreted as INAV's.
+#[test]
+fn a_log_whose_header_names_inav_is_read_as_inav() {
+    let bytes = std::fs::read(log_path("btfl_all.bbl")).unwrap();
+    let text = String::from_utf8_lossy(&bytes).into_owned();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    // Replace every "Firmware revision:Betaflight" header with an INAV one, byte for byte elsewhere.
+    let needle = b"H Firmware revision:Betaflight";
+    while i < bytes.len() {
+        if bytes[i..].starts_with(needle) {
+            out.extend_from_slice(b"H Firmware revision:INAV");
+            i += needle.len();
+        } else {
+            out.push(bytes[i]);
+            i += 1;
+        }
+    }
+    assert!(text.contains("Firmware revision:Betaflight"));
+    let path = tmp("relabelled_inav.bbl");
+    std::fs::write(&path, &out).unwrap();
+    let p = path.to_str().unwrap();
+    let v = ok_json(&["log", "info", p, "--session", "4", "--json"]);
+    assert_eq!(v["tuning"]["firmware"], "inav", "{}", v["tuning"]);
+    assert_eq!(v["tuning"]["pid"].as_array().unwrap().len(), 3);
+    let v = ok_json(&[
+        "identify",
+        p,
+        "--axis",
+        "roll",
+        "--fmin-hz",
+        "1",
+        "--fmax-hz",
+        "40",
+        "--json",
+    ]);
+    assert_eq!(v["firmware"], "INAV");
+    assert_eq!(v["instrument"], "setpoint[0]");
+    let total: f64 = v["segments"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["to_s"].as_f64().unwrap() - s["from_s"].as_f64().unwrap())
+        .sum();
+    assert!(total > 100.0, "{total}");
 }

@@ -122,6 +122,34 @@ fn betaflight_prints_integer_gains_and_cli_lines() {
     assert!(ff["overshoot_pct"].as_f64().unwrap() <= cap + 1e-9, "{ff}");
 }
 
+#[test]
+fn inav_prints_integer_gains_and_cli_lines() {
+    // The same roll axis in INAV's units (PID sum → deg/s), 1 kHz loop.
+    let v = json(&[
+        "tune",
+        "--plant",
+        "exp(-0.003*s)*400/(s*(0.025*s+1))",
+        "--firmware",
+        "inav",
+        "--starts",
+        "4",
+        "--json",
+    ]);
+    for k in ["p", "i", "d", "cd"] {
+        assert!(v["gains"][k].as_u64().is_some_and(|g| g <= 255), "{k}: {v}");
+    }
+    let cli: Vec<&str> = v["cli"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|l| l.as_str().unwrap())
+        .collect();
+    assert_eq!(cli[0], format!("set mc_p_roll = {}", v["gains"]["p"]));
+    assert_eq!(cli[3], format!("set mc_cd_roll = {}", v["gains"]["cd"]));
+    // The hold of the 1 kHz loop (half a period) is part of the checked loop.
+    check_claims("exp(-0.0035*s)*400/(s*(0.025*s+1))", &v);
+}
+
 /// `--maximize crossover` keeps integral action (the default integral-corner floor) and
 /// `--keep-feedforward` keeps F at the firmware's default.
 #[test]
@@ -270,7 +298,7 @@ fn bad_input_exits_2_with_the_allowed_range() {
     let cases: [(&[&str], &str); 4] = [
         (
             &["tune", "--plant", "1/(s+1)", "--firmware", "dji"],
-            "--firmware must be betaflight",
+            "betaflight, inav, px4, ardupilot or generic",
         ),
         (
             &[

@@ -223,13 +223,7 @@ fn print_tuning(t: &FirmwareTuning) {
         FirmwareTuning::Inav(t) => {
             println!("tuning (INAV: {}):", t.firmware_revision);
             for (axis, g) in ["roll", "pitch", "yaw"].iter().zip(&t.pid) {
-                println!(
-                    "  {axis:<5} mc_p {} mc_i {} mc_d {} mc_cd {}",
-                    g.p,
-                    g.i,
-                    g.d,
-                    opt(g.cd)
-                );
+                println!("  {axis:<5} mc_p {} mc_i {} mc_d {} mc_cd {}", g.p, g.i, g.d, opt(g.cd));
             }
             let lp = |name: &str, l: &Option<skyloop::sysid::logs::tuning::Lowpass>| match l {
                 Some(l) => println!("  {name}: {} {} Hz", l.kind, l.cutoff_hz),

@@ -373,7 +373,9 @@ pub fn inav_throttle_and_motor_range(log: &Log) -> (f64, (f64, f64)) {
             Some((it.next()??, it.next()??))
         })
     };
-    let thr_lo = one("minthrottle").filter(|v| (800.0..1500.0).contains(v)).unwrap_or(1000.0);
+    let thr_lo = one("minthrottle")
+        .filter(|v| (800.0..1500.0).contains(v))
+        .unwrap_or(1000.0);
     let header = pair("motorOutput")
         .or_else(|| Some((one("minthrottle")?, one("maxthrottle")?)))
         .filter(|(a, b)| b > a)
@@ -615,13 +617,22 @@ mod inav_tests {
         let n = 1000;
         let t = |i: usize| i as f64 * 0.01;
         let m0: Vec<f64> = (0..n)
-            .map(|i| if (5.0..5.5).contains(&t(i)) { 1850.0 } else { 1300.0 + 100.0 * (t(i)).sin() })
+            .map(|i| {
+                if (5.0..5.5).contains(&t(i)) {
+                    1850.0
+                } else {
+                    1300.0 + 100.0 * (t(i)).sin()
+                }
+            })
             .collect();
         let channels = vec![
             ("rcCommand[3]", vec![1400.0; n]),
             ("motor[0]", m0),
             // One low sample sets the logged span's floor (1100) away from the sine's trough.
-            ("motor[1]", (0..n).map(|i| if i == 0 { 1100.0 } else { 1350.0 }).collect()),
+            (
+                "motor[1]",
+                (0..n).map(|i| if i == 0 { 1100.0 } else { 1350.0 }).collect(),
+            ),
             ("gyroADC[0]", vec![10.0; n]),
             ("axisP[0]", vec![0.0; n]),
             ("axisI[0]", vec![0.0; n]),
@@ -645,7 +656,10 @@ mod inav_tests {
                     .collect(),
             }],
             notes: vec![],
-            settings: settings.into_iter().map(|(k, v)| (k.to_string(), v.to_string())).collect(),
+            settings: settings
+                .into_iter()
+                .map(|(k, v)| (k.to_string(), v.to_string()))
+                .collect(),
             clock_origin_s: 0.0,
         }
     }
@@ -704,7 +718,10 @@ mod inav_tests {
             panic!("not read as INAV")
         };
         assert_eq!(t.version_major, Some(9));
-        assert_eq!((t.pid[0].p, t.pid[0].i, t.pid[0].d, t.pid[0].cd), (44.0, 75.0, 25.0, Some(60.0)));
+        assert_eq!(
+            (t.pid[0].p, t.pid[0].i, t.pid[0].d, t.pid[0].cd),
+            (44.0, 75.0, 25.0, Some(60.0))
+        );
         assert_eq!(t.pid.len(), 3);
         let g = t.gyro_lowpass.as_ref().unwrap();
         assert_eq!((g.kind.as_str(), g.cutoff_hz), ("PT1", 110.0));

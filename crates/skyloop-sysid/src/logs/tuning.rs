@@ -349,7 +349,10 @@ fn inav(log: &Log) -> InavTuning {
         version_major: version_major(&rev),
         firmware_revision: rev,
         pid,
-        gyro_lowpass: lowpass(&["gyro_main_lpf_hz", "gyro_lpf_hz"], &["gyro_main_lpf_type", "gyro_lpf_type"]),
+        gyro_lowpass: lowpass(
+            &["gyro_main_lpf_hz", "gyro_lpf_hz"],
+            &["gyro_main_lpf_type", "gyro_lpf_type"],
+        ),
         dterm_lowpass: lowpass(&["dterm_lpf_hz"], &["dterm_lpf_type"]),
         dterm_lowpass2: lowpass(&["dterm_lpf2_hz"], &["dterm_lpf2_type"]),
         dterm_notch: notches("dterm_notch_hz", "dterm_notch_cutoff").first().copied(),

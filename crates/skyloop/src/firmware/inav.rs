@@ -208,7 +208,9 @@ fn lowpass_of(l: &HeaderLowpass, notes: &mut Vec<String>, name: &str) -> Option<
         "PT3" => Lowpass::Pt3(f),
         "BIQUAD" => Lowpass::Biquad(f),
         other => {
-            notes.push(format!("{name}: filter type {other} is not modelled; taken as PT1 at {f} Hz"));
+            notes.push(format!(
+                "{name}: filter type {other} is not modelled; taken as PT1 at {f} Hz"
+            ));
             Lowpass::Pt1(f)
         }
     })
@@ -251,7 +253,9 @@ pub fn flown_from_header(t: &InavTuning, axis: Axis) -> FlownHeader {
         ));
         CD_LPF_DEFAULT_HZ
     });
-    lines.push(format!("mc_cd_lpf_hz: {cd_lpf_hz} Hz (control derivative, reference path)"));
+    lines.push(format!(
+        "mc_cd_lpf_hz: {cd_lpf_hz} Hz (control derivative, reference path)"
+    ));
     let loop_hz = t.pid_rate_hz.unwrap_or_else(|| {
         notes.push("the header has no looptime: a 1 kHz PID loop is assumed".into());
         1000.0
@@ -325,7 +329,13 @@ mod tests {
         assert!(e.contains("mc_p_pitch") && e.contains("0..=255"), "{e}");
         assert_eq!(
             cli_lines(&g, Axis::Roll),
-            ["set mc_p_roll = 40", "set mc_i_roll = 30", "set mc_d_roll = 23", "set mc_cd_roll = 60", "save"]
+            [
+                "set mc_p_roll = 40",
+                "set mc_i_roll = 30",
+                "set mc_d_roll = 23",
+                "set mc_cd_roll = 60",
+                "save"
+            ]
         );
     }
 
@@ -383,7 +393,11 @@ mod tests {
         assert_eq!(h.filters.dterm, vec![Lowpass::Pt3(110.0)]);
         assert_eq!(h.filters.cd_lpf_hz, CD_LPF_DEFAULT_HZ);
         assert!((h.filters.loop_hz - 978.47).abs() < 0.01, "{}", h.filters.loop_hz);
-        assert!(h.lines.iter().any(|l| l.contains("gyro main lowpass: PT1 at 110 Hz")), "{:?}", h.lines);
+        assert!(
+            h.lines.iter().any(|l| l.contains("gyro main lowpass: PT1 at 110 Hz")),
+            "{:?}",
+            h.lines
+        );
         assert!(flown_from_header(&t, Axis::Yaw).gains.is_none());
     }
 }

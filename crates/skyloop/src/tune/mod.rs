@@ -525,7 +525,10 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
             )?;
             if let Some(fit) = fit {
                 ig.cd = (fit.gain / unit).round().clamp(0.0, f64::from(inav::GAIN_MAX)) as u32;
-                notes.push(feedforward_note(&format!("mc_cd_{} = {}", req.axis.name(), ig.cd), &fit));
+                notes.push(feedforward_note(
+                    &format!("mc_cd_{} = {}", req.axis.name(), ig.cd),
+                    &fit,
+                ));
                 ff_fit = Some(fit);
             } else {
                 notes.push(format!(
