@@ -745,4 +745,57 @@ fn high_orders_are_refused_up_front() {
             "{args:?}: {err}"
         );
     }
+
+/// No real INAV log is in testdata: the Betaflight acro flight (btfl_all.bbl session 4) with its
+/// header relabelled `Firmware revision:INAV …` is tuned as INAV: its header's gains are read as
+/// mc_p/mc_i/mc_d, and the proposal is given as INAV CLI lines; `--firmware betaflight` is refused.
+#[test]
+fn tune_from_a_log_whose_header_names_inav() {
+    let src = format!("{}/../../testdata/logs/btfl_all.bbl", env!("CARGO_MANIFEST_DIR"));
+    let bytes = std::fs::read(src).unwrap();
+    let needle = b"H Firmware revision:Betaflight";
+    let (mut out, mut i) = (Vec::with_capacity(bytes.len()), 0);
+    while i < bytes.len() {
+        if bytes[i..].starts_with(needle) {
+            out.extend_from_slice(b"H Firmware revision:INAV");
+            i += needle.len();
+        } else {
+            out.push(bytes[i]);
+            i += 1;
+        }
+    }
+    let dir = std::env::temp_dir().join(format!("skyloop-tune-inav-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let log = dir.join("relabelled_inav.bbl");
+    std::fs::write(&log, &out).unwrap();
+    let l = log.to_str().unwrap();
+    let v = json(&[
+        "tune",
+        l,
+        "--axis",
+        "roll",
+        "--firmware",
+        "inav",
+        "--session",
+        "4",
+        "--starts",
+        "2",
+        "--json",
+    ]);
+    let s = v.to_string();
+    assert!(s.contains("set mc_p_roll = "), "{s:.2000}");
+    assert!(s.contains("set mc_cd_roll = "), "{s:.2000}");
+    assert!(v["verdict"]["kind"].is_string(), "{}", v["verdict"]);
+    let (code, _, err) = skyloop(&[
+        "tune",
+        l,
+        "--axis",
+        "roll",
+        "--firmware",
+        "betaflight",
+        "--session",
+        "4",
+    ]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("INAV log"), "{err}");
 }
