@@ -739,6 +739,7 @@ fn huge_sizes_are_refused_up_front() {
     ]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("--seeds") && err.contains("1000000"), "{err}");
+}
 
 /// No real INAV log is in testdata: the Betaflight acro flight with its header relabelled INAV
 /// (`Firmware revision:INAV 9.0.1 …`, `Firmware type:INAV`) is read as INAV: its channels, an

@@ -745,6 +745,7 @@ fn high_orders_are_refused_up_front() {
             "{args:?}: {err}"
         );
     }
+}
 
 /// No real INAV log is in testdata: the Betaflight acro flight (btfl_all.bbl session 4) with its
 /// header relabelled `Firmware revision:INAV …` is tuned as INAV: its header's gains are read as
