@@ -20,7 +20,7 @@ use crate::error::{Error, Result};
 use serde::Serialize;
 use skyloop_lti::StateSpace;
 use skyloop_robust::structured::blocks::Block;
-use skyloop_sysid::logs::tuning::{BetaflightTuning, Lowpass as HeaderLowpass, Rates};
+use skyloop_sysid::logs::tuning::{BetaflightTuning, Rates};
 use skyloop_sysid::logs::{Channel, Log};
 
 /// `PTERM_SCALE` of Betaflight's pid.h.
@@ -302,29 +302,15 @@ pub struct FlownHeader {
 /// Reads the flown tune of `axis` from a Betaflight header (3.x and 4.x names).
 pub fn flown_from_header(b: &BetaflightTuning, axis: Axis, log: &Log) -> FlownHeader {
     let (mut lines, mut notes) = (Vec::new(), Vec::new());
-    let mut dterm = Vec::new();
-    for (l, name) in [
-        (&b.dterm_lowpass, "dterm_lowpass"),
-        (&b.dterm_lowpass2, "dterm_lowpass2"),
-    ] {
-        if let Some(l) = l {
-            if let Some(lp) = lowpass_of(l, &mut notes, name) {
-                lines.push(format!(
-                    "{name}: {} at {} Hz (in the controller)",
-                    l.kind,
-                    lp.cutoff_hz()
-                ));
-                dterm.push(lp);
-            }
-        }
-    }
-    if let Some(n) = b.dterm_notch {
-        lines.push(format!(
-            "dterm_notch: {} Hz, cutoff {} Hz (in the controller)",
-            n.center_hz, n.cutoff_hz
-        ));
-        dterm.push(Lowpass::Notch(n.center_hz, n.cutoff_hz));
-    }
+    let dterm = super::dterm_chain(
+        &[
+            (&b.dterm_lowpass, "dterm_lowpass"),
+            (&b.dterm_lowpass2, "dterm_lowpass2"),
+        ],
+        b.dterm_notch,
+        &mut lines,
+        &mut notes,
+    );
     for (l, name) in [(&b.gyro_lowpass, "gyro_lowpass"), (&b.gyro_lowpass2, "gyro_lowpass2")] {
         if let Some(l) = l {
             lines.push(format!(
@@ -394,30 +380,6 @@ pub fn flown_from_header(b: &BetaflightTuning, axis: Axis, log: &Log) -> FlownHe
         lines,
         notes,
     }
-}
-
-/// The model of a header's lowpass stage (a dynamic one at the low end of its range: hover
-/// throttle, the most lag); None when it is off.
-fn lowpass_of(l: &HeaderLowpass, notes: &mut Vec<String>, name: &str) -> Option<Lowpass> {
-    let f = match l.dynamic_hz {
-        Some((lo, _)) => lo,
-        None => l.cutoff_hz,
-    };
-    if !(f > 0.0) {
-        return None;
-    }
-    Some(match l.kind.as_str() {
-        "PT1" => Lowpass::Pt1(f),
-        "PT2" => Lowpass::Pt2(f),
-        "PT3" => Lowpass::Pt3(f),
-        "BIQUAD" => Lowpass::Biquad(f),
-        other => {
-            notes.push(format!(
-                "{name}: unknown filter type {other}, modelled as PT1 at {f} Hz"
-            ));
-            Lowpass::Pt1(f)
-        }
-    })
 }
 
 #[cfg(test)]

@@ -24,7 +24,7 @@ use crate::firmware::betaflight::Axis;
 use serde::Serialize;
 use skyloop_lti::StateSpace;
 use skyloop_robust::structured::blocks::Block;
-use skyloop_sysid::logs::tuning::{InavTuning, Lowpass as HeaderLowpass};
+use skyloop_sysid::logs::tuning::InavTuning;
 
 /// `FP_PID_RATE_P_MULTIPLIER`: Kp = P/31.
 pub const P_MULTIPLIER: f64 = 31.0;
@@ -196,45 +196,15 @@ pub struct FlownHeader {
     pub notes: Vec<String>,
 }
 
-/// The model of a header lowpass stage; None when off.
-fn lowpass_of(l: &HeaderLowpass, notes: &mut Vec<String>, name: &str) -> Option<Lowpass> {
-    let f = l.cutoff_hz;
-    if !(f > 0.0) {
-        return None;
-    }
-    Some(match l.kind.as_str() {
-        "PT1" => Lowpass::Pt1(f),
-        "PT2" => Lowpass::Pt2(f),
-        "PT3" => Lowpass::Pt3(f),
-        "BIQUAD" => Lowpass::Biquad(f),
-        other => {
-            notes.push(format!(
-                "{name}: filter type {other} is not modelled; taken as PT1 at {f} Hz"
-            ));
-            Lowpass::Pt1(f)
-        }
-    })
-}
-
 /// Reads the flown tune of `axis` from an INAV header.
 pub fn flown_from_header(t: &InavTuning, axis: Axis) -> FlownHeader {
     let (mut lines, mut notes) = (Vec::new(), Vec::new());
-    let mut dterm = Vec::new();
-    for (l, name) in [(&t.dterm_lowpass, "dterm_lpf"), (&t.dterm_lowpass2, "dterm_lpf2")] {
-        if let Some(l) = l {
-            if let Some(lp) = lowpass_of(l, &mut notes, name) {
-                lines.push(format!("{name}: {} at {} Hz (in the controller)", l.kind, l.cutoff_hz));
-                dterm.push(lp);
-            }
-        }
-    }
-    if let Some(n) = t.dterm_notch {
-        lines.push(format!(
-            "dterm_notch: {} Hz, cutoff {} Hz (in the controller)",
-            n.center_hz, n.cutoff_hz
-        ));
-        dterm.push(Lowpass::Notch(n.center_hz, n.cutoff_hz));
-    }
+    let dterm = super::dterm_chain(
+        &[(&t.dterm_lowpass, "dterm_lpf"), (&t.dterm_lowpass2, "dterm_lpf2")],
+        t.dterm_notch,
+        &mut lines,
+        &mut notes,
+    );
     if let Some(g) = &t.gyro_lowpass {
         lines.push(format!(
             "gyro main lowpass: {} at {} Hz (inside the identified plant: gyroADC is logged after it)",

@@ -135,6 +135,65 @@ pub fn prepare_log(log: &mut skyloop_sysid::logs::Log) -> Vec<String> {
     notes
 }
 
+/// The D-term chain a blackbox header states (Betaflight, INAV): its lowpass stages, named as the
+/// header names them, then its static notch, modelled; a report line per stage goes to `lines`.
+pub(crate) fn dterm_chain(
+    stages: &[(&Option<skyloop_sysid::logs::tuning::Lowpass>, &str)],
+    notch: Option<skyloop_sysid::logs::tuning::Notch>,
+    lines: &mut Vec<String>,
+    notes: &mut Vec<String>,
+) -> Vec<Lowpass> {
+    let mut dterm = Vec::new();
+    for (l, name) in stages {
+        if let Some(l) = l {
+            if let Some(lp) = header_lowpass(l, notes, name) {
+                lines.push(format!(
+                    "{name}: {} at {} Hz (in the controller)",
+                    l.kind,
+                    lp.cutoff_hz()
+                ));
+                dterm.push(lp);
+            }
+        }
+    }
+    if let Some(n) = notch {
+        lines.push(format!(
+            "dterm_notch: {} Hz, cutoff {} Hz (in the controller)",
+            n.center_hz, n.cutoff_hz
+        ));
+        dterm.push(Lowpass::Notch(n.center_hz, n.cutoff_hz));
+    }
+    dterm
+}
+
+/// The model of a header's lowpass stage (a dynamic one at the low end of its range: hover
+/// throttle, the most lag); None when it is off.
+pub(crate) fn header_lowpass(
+    l: &skyloop_sysid::logs::tuning::Lowpass,
+    notes: &mut Vec<String>,
+    name: &str,
+) -> Option<Lowpass> {
+    let f = match l.dynamic_hz {
+        Some((lo, _)) => lo,
+        None => l.cutoff_hz,
+    };
+    if !(f > 0.0) {
+        return None;
+    }
+    Some(match l.kind.as_str() {
+        "PT1" => Lowpass::Pt1(f),
+        "PT2" => Lowpass::Pt2(f),
+        "PT3" => Lowpass::Pt3(f),
+        "BIQUAD" => Lowpass::Biquad(f),
+        other => {
+            notes.push(format!(
+                "{name}: filter type {other} is not modelled; taken as PT1 at {f} Hz"
+            ));
+            Lowpass::Pt1(f)
+        }
+    })
+}
+
 /// A lowpass stage, cutoff in Hz, as the firmware defines it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Lowpass {
