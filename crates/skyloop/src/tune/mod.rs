@@ -129,7 +129,7 @@ pub struct TuneRequest {
     /// Betaflight: the flown F gain, kept when `tune_feedforward` is false (None: 120,
     /// Betaflight 4.4's default).
     pub betaflight_f: Option<u32>,
-    /// INAV: the flown mc_cd_<axis>, kept when `tune_feedforward` is false (None: 0).
+    /// INAV: the flown `mc_cd_<axis>`, kept when `tune_feedforward` is false (None: 0).
     pub inav_cd: Option<u32>,
     /// PX4: the flown MC_*RATE_FF, kept when `tune_feedforward` is false (None: 0).
     pub px4_ff: Option<f64>,
