@@ -173,67 +173,61 @@ impl RateGains {
             v.dedup();
             v
         };
-        let mut out = Vec::new();
+        // Every (P, I, D) of the three gains' steps, none above the firmware's largest gain.
+        let grid = |pid: [f64; 3], integer: bool, max: f64, make: &dyn Fn(f64, f64, f64) -> RateGains| {
+            let mut out = Vec::new();
+            for p in steps(pid[0], integer) {
+                for i in steps(pid[1], integer) {
+                    for d in steps(pid[2], integer) {
+                        if p.max(i).max(d) <= max {
+                            out.push(make(p, i, d));
+                        }
+                    }
+                }
+            }
+            out
+        };
         match self {
-            RateGains::Betaflight { gains, axis, filters } => {
-                let max = f64::from(betaflight::PID_GAIN_MAX);
-                for p in steps(f64::from(gains.p), true) {
-                    for i in steps(f64::from(gains.i), true) {
-                        for d in steps(f64::from(gains.d), true) {
-                            if p.max(i).max(d) > max {
-                                continue;
-                            }
-                            out.push(RateGains::Betaflight {
-                                gains: betaflight::Gains {
-                                    p: p as u32,
-                                    i: i as u32,
-                                    d: d as u32,
-                                    f: gains.f,
-                                },
-                                axis: *axis,
-                                filters: filters.clone(),
-                            });
-                        }
-                    }
-                }
-            }
-            RateGains::Inav { gains, axis, filters } => {
-                let max = f64::from(inav::GAIN_MAX);
-                for p in steps(f64::from(gains.p), true) {
-                    for i in steps(f64::from(gains.i), true) {
-                        for d in steps(f64::from(gains.d), true) {
-                            if p.max(i).max(d) > max {
-                                continue;
-                            }
-                            out.push(RateGains::Inav {
-                                gains: inav::Gains {
-                                    p: p as u32,
-                                    i: i as u32,
-                                    d: d as u32,
-                                    cd: gains.cd,
-                                },
-                                axis: *axis,
-                                filters: filters.clone(),
-                            });
-                        }
-                    }
-                }
-            }
+            RateGains::Betaflight { gains, axis, filters } => grid(
+                [gains.p, gains.i, gains.d].map(f64::from),
+                true,
+                f64::from(betaflight::PID_GAIN_MAX),
+                &|p, i, d| RateGains::Betaflight {
+                    gains: betaflight::Gains {
+                        p: p as u32,
+                        i: i as u32,
+                        d: d as u32,
+                        f: gains.f,
+                    },
+                    axis: *axis,
+                    filters: filters.clone(),
+                },
+            ),
+            RateGains::Inav { gains, axis, filters } => grid(
+                [gains.p, gains.i, gains.d].map(f64::from),
+                true,
+                f64::from(inav::GAIN_MAX),
+                &|p, i, d| RateGains::Inav {
+                    gains: inav::Gains {
+                        p: p as u32,
+                        i: i as u32,
+                        d: d as u32,
+                        cd: gains.cd,
+                    },
+                    axis: *axis,
+                    filters: filters.clone(),
+                },
+            ),
             RateGains::Px4 { gains, axis, filters } => {
-                for p in steps(gains.p, false) {
-                    for i in steps(gains.i, false) {
-                        for d in steps(gains.d, false) {
-                            out.push(RateGains::Px4 {
-                                gains: px4::Gains { p, i, d, ..*gains },
-                                axis: *axis,
-                                filters: *filters,
-                            });
-                        }
+                grid([gains.p, gains.i, gains.d], false, f64::INFINITY, &|p, i, d| {
+                    RateGains::Px4 {
+                        gains: px4::Gains { p, i, d, ..*gains },
+                        axis: *axis,
+                        filters: *filters,
                     }
-                }
+                })
             }
         }
-        out
     }
 
     /// The relative change of each of P, I, D from `flown`, e.g. [+0.2, 0, −0.1].
