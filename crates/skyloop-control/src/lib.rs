@@ -3,6 +3,7 @@
 #![no_std]
 
 pub mod error;
+pub mod filter;
 pub mod pid;
 pub mod real;
 pub mod sos;
@@ -10,6 +11,7 @@ pub mod ss;
 pub mod ssi;
 
 pub use error::{ControlError, Result};
+pub use filter::{Filter, FilterKind};
 pub use pid::{AntiWindup, Pid, PidGains};
 pub use real::Real;
 pub use sos::{Biquad, SosController};

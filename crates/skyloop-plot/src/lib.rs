@@ -34,6 +34,7 @@ pub mod bode;
 pub mod error;
 pub mod figure;
 pub mod frf;
+pub mod heatmap;
 pub mod geometry;
 pub mod hsv;
 pub mod interactive;

@@ -29,10 +29,10 @@ fn neutral() -> RGBColor {
 
 /// The embedded DejaVu Sans (Bitstream Vera licence, `fonts/DejaVu-LICENSE.txt`): text is drawn with
 /// it on every machine, so no system font library (fontconfig, freetype) or C compiler is needed.
-static FONT: &[u8] = include_bytes!("../fonts/DejaVuSans.ttf");
+pub(crate) static FONT: &[u8] = include_bytes!("../fonts/DejaVuSans.ttf");
 
 /// Registers the embedded font as plotters' "sans-serif" once per process.
-fn register_font() -> std::result::Result<(), String> {
+pub(crate) fn register_font() -> std::result::Result<(), String> {
     static REGISTERED: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     let ok = *REGISTERED.get_or_init(|| plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).is_ok());
     if ok {
@@ -117,7 +117,7 @@ const TITLE_FONT: f64 = 15.0;
 const NOTE_FONT: f64 = 12.0;
 const LEGEND_FONT: f64 = 13.0;
 
-fn text_style(size: f64) -> TextStyle<'static> {
+pub(crate) fn text_style(size: f64) -> TextStyle<'static> {
     TextStyle::from(("sans-serif", size).into_font()).color(&BLACK)
 }
 

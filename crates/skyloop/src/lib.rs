@@ -82,6 +82,7 @@ pub mod flightlog;
 pub mod identify;
 pub mod json_out;
 pub mod model;
+pub mod noise;
 pub mod papers;
 pub mod prelude;
 pub mod response;

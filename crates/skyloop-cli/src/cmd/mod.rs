@@ -11,6 +11,7 @@ mod identify;
 mod log;
 mod margins;
 mod minreal;
+mod noise;
 mod mu;
 mod musyn;
 mod ncfsyn;
@@ -91,6 +92,8 @@ pub enum Command {
     Hinfsyn(hinfsyn::Args),
     /// Fixed-order H∞ synthesis by nonsmooth optimization (u = K·y): γ and a controller of the given order.
     Hinfstruct(hinfstruct::Args),
+    /// The noise picture of a flight: gyro, D-term and motor spectra, spectrograms against throttle and time, named peaks, the filter chain's delay, and a filter what-if (--filters).
+    Noise(noise::Args),
     /// Tune a PID/PIDF of a firmware's structure against margin goals: gains, CLI lines, verified margins.
     Tune(tune::Args),
     /// Glover–McFarlane H∞ loop shaping: γ_min, γ and the controller for u = C·(r − y).
@@ -131,6 +134,7 @@ pub fn run(cmd: Command) -> skyloop::Result<()> {
         Command::Hinfsyn(a) => hinfsyn::run(a),
         Command::Hinfstruct(a) => hinfstruct::run(a),
         Command::Tune(a) => tune::run(a),
+        Command::Noise(a) => noise::run(a),
         Command::Ncfsyn(a) => ncfsyn::run(a),
         Command::Design(a) => design::run(a),
         Command::Musyn(a) => musyn::run(a),

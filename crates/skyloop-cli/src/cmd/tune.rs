@@ -226,7 +226,7 @@ fn run_log(log: std::path::PathBuf, a: &Args) -> skyloop::Result<()> {
 }
 
 /// The spinner a terminal sees (None when stderr is not one: then each stage is a line).
-fn spinner() -> Option<&'static indicatif::ProgressBar> {
+pub(crate) fn spinner() -> Option<&'static indicatif::ProgressBar> {
     use std::io::IsTerminal;
     static BAR: std::sync::OnceLock<Option<indicatif::ProgressBar>> = std::sync::OnceLock::new();
     BAR.get_or_init(|| {

@@ -58,21 +58,15 @@ pub fn psd(records: &[&[f64]], dt_s: f64, nfft: usize) -> Result<Psd> {
     if !(dt_s.is_finite() && dt_s > 0.0) {
         return Err(invalid(format!("PSD sample period must be positive, got {dt_s}")));
     }
-    let w = Window::Hann.samples(nfft);
-    let wss: f64 = w.iter().map(|v| v * v).sum();
-    let fft = Rfft::new(nfft);
-    let half = nfft / 2 + 1;
-    let mut acc = vec![0.0; half];
+    let seg_psd = SegmentPsd::new(nfft, dt_s);
+    let mut acc = vec![0.0; seg_psd.bins()];
     let mut count = 0usize;
     let step = nfft / 2;
     for r in records {
         let mut start = 0;
         while start + nfft <= r.len() {
-            let seg = &r[start..start + nfft];
-            let mean = seg.iter().sum::<f64>() / nfft as f64;
-            let x: Vec<f64> = seg.iter().map(|v| v - mean).collect();
-            for (a, z) in acc.iter_mut().zip(fft.run(&x, Some(&w))?) {
-                *a += z.norm_sqr();
+            for (a, d) in acc.iter_mut().zip(seg_psd.density(&r[start..start + nfft])?) {
+                *a += d;
             }
             count += 1;
             start += step;
@@ -84,26 +78,70 @@ pub fn psd(records: &[&[f64]], dt_s: f64, nfft: usize) -> Result<Psd> {
             nfft as f64 * dt_s
         )));
     }
-    let scale = dt_s / (wss * count as f64);
-    let density = acc
-        .iter()
-        .enumerate()
-        .map(|(k, a)| {
-            // One-sided: every bin but DC and (even nfft) Nyquist carries both signs' power.
-            let two = if k == 0 || (nfft % 2 == 0 && k == half - 1) {
-                1.0
-            } else {
-                2.0
-            };
-            a * scale * two
-        })
-        .collect();
-    let freq_hz = (0..half).map(|k| k as f64 / (nfft as f64 * dt_s)).collect();
     Ok(Psd {
-        freq_hz,
-        density,
+        freq_hz: seg_psd.freq_hz(),
+        density: acc.iter().map(|a| a / count as f64).collect(),
         segments: count,
     })
+}
+
+/// The one-sided PSD of single segments of `nfft` samples (periodic Hann window, mean removed,
+/// density scaling): the building block of Welch's average and of spectrograms.
+pub struct SegmentPsd {
+    nfft: usize,
+    dt_s: f64,
+    window: Vec<f64>,
+    scale: f64,
+    fft: Rfft,
+}
+
+impl SegmentPsd {
+    /// Segments of `nfft` samples taken every `dt_s` seconds (the caller checks both).
+    pub fn new(nfft: usize, dt_s: f64) -> SegmentPsd {
+        let window = Window::Hann.samples(nfft);
+        let wss: f64 = window.iter().map(|v| v * v).sum();
+        SegmentPsd {
+            nfft,
+            dt_s,
+            window,
+            scale: dt_s / wss,
+            fft: Rfft::new(nfft),
+        }
+    }
+
+    /// Number of frequency bins, nfft/2 + 1.
+    pub fn bins(&self) -> usize {
+        self.nfft / 2 + 1
+    }
+
+    /// The bins' frequencies, Hz.
+    pub fn freq_hz(&self) -> Vec<f64> {
+        (0..self.bins()).map(|k| k as f64 / (self.nfft as f64 * self.dt_s)).collect()
+    }
+
+    /// The density of one segment (exactly `nfft` samples), (signal unit)²/Hz.
+    ///
+    /// # Errors
+    /// A segment of another length.
+    pub fn density(&self, seg: &[f64]) -> Result<Vec<f64>> {
+        if seg.len() != self.nfft {
+            return Err(invalid(format!("PSD segment has {} samples, not {}", seg.len(), self.nfft)));
+        }
+        let mean = seg.iter().sum::<f64>() / self.nfft as f64;
+        let x: Vec<f64> = seg.iter().map(|v| v - mean).collect();
+        let half = self.bins();
+        Ok(self
+            .fft
+            .run(&x, Some(&self.window))?
+            .iter()
+            .enumerate()
+            .map(|(k, z)| {
+                // One-sided: every bin but DC and (even nfft) Nyquist carries both signs' power.
+                let two = if k == 0 || (self.nfft % 2 == 0 && k == half - 1) { 1.0 } else { 2.0 };
+                z.norm_sqr() * self.scale * two
+            })
+            .collect())
+    }
 }
 
 #[cfg(test)]

@@ -15,7 +15,9 @@
 //! Not modelled: TPA, anti-gravity, I-term relax, d_min's dynamic D (a flown tune with d_min is
 //! analysed at D = d_min by [`crate::tune::log`]), feedforward smoothing.
 
+use super::filters::{FilterChain, Path, RawGyroTap, Shape, Stage, StageKind, ThrottleCurve, STAGE_NAMES};
 use super::{chain, derivative_rolloff, Lowpass};
+use skyloop_control::filter::notch_q;
 use crate::error::{Error, Result};
 use serde::Serialize;
 use skyloop_lti::StateSpace;
@@ -380,6 +382,119 @@ pub fn flown_from_header(b: &BetaflightTuning, axis: Axis, log: &Log) -> FlownHe
         lines,
         notes,
     }
+}
+
+/// Betaflight's gyro and D-term filter chain from its header, at the PID loop rate (4.x filters the
+/// gyro at the PID rate; 3.x's 8 kHz gyro filters differ from it only above a few hundred Hz):
+/// gyro lowpass 1 (throttle-following where `gyro_lowpass_dyn_hz` is set: 4.0–4.2's curve, or
+/// 4.3's `dyn_lpf_curve_expo`), lowpass 2, the static notches, the dynamic notch (`dyn_notch_count`
+/// notches from 4.3; before it one, or two when `dyn_notch_width_percent` > 0), the RPM notches;
+/// D-term lowpass 1 (dynamic likewise), lowpass 2 and notch. Returns notes on what is assumed.
+pub fn filter_chain(b: &BetaflightTuning, log: &Log) -> (FilterChain, Vec<String>) {
+    let mut notes = Vec::new();
+    let one = |k: &str| log.setting(k).and_then(|v| v.split(',').next()?.trim().parse::<f64>().ok());
+    let minor = b
+        .firmware_revision
+        .split_whitespace()
+        .find_map(|w| w.split('.').nth(1)?.parse::<u32>().ok())
+        .unwrap_or(0);
+    let v43 = b.version_major.unwrap_or(4) > 4 || (b.version_major == Some(4) && minor >= 3);
+    let curve = if v43 {
+        ThrottleCurve::Expo(one("dyn_lpf_curve_expo").unwrap_or(5.0) / 10.0)
+    } else {
+        ThrottleCurve::Betaflight40
+    };
+    let mut stages = Vec::new();
+    let mut lowpass = |l: &Option<skyloop_sysid::logs::tuning::Lowpass>, name: &str, path: Path, type_key: Option<&str>| {
+        let Some(l) = l else { return };
+        // 3.x names the gyro lowpass type `gyro_soft_type`.
+        let kind = type_key
+            .and_then(|k| one(k))
+            .map(|t| match t as i64 { 1 => "BIQUAD", _ => "PT1" }.to_string())
+            .unwrap_or_else(|| l.kind.clone());
+        let shape = Shape::from_header(&kind).unwrap_or_else(|| {
+            notes.push(format!("{name}: filter type {kind} is not modelled; taken as PT1"));
+            Shape::Pt1
+        });
+        let kind = match l.dynamic_hz {
+            Some((min_hz, max_hz)) => StageKind::DynamicLowpass { shape, min_hz, max_hz, curve },
+            None if l.cutoff_hz > 0.0 => StageKind::Lowpass { shape, hz: l.cutoff_hz },
+            None => return,
+        };
+        stages.push(Stage { name: name.into(), path, kind });
+    };
+    let v3 = b.version_major == Some(3);
+    lowpass(&b.gyro_lowpass, "gyro_lpf1", Path::Gyro, v3.then_some("gyro_soft_type"));
+    lowpass(&b.gyro_lowpass2, "gyro_lpf2", Path::Gyro, None);
+    lowpass(&b.dterm_lowpass, "dterm_lpf1", Path::Dterm, None);
+    lowpass(&b.dterm_lowpass2, "dterm_lpf2", Path::Dterm, None);
+    for (k, n) in b.gyro_notches.iter().take(2).enumerate() {
+        stages.push(Stage {
+            name: format!("gyro_notch{}", k + 1),
+            path: Path::Gyro,
+            kind: StageKind::Notch { center_hz: n.center_hz, q: notch_q(n.center_hz, n.cutoff_hz) },
+        });
+    }
+    if let Some(n) = b.dterm_notch {
+        stages.push(Stage {
+            name: "dterm_notch".into(),
+            path: Path::Dterm,
+            kind: StageKind::Notch { center_hz: n.center_hz, q: notch_q(n.center_hz, n.cutoff_hz) },
+        });
+    }
+    if let Some(d) = b.dynamic_notch {
+        let count = match d.count {
+            Some(c) => c as usize,
+            None if one("dyn_notch_width_percent").unwrap_or(0.0) > 0.0 => 2,
+            None => 1,
+        };
+        if count > 0 {
+            stages.push(Stage {
+                name: "dyn_notch".into(),
+                path: Path::Gyro,
+                kind: StageKind::DynamicNotch { count, min_hz: d.min_hz, max_hz: d.max_hz, q: d.q.unwrap_or(3.0) },
+            });
+            notes.push("dyn_notch: centres tracked at the strongest gyro peaks of each 0.25 s frame (skyloop's spectrum, not the firmware's own FFT tracker)".into());
+        }
+    }
+    if let Some(r) = b.rpm_filter {
+        stages.push(Stage {
+            name: "rpm".into(),
+            path: Path::Gyro,
+            kind: StageKind::Rpm { harmonics: r.harmonics as usize, q: r.q.unwrap_or(5.0), min_hz: r.min_hz.unwrap_or(100.0) },
+        });
+    }
+    if one("dterm_rpm_notch_harmonics").unwrap_or(0.0) > 0.0 {
+        notes.push("dterm_rpm_notch_harmonics: the D-term RPM notches are not modelled".into());
+    }
+    let loop_hz = b.pid_rate_hz.unwrap_or_else(|| {
+        notes.push("the header has no loop time: a 4 kHz PID loop is assumed".into());
+        4000.0
+    });
+    let mut chain = FilterChain { loop_hz, stages };
+    // Signal order, as `with_changes` keeps it.
+    chain.stages.sort_by_key(|s| (s.path == Path::Dterm, STAGE_NAMES.iter().position(|n| *n == s.name)));
+    (chain, notes)
+}
+
+/// Where a Betaflight log holds the gyro before the firmware's filters (a `debug_mode` that logs it
+/// into `debug[0..2]`), and which of the chain's stages the tapped signal has already been through:
+/// 4.x `GYRO_SCALED` (mode 6: before every filter); 3.x `NOTCH` (mode 8: after the gyro lowpass,
+/// before the notches; checked on PID-Analyzer's 3.1.5 log, where debug/gyroADC is flat to 100 Hz
+/// under the 90 Hz PT1 and dips at the 220 Hz notch).
+pub fn raw_gyro_tap(b: &BetaflightTuning, log: &Log) -> Option<RawGyroTap> {
+    let mode = log.setting("debug_mode")?.trim().parse::<i64>().ok()?;
+    let applied: Vec<String> = match (b.version_major?, mode) {
+        (4, 6) => Vec::new(),
+        (3, 8) => vec!["gyro_lpf1".into()],
+        _ => return None,
+    };
+    let channels = ["debug[0]", "debug[1]", "debug[2]"].map(String::from);
+    channels.iter().all(|c| log.channel(c).is_ok()).then(|| RawGyroTap {
+        channels,
+        applied,
+        what: if mode == 6 { "debug GYRO_SCALED (gyro before every filter)" } else { "debug NOTCH (gyro after the lowpass, before the notches)" }.into(),
+    })
 }
 
 #[cfg(test)]

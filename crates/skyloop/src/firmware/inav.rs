@@ -18,7 +18,9 @@
 //! I-term relax, D-boost, the yaw P lowpass (`yaw_lpf_hz`), the Smith predictor and the gyro filters
 //! (inside a plant identified from the logged gyro).
 
+use super::filters::{FilterChain, Path, Shape, Stage, StageKind};
 use super::{chain, derivative_rolloff, Lowpass};
+use skyloop_control::filter::notch_q;
 use crate::error::{Error, Result};
 use crate::firmware::betaflight::Axis;
 use serde::Serialize;
@@ -256,6 +258,45 @@ pub fn flown_from_header(t: &InavTuning, axis: Axis) -> FlownHeader {
         lines,
         notes,
     }
+}
+
+/// INAV's filter chain from its header at the PID loop rate: the gyro main lowpass and static
+/// notches, the D-term lowpass(es) and notch (INAV's dynamic gyro notch is not read).
+pub fn filter_chain(t: &InavTuning) -> (FilterChain, Vec<String>) {
+    let mut notes = Vec::new();
+    let mut stages = Vec::new();
+    let mut lowpass = |l: &Option<skyloop_sysid::logs::tuning::Lowpass>, name: &str, path: Path| {
+        if let Some(l) = l.as_ref().filter(|l| l.cutoff_hz > 0.0) {
+            let shape = Shape::from_header(&l.kind).unwrap_or_else(|| {
+                notes.push(format!("{name}: filter type {} is not modelled; taken as PT1", l.kind));
+                Shape::Pt1
+            });
+            stages.push(Stage { name: name.into(), path, kind: StageKind::Lowpass { shape, hz: l.cutoff_hz } });
+        }
+    };
+    lowpass(&t.gyro_lowpass, "gyro_lpf1", Path::Gyro);
+    lowpass(&t.dterm_lowpass, "dterm_lpf1", Path::Dterm);
+    lowpass(&t.dterm_lowpass2, "dterm_lpf2", Path::Dterm);
+    for (k, n) in t.gyro_notches.iter().take(2).enumerate() {
+        stages.push(Stage {
+            name: format!("gyro_notch{}", k + 1),
+            path: Path::Gyro,
+            kind: StageKind::Notch { center_hz: n.center_hz, q: notch_q(n.center_hz, n.cutoff_hz) },
+        });
+    }
+    if let Some(n) = t.dterm_notch {
+        stages.push(Stage {
+            name: "dterm_notch".into(),
+            path: Path::Dterm,
+            kind: StageKind::Notch { center_hz: n.center_hz, q: notch_q(n.center_hz, n.cutoff_hz) },
+        });
+    }
+    notes.push("INAV's dynamic gyro notch and its Kalman gyro filter are not modelled".into());
+    let loop_hz = t.pid_rate_hz.unwrap_or_else(|| {
+        notes.push("the header has no loop time: a 1 kHz PID loop is assumed".into());
+        1000.0
+    });
+    (FilterChain { loop_hz, stages }, notes)
 }
 
 #[cfg(test)]

@@ -18,6 +18,8 @@
 
 pub mod ardupilot;
 pub mod betaflight;
+pub mod channels;
+pub mod filters;
 pub mod inav;
 pub mod px4;
 pub mod rate_gains;

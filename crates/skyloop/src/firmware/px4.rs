@@ -10,6 +10,7 @@
 //!
 //! So C_fb(s) = K·[(P + I/s)·F_gyro(s) + D·s·F_dgyro(s)] and C_r(s) = K·(P + I/s) + FF.
 
+use super::filters::{FilterChain, Path, Shape, Stage, StageKind};
 use super::{derivative_rolloff, Lowpass};
 use crate::error::{Error, Result};
 use crate::firmware::betaflight::Axis;
@@ -163,6 +164,24 @@ pub fn flown_from_header(p: &Px4Tuning, axis: Axis) -> (Filters, Option<Gains>, 
         }
     }
     (filters, gains, lines)
+}
+
+/// PX4's filter chain from its parameters: `IMU_GYRO_CUTOFF` (a biquad on the gyro) and
+/// `IMU_DGYRO_CUTOFF` (a biquad on the D term), at `IMU_GYRO_RATEMAX` (400 Hz when not set).
+pub fn filter_chain(p: &Px4Tuning) -> (FilterChain, Vec<String>) {
+    let mut notes = Vec::new();
+    let loop_hz = p.gyro_rate_max_hz.filter(|&r| r > 0.0).unwrap_or_else(|| {
+        notes.push("IMU_GYRO_RATEMAX not logged: a 400 Hz filter rate is assumed".into());
+        400.0
+    });
+    let mut stages = Vec::new();
+    for (hz, name, path) in [(p.gyro_cutoff_hz, "gyro_lpf1", Path::Gyro), (p.dgyro_cutoff_hz, "dterm_lpf1", Path::Dterm)] {
+        if let Some(hz) = hz.filter(|&h| h > 0.0 && h < 0.5 * loop_hz) {
+            stages.push(Stage { name: name.into(), path, kind: StageKind::Lowpass { shape: Shape::Biquad, hz } });
+        }
+    }
+    notes.push("PX4's dynamic notches (IMU_GYRO_DNF_*) and static notch are not read".into());
+    (FilterChain { loop_hz, stages }, notes)
 }
 
 #[cfg(test)]
