@@ -272,6 +272,12 @@
   for (var i = 0; i < els.length; i++) {
     var data = document.getElementById(els[i].getAttribute("data-src"));
     if (!data) continue;
-    try { Plot(els[i], JSON.parse(data.textContent)); } catch (e) { els[i].textContent = "interactive figure failed: " + e; }
+    try {
+      Plot(els[i], JSON.parse(data.textContent));
+      // Drawn: the static copy above it (for pages without scripts) would show the figure twice.
+      var fig = els[i].closest("figure");
+      var st = fig && fig.querySelector(".skl-static");
+      if (st) st.style.display = "none";
+    } catch (e) { els[i].textContent = "interactive figure failed: " + e; }
   }
 })();

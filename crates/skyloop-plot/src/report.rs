@@ -35,8 +35,9 @@ pub enum Block {
         /// Text under the plot.
         caption: String,
     },
-    /// A figure inlined as SVG and, below it, as an interactive canvas (zoom, pan, hover values)
-    /// drawn by an inline script from the figure's data as JSON; no network is needed.
+    /// A figure as an interactive canvas (zoom, pan, hover values) drawn by an inline script from
+    /// the figure's data as JSON, no network needed; its static SVG is inlined too and hidden once
+    /// the canvas is drawn, so a page read without scripts still shows it (and no page shows it twice).
     Interactive {
         /// The plot.
         figure: Box<Figure>,
@@ -132,7 +133,7 @@ impl Report {
                         let id = format!("skl-fig-{interactive}");
                         let _ = writeln!(
                             h,
-                            "<figure>{svg}<details open><summary>interactive: wheel zooms (shift: x only, alt: y only), drag pans, double-click resets, hover shows values</summary><div class=\"skl-int\" data-src=\"{id}\"></div></details><script type=\"application/json\" id=\"{id}\">{json}</script><figcaption>{}</figcaption></figure>",
+                            "<figure><div class=\"skl-static\">{svg}</div><details open><summary>interactive: wheel zooms (shift: x only, alt: y only), drag pans, double-click resets, hover shows values</summary><div class=\"skl-int\" data-src=\"{id}\"></div></details><script type=\"application/json\" id=\"{id}\">{json}</script><figcaption>{}</figcaption></figure>",
                             esc(caption)
                         );
                     }

@@ -272,11 +272,11 @@ impl FilterChain {
             let prior = before.map(|i| out.stages[i].kind.clone());
             let kind = parse_stage(name, &value, prior.as_ref(), self.loop_hz)?;
             let stage = Stage { name: name.to_string(), path, kind };
-            changes.push(format!(
-                "{name}: {} → {}",
-                old.unwrap_or_else(|| "off".into()),
-                stage.describe().trim_start_matches(&format!("{name}: "))
-            ));
+            let new = stage.describe().trim_start_matches(&format!("{name}: ")).to_string();
+            changes.push(match old {
+                Some(o) if o == new => format!("{name}: {o} (unchanged)"),
+                o => format!("{name}: {} → {new}", o.unwrap_or_else(|| "off".into())),
+            });
             match before {
                 Some(i) => out.stages[i] = stage,
                 None => out.stages.push(stage),
