@@ -81,6 +81,7 @@ pub mod firmware;
 pub mod flightlog;
 pub mod identify;
 pub mod json_out;
+pub mod loops;
 pub mod model;
 pub mod noise;
 pub mod papers;

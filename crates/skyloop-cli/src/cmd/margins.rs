@@ -9,8 +9,14 @@ use std::f64::consts::PI;
 #[derive(clap::Args)]
 pub struct Args {
     /// Loop transfer L (expression or LTI JSON path); the loop is closed as u = −y (L = P·C).
-    #[arg(allow_hyphen_values = true)]
-    model: String,
+    #[arg(allow_hyphen_values = true, required_unless_present = "plant", conflicts_with = "plant")]
+    model: Option<String>,
+    /// A plant P: with --controller, the loop is L = P·C (MATLAB margin(P*C)).
+    #[arg(long, requires = "controller", allow_hyphen_values = true)]
+    plant: Option<String>,
+    /// The controller C of --plant.
+    #[arg(long, requires = "plant", allow_hyphen_values = true)]
+    controller: Option<String>,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
@@ -22,7 +28,11 @@ fn hz(w: f64) -> f64 {
 
 /// Computes every margin and prints them.
 pub fn run(a: Args) -> skyloop::Result<()> {
-    let sys = skyloop::model::load_model(&a.model)?;
+    let sys = match (&a.model, &a.plant, &a.controller) {
+        (Some(m), _, _) => skyloop::model::load_model(m)?,
+        (None, Some(p), Some(c)) => skyloop::loops::open_loop(p, c)?,
+        _ => return Err("give a loop MODEL, or --plant and --controller".into()),
+    };
     let all = allmargin(&sys)?;
     let m = margin_from(&all);
     let dm = diskmargin(&sys)?;

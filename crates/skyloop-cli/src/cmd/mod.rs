@@ -2,6 +2,7 @@
 
 mod bode;
 mod c2d;
+mod connect;
 mod design;
 mod export;
 mod freqresp;
@@ -92,6 +93,14 @@ pub enum Command {
     Hinfsyn(hinfsyn::Args),
     /// Fixed-order H∞ synthesis by nonsmooth optimization (u = K·y): γ and a controller of the given order.
     Hinfstruct(hinfstruct::Args),
+    /// Series connection: the output of A drives B (MATLAB series(A, B) = B·A).
+    Series(connect::Args),
+    /// Parallel connection A + B (MATLAB parallel).
+    Parallel(connect::Args),
+    /// Closed loop y = A·(u + sign·B·y) (MATLAB feedback(A, B); --sign -1 by default).
+    Feedback(connect::FeedbackArgs),
+    /// MATLAB loopsens(P, C): S, T, CS and PS of u = C·(r − y) with their peaks, and stability.
+    Loopsens(connect::LoopsensArgs),
     /// The noise picture of a flight: gyro, D-term and motor spectra, spectrograms against throttle and time, named peaks, the filter chain's delay, and a filter what-if (--filters).
     Noise(noise::Args),
     /// Tune a PID/PIDF of a firmware's structure against margin goals: gains, CLI lines, verified margins.
@@ -135,6 +144,10 @@ pub fn run(cmd: Command) -> skyloop::Result<()> {
         Command::Hinfstruct(a) => hinfstruct::run(a),
         Command::Tune(a) => tune::run(a),
         Command::Noise(a) => noise::run(a),
+        Command::Series(a) => connect::run(connect::Verb::Series, a),
+        Command::Parallel(a) => connect::run(connect::Verb::Parallel, a),
+        Command::Feedback(a) => connect::run_feedback(a),
+        Command::Loopsens(a) => connect::run_loopsens(a),
         Command::Ncfsyn(a) => ncfsyn::run(a),
         Command::Design(a) => design::run(a),
         Command::Musyn(a) => musyn::run(a),

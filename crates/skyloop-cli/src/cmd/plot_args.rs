@@ -8,8 +8,14 @@ use skyloop::plot::figure::Figure;
 #[derive(clap::Args)]
 pub struct ModelArgs {
     /// Transfer-function expressions or paths to LTI JSON files; each becomes one curve.
-    #[arg(required = true)]
+    #[arg(required_unless_present = "plant")]
     pub models: Vec<String>,
+    /// A plant P: with --controller, the loop L = P·C is the first curve (MATLAB bode(P*C)).
+    #[arg(long, requires = "controller", allow_hyphen_values = true)]
+    pub plant: Option<String>,
+    /// The controller C of --plant (u = C·(r − y)).
+    #[arg(long, requires = "plant", allow_hyphen_values = true)]
+    pub controller: Option<String>,
     /// Legend name of each model, in order (repeat the flag); default: the text of the model.
     #[arg(long = "label")]
     pub labels: Vec<String>,
@@ -18,22 +24,25 @@ pub struct ModelArgs {
 impl ModelArgs {
     /// Loads every model with its legend name.
     pub fn load(&self) -> skyloop::Result<Vec<Labeled>> {
-        if self.labels.len() > self.models.len() {
-            return Err(format!(
-                "--label given {} times for {} models",
-                self.labels.len(),
-                self.models.len()
-            )
-            .into());
+        let mut names: Vec<String> = Vec::new();
+        let mut models: Vec<skyloop::lti::StateSpace> = Vec::new();
+        if let (Some(p), Some(c)) = (&self.plant, &self.controller) {
+            names.push("L = P·C".into());
+            models.push(skyloop::loops::open_loop(p, c)?);
         }
-        self.models
-            .iter()
+        for m in &self.models {
+            names.push(short_label(m));
+            models.push(skyloop::model::load_model(m)?);
+        }
+        if self.labels.len() > models.len() {
+            return Err(format!("--label given {} times for {} models", self.labels.len(), models.len()).into());
+        }
+        Ok(models
+            .into_iter()
+            .zip(names)
             .enumerate()
-            .map(|(k, m)| {
-                let label = self.labels.get(k).cloned().unwrap_or_else(|| short_label(m));
-                Ok(Labeled::new(label, skyloop::model::load_model(m)?))
-            })
-            .collect()
+            .map(|(k, (m, name))| Labeled::new(self.labels.get(k).cloned().unwrap_or(name), m))
+            .collect())
     }
 }
 

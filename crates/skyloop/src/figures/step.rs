@@ -66,7 +66,7 @@ pub fn step(models: &[Labeled], closed_loop: bool, t_final_s: Option<f64>) -> Re
         .map(|m| prepare(m, closed_loop))
         .collect::<Result<Vec<_>>>()?;
     let runs = match t_final_s {
-        Some(t) => simulate_all(&prepared, Some(t))?,
+        Some(t) => with_fine_info(simulate_all(&prepared, Some(t))?, &prepared, t)?,
         None => {
             let first = simulate_all(&prepared, None)?;
             let t_auto = first.iter().map(|r| *r.t_s.last().unwrap_or(&0.0)).fold(0.0, f64::max);
@@ -102,6 +102,28 @@ pub fn step(models: &[Labeled], closed_loop: bool, t_final_s: Option<f64>) -> Re
         "Step response"
     };
     Ok((step_figure(title, &traces, &infos), runs))
+}
+
+/// A window much longer than the dynamics leaves few samples in the transient (`--tfinal 1e9` on
+/// 1/(s+1) put the rise time at 800 s): where a channel settles inside its automatic window and
+/// that window is shorter than `t_final_s`, its step characteristics come from the automatic (fine)
+/// grid, on which the same response is resolved.
+fn with_fine_info(mut runs: Vec<StepRun>, prepared: &[Prepared], t_final_s: f64) -> Result<Vec<StepRun>> {
+    let fine = simulate_all(prepared, None)?;
+    for (r, f) in runs.iter_mut().zip(&fine) {
+        let end = f.t_s.last().copied().unwrap_or(0.0);
+        if end >= t_final_s {
+            continue;
+        }
+        for (row, frow) in r.info.iter_mut().zip(&f.info) {
+            for (info, fi) in row.iter_mut().zip(frow) {
+                if fi.settling_time_s.is_some_and(|ts| ts < end) {
+                    *info = *fi;
+                }
+            }
+        }
+    }
+    Ok(runs)
 }
 
 /// Closes the loop when asked, and decides whether the response has a final value.
