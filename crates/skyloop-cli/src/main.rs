@@ -43,9 +43,41 @@ fn quiet_panics() {
     }));
 }
 
+/// `--dt -0.01` as `--dt=-0.01`: clap reads a value that starts with '-' as a flag, so a negative
+/// number after an option that takes a value is joined to it (the option's own range check then
+/// names it). Only options that take values and only values that parse as numbers are joined.
+fn join_negative_values(args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> {
+    use clap::CommandFactory;
+    let mut cmd = Cli::command();
+    let mut out: Vec<std::ffi::OsString> = Vec::with_capacity(args.len());
+    let mut i = 0;
+    while i < args.len() {
+        let a = args[i].to_string_lossy().into_owned();
+        if let Some(sub) = cmd.find_subcommand(&a).cloned() {
+            cmd = sub;
+        }
+        let next_negative = args
+            .get(i + 1)
+            .map(|n| n.to_string_lossy())
+            .is_some_and(|n| n.starts_with('-') && n.parse::<f64>().is_ok());
+        let takes_value = a.strip_prefix("--").filter(|n| !n.contains('=')).is_some_and(|name| {
+            cmd.get_arguments()
+                .any(|arg| arg.get_long() == Some(name) && arg.get_action().takes_values())
+        });
+        if takes_value && next_negative {
+            out.push(format!("{a}={}", args[i + 1].to_string_lossy()).into());
+            i += 2;
+        } else {
+            out.push(args[i].clone());
+            i += 1;
+        }
+    }
+    out
+}
+
 fn main() {
     quiet_panics();
-    let cli = match Cli::try_parse() {
+    let cli = match Cli::try_parse_from(join_negative_values(std::env::args_os().collect())) {
         Ok(c) => c,
         Err(e) => {
             let code = if e.use_stderr() { 2 } else { 0 };

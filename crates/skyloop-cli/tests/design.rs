@@ -180,3 +180,15 @@ fn bad_specs_exit_2_naming_the_key() {
     assert_eq!(code, 2);
     assert!(err.contains("cannot read"), "{err}");
 }
+
+/// A reduction that has nothing to do (order at or above the controller's) keeps the controller and
+/// says so, as MATLAB's balred returns the model unchanged.
+#[test]
+fn reduction_to_the_full_order_keeps_the_controller() {
+    let base = std::fs::read_to_string(BICOPTER).expect("example");
+    let p = tmp("full_order.toml");
+    std::fs::write(&p, base.replace("order = 5", "order = 99")).expect("write");
+    let (code, out, err) = skyloop(&["design", &p.to_string_lossy(), "--json"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("nothing to reduce"), "{out}");
+}

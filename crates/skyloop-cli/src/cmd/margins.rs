@@ -58,7 +58,11 @@ pub fn run(a: Args) -> skyloop::Result<()> {
     println!("closed loop        {}", if all.stable { "stable" } else { "UNSTABLE" });
     println!("gain margin        {}{}", opt(m.gm_db, "dB"), at(m.gm_w_rad_s));
     println!("phase margin       {}{}", opt(m.pm_deg, "deg"), at(m.pm_w_rad_s));
-    println!("delay margin       {}", opt(m.delay_margin_s, "s"));
+    if all.stable {
+        println!("delay margin       {}", opt(m.delay_margin_s, "s"));
+    } else {
+        println!("delay margin       0 s (the closed loop is already unstable)");
+    }
     println!(
         "disk margin        alpha {:.4}, gain [{}, {}], phase ±{:.2} deg{}",
         dm.alpha,
@@ -69,12 +73,10 @@ pub fn run(a: Args) -> skyloop::Result<()> {
     );
     println!("gain crossovers ({}):", all.phase_margins.len());
     for p in &all.phase_margins {
-        println!(
-            "  {:>12.6} Hz   PM {:>9.3} deg   delay margin {:.6} s",
-            hz(p.w_rad_s),
-            p.pm_deg,
-            p.delay_margin_s
-        );
+        // A crossover's delay margin is the delay that brings a stable loop to the edge; an
+        // unstable loop has none to give (printing (PM + 360°)/ω beside "0" misled).
+        let dm = if all.stable { format!("delay margin {:.6} s", p.delay_margin_s) } else { "delay margin — (loop unstable)".into() };
+        println!("  {:>12.6} Hz   PM {:>9.3} deg   {dm}", hz(p.w_rad_s), p.pm_deg);
     }
     if let Some((lo, hi)) = all.unit_gain_band_rad_s {
         println!(

@@ -305,16 +305,18 @@ pub fn design(spec: &DesignSpec) -> crate::error::Result<DesignResult> {
                 .parse()
                 .map_err(|e| LtiError::InvalidArgument(format!("reduction.method: {e}")))?;
             if r.order >= synthesized.nx() {
-                return Err(LtiError::InvalidArgument(format!(
-                    "reduction.order: {} is not below the controller order {}",
+                // As MATLAB's balred: nothing to reduce is not an error; the controller is kept.
+                notes.push(format!(
+                    "reduction.order {} is not below the controller order {}: nothing to reduce, the controller is kept as synthesized",
                     r.order,
                     synthesized.nx()
-                ))
-                .into());
+                ));
+                None
+            } else {
+                let red = balred(&synthesized, r.order, method)
+                    .map_err(|e| LtiError::InvalidArgument(format!("reduction: {e}")))?;
+                Some(red)
             }
-            let red = balred(&synthesized, r.order, method)
-                .map_err(|e| LtiError::InvalidArgument(format!("reduction: {e}")))?;
-            Some(red)
         }
         None => None,
     };

@@ -516,7 +516,19 @@ pub fn identify_log(log: &Log, a: &IdentifyRequest) -> Result<Identification> {
                 Some(d) => DelaySpec::Fixed(d),
                 None => DelaySpec::Estimate { max_s: a.max_delay_s },
             };
-            Some(fit_tf(&frf, nz, np, delay, &fit_opts)?)
+            let fit = fit_tf(&frf, nz, np, delay, &fit_opts)?;
+            // An unstable fit of data from a stable system is a fit of noise or of too many
+            // poles: say so (the model stays, a pilot with an unstable airframe may want it).
+            let rhp = skyloop_lti::poly::Poly::new(fit.den.clone())
+                .roots()
+                .map(|r| r.iter().filter(|z| z.re > 0.0).count())
+                .unwrap_or(0);
+            if rhp > 0 {
+                warnings.push(format!(
+                    "the --tf {nz}/{np} fit has {rhp} pole(s) in the right half plane (an unstable model): check the data, or fit fewer poles"
+                ));
+            }
+            Some(fit)
         }
         None => None,
     };
