@@ -90,6 +90,7 @@ pub mod response;
 pub mod simulation;
 pub mod spec;
 pub mod synthesis;
+pub mod timeverbs;
 pub mod tune;
 
 pub use error::{Error, Result};

@@ -144,8 +144,10 @@ pub fn loopsens(p: &StateSpace, c: &StateSpace) -> Result<(bool, Vec<Sensitivity
         ));
     }
     let all = skyloop_lti::margins::allmargin(&l)?;
-    let (lo, hi) = all.w_range_rad_s;
-    let w: Vec<f64> = (0..4000).map(|k| lo * (hi / lo).powf(k as f64 / 3999.0)).collect();
+    // The margins' band, widened: a sensitivity may peak at DC or approach its peak as ω → ∞
+    // (a proper controller's CS tends to its feedthrough).
+    let (lo, hi) = (all.w_range_rad_s.0 / 10.0, all.w_range_rad_s.1 * 1e4);
+    let w: Vec<f64> = (0..8000).map(|k| lo * (hi / lo).powf(k as f64 / 7999.0)).collect();
     let (pr, cr) = (skyloop_lti::freqresp::freqresp_flat(p, &w)?, skyloop_lti::freqresp::freqresp_flat(c, &w)?);
     let out = names
         .iter()

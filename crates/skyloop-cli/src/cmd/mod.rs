@@ -1,5 +1,6 @@
 //! One module per subcommand; `run` dispatches.
 
+mod augw;
 mod bode;
 mod c2d;
 mod connect;
@@ -31,6 +32,7 @@ mod sigma;
 mod signal;
 mod simulate;
 mod step;
+mod timeverbs;
 mod tune;
 mod zeros;
 
@@ -93,6 +95,14 @@ pub enum Command {
     Hinfsyn(hinfsyn::Args),
     /// Fixed-order H∞ synthesis by nonsmooth optimization (u = K·y): γ and a controller of the given order.
     Hinfstruct(hinfstruct::Args),
+    /// Response to an input signal or CSV samples (MATLAB lsim), as CSV, plot or JSON.
+    Lsim(timeverbs::LsimArgs),
+    /// Impulse response (MATLAB impulse), as CSV, plot or JSON.
+    Impulse(timeverbs::ImpulseArgs),
+    /// Continuous model of a discrete one (MATLAB d2c: zoh or tustin), the inverse of c2d.
+    D2c(timeverbs::D2cArgs),
+    /// Mixed-sensitivity generalized plant (MATLAB augw: W1·S, W2·KS, W3·T) as LTI JSON for hinfsyn.
+    Augw(augw::Args),
     /// Series connection: the output of A drives B (MATLAB series(A, B) = B·A).
     Series(connect::Args),
     /// Parallel connection A + B (MATLAB parallel).
@@ -144,6 +154,10 @@ pub fn run(cmd: Command) -> skyloop::Result<()> {
         Command::Hinfstruct(a) => hinfstruct::run(a),
         Command::Tune(a) => tune::run(a),
         Command::Noise(a) => noise::run(a),
+        Command::Lsim(a) => timeverbs::run_lsim(a),
+        Command::Impulse(a) => timeverbs::run_impulse(a),
+        Command::D2c(a) => timeverbs::run_d2c(a),
+        Command::Augw(a) => augw::run(a),
         Command::Series(a) => connect::run(connect::Verb::Series, a),
         Command::Parallel(a) => connect::run(connect::Verb::Parallel, a),
         Command::Feedback(a) => connect::run_feedback(a),

@@ -1,0 +1,135 @@
+//! MATLAB's verbs on the command line: loops from a plant and a controller, series / parallel /
+//! feedback / loopsens, lsim / impulse / d2c, augw → hinfsyn → margins, and the exit-0 defects of
+//! the first-hour session, each checked on a second code path.
+#![allow(clippy::unwrap_used)]
+
+mod common;
+use common::skyloop;
+use serde_json::Value;
+
+fn json(args: &[&str]) -> Value {
+    let (code, out, err) = skyloop(args);
+    assert_eq!(code, 0, "{args:?}: {err}");
+    serde_json::from_str(&out).unwrap()
+}
+
+fn tmp(name: &str) -> String {
+    std::env::temp_dir().join(format!("skyloop-verbs-{}-{name}", std::process::id())).to_string_lossy().into_owned()
+}
+
+/// margin(P*C) from --plant/--controller equals the margins of the product written out.
+#[test]
+fn margins_of_plant_and_controller_equal_those_of_the_product() {
+    let a = json(&["margins", "--plant", "10/(s*(s+1))", "--controller", "(s+2)/(s+20)", "--json"]);
+    let b = json(&["margins", "10*(s+2)/(s*(s+1)*(s+20))", "--json"]);
+    for k in ["gain_margin_db", "phase_margin_deg", "delay_margin_s"] {
+        if a[k].is_null() && b[k].is_null() {
+            continue;
+        }
+        let (x, y) = (a[k].as_f64().unwrap(), b[k].as_f64().unwrap());
+        assert!((x - y).abs() < 1e-6 * y.abs().max(1.0), "{k}: {x} vs {y}\n{a}");
+    }
+}
+
+/// loopsens's S peak is the H∞ norm of 1/(1 + L) written out; with a negligible loop delay the
+/// frequency-response path gives the same peaks as the state-space path.
+#[test]
+fn loopsens_peaks_match_the_closed_forms_and_both_paths() {
+    let v = json(&["loopsens", "10/(s*(s+1))", "(s+2)/(s+20)", "--json"]);
+    assert_eq!(v["stable"], true);
+    let peak = |v: &Value, n: &str| {
+        v["sensitivities"].as_array().unwrap().iter().find(|s| s["name"] == n).unwrap()["peak"].as_f64().unwrap()
+    };
+    let s_direct = json(&["norm", "s*(s+1)*(s+20)/(s*(s+1)*(s+20)+10*(s+2))", "--json"]);
+    let hinf = s_direct["hinf"].as_f64().unwrap();
+    assert!((peak(&v, "S") - hinf).abs() < 1e-6 * hinf, "{} vs {hinf}", peak(&v, "S"));
+    let d = json(&["loopsens", "10*exp(-1e-9*s)/(s*(s+1))", "(s+2)/(s+20)", "--json"]);
+    for n in ["S", "T", "CS", "PS"] {
+        assert!((peak(&v, n) - peak(&d, n)).abs() < 2e-3 * peak(&v, n), "{n}: {} vs {}", peak(&v, n), peak(&d, n));
+    }
+    let (code, _, err) = skyloop(&["loopsens", "1/(s+1)", "[1]"]);
+    assert_eq!(code, 2, "{err}");
+}
+
+#[test]
+fn series_parallel_feedback() {
+    let show = |args: &[&str]| {
+        let (code, out, err) = skyloop(args);
+        assert_eq!(code, 0, "{err}");
+        out.lines().last().unwrap().to_string()
+    };
+    assert_eq!(show(&["feedback", "1/s", "1"]), "1/(s+1)");
+    assert_eq!(show(&["feedback", "1/s", "1", "--sign", "1"]), "1/(s-1)");
+    assert_eq!(show(&["series", "1/(s+1)", "2*exp(-0.1*s)"]), "2*exp(-0.1*s)/(s+1)");
+    assert_eq!(show(&["parallel", "1/(s+1)", "1/(s+2)"]), "2*(s+1.5)/((s+1)*(s+2))");
+    let (code, _, err) = skyloop(&["feedback", "1/s", "1", "--sign", "0.5"]);
+    assert!(code == 2 && err.contains("--sign"), "{err}");
+}
+
+/// lsim of a step equals 1 − e^(−t); impulse of 2e^(−0.25 s)/(s+1) is 2e^(−(t−0.25)) after the
+/// delay; d2c undoes c2d (zoh).
+#[test]
+fn lsim_impulse_and_d2c() {
+    let v = json(&["lsim", "1/(s+1)", "--input", "step", "--dt", "0.01", "--tfinal", "5", "--json"]);
+    let y = v["y"].as_array().unwrap();
+    assert!((y[300][0].as_f64().unwrap() - (1.0 - (-3.0f64).exp())).abs() < 1e-9);
+    let csv = tmp("u.csv");
+    std::fs::write(&csv, "time_s,u\n0,1\n0.5,1\n1.0,0\n1.5,0\n").unwrap();
+    let v = json(&["lsim", "1/(s+1)", "--input", &csv, "--json"]);
+    let y1 = v["y"][2][0].as_f64().unwrap();
+    assert!((y1 - (1.0 - (-1.0f64).exp())).abs() < 1e-9, "{y1}");
+    let v = json(&["impulse", "2*exp(-0.25*s)/(s+1)", "--tfinal", "3", "--json"]);
+    let t: Vec<f64> = v["t_s"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+    for (k, tk) in t.iter().enumerate().step_by(37) {
+        let want = if *tk > 0.25 + 1e-9 { 2.0 * (-(tk - 0.25)).exp() } else { 0.0 };
+        assert!((v["y"][k][0].as_f64().unwrap() - want).abs() < 1e-6, "t {tk}");
+    }
+    let d = tmp("d.json");
+    let (code, out, _) = skyloop(&["c2d", "(s+3)/((s+1)*(s+5))", "--dt", "0.05", "--json"]);
+    assert_eq!(code, 0);
+    std::fs::write(&d, out).unwrap();
+    let back = json(&["d2c", &d, "--json"]);
+    let bp = tmp("back.json");
+    std::fs::write(&bp, back.to_string()).unwrap();
+    let (a, b) = (json(&["freqresp", &bp, "--hz", "0.3", "--json"]), json(&["freqresp", "(s+3)/((s+1)*(s+5))", "--hz", "0.3", "--json"]));
+    let (x, y) = (freq_value(&a), freq_value(&b));
+    assert!((x.0 - y.0).abs() < 1e-8 && (x.1 - y.1).abs() < 1e-8, "{x:?} vs {y:?}");
+    let (code, _, err) = skyloop(&["d2c", "1/(s+1)"]);
+    assert!(code == 2 && err.contains("continuous"), "{err}");
+}
+
+/// The one response value of `freqresp --json` (`re[output][input][k]`).
+fn freq_value(v: &Value) -> (f64, f64) {
+    (v["re"][0][0][0].as_f64().unwrap(), v["im"][0][0][0].as_f64().unwrap())
+}
+
+/// augw → hinfsyn → margins: the mixed-sensitivity controller stabilizes the plant, γ < 1.
+#[test]
+fn augw_then_hinfsyn_then_margins() {
+    let plant = tmp("aug.json");
+    let k = tmp("K.json");
+    let g = "200/((10*s+1)*(0.05*s+1)^2)";
+    let (code, out, err) = skyloop(&["augw", g, "--w1", "(s/2+6.28)/(s+6.28e-3)", "--w2", "0.1", "--w3", "(s+6.28)/(0.01*s+62.8)", "--out", &plant]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("nmeas = 1, ncon = 1"), "{out}");
+    let h = json(&["hinfsyn", &plant, "--nmeas", "1", "--ncon", "1", "--out", &k, "--json"]);
+    assert!(h["gamma"].as_f64().unwrap() < 1.0, "{h}");
+    let m = json(&["margins", "--plant", g, "--controller", &k, "--json"]);
+    assert_eq!(m["closed_loop_stable"], true, "{m}");
+    assert!(m["phase_margin_deg"].as_f64().unwrap() > 30.0, "{m}");
+}
+
+/// The exit-0 defects: a 1e9 s window still reports 1/(s+1)'s 2.2 s rise; an unstable loop lists
+/// no per-crossover delay margin; a negative number after an option reaches its range check.
+#[test]
+fn first_hour_defects_stay_fixed() {
+    let v = json(&["step", "1/(s+1)", "--tfinal", "1e9", "--json"]);
+    let rise = v["models"][0]["info"][0][0]["rise_time_s"].as_f64().unwrap();
+    assert!((rise - 9f64.ln()).abs() < 1e-3, "{rise}");
+    let (code, out, _) = skyloop(&["margins", "20/(s*(s+1)*(0.1*s+1))"]);
+    assert_eq!(code, 0);
+    assert!(out.contains("UNSTABLE") && !out.contains("delay margin 1.4"), "{out}");
+    let (code, _, err) = skyloop(&["c2d", "1/(s+1)", "--dt", "-0.01"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("-0.01") && !err.contains("unexpected argument"), "{err}");
+}
