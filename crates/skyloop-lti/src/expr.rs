@@ -100,8 +100,14 @@ pub enum Expr {
 
 /// Parses an expression; errors carry the 1-based column and what was expected.
 pub fn parse(text: &str) -> Result<Expr> {
+    parse_in(text, "s")
+}
+
+/// Parses an expression in the variable `var` ("s", or "z" for a discrete model: `z` then plays the
+/// role `s` plays in [`Expr`]).
+fn parse_in(text: &str, var: &'static str) -> Result<Expr> {
     let toks = lex(text)?;
-    let mut p = Parser { toks, pos: 0, depth: 0 };
+    let mut p = Parser { var, toks, pos: 0, depth: 0 };
     let (e, _) = p.sum()?;
     match p.peek() {
         Tok::End => Ok(e),
@@ -148,6 +154,62 @@ pub fn parse_model(text: &str) -> Result<StateSpace> {
         )));
     }
     e.to_ss(&HashMap::new())
+}
+
+/// Parses a discrete transfer-function expression in `z` (delays as `z^-k`) into a model with
+/// sample time `dt_s` seconds.
+///
+/// # Errors
+/// A parse error with its column, an `s` or `exp(...)` in the text, an improper expression, or a
+/// sample time that is not finite and positive.
+///
+/// # Examples
+/// ```
+/// let g = skyloop_lti::expr::parse_discrete("0.5*z^-2/(z-0.5)", 0.01)?;
+/// assert_eq!((g.nx(), g.dt), (1, 0.01));
+/// assert!((g.input_delay[0] - 0.02).abs() < 1e-15);
+/// assert!(skyloop_lti::expr::parse_discrete("1/(s-0.5)", 0.01).is_err());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn parse_discrete(text: &str, dt_s: f64) -> Result<StateSpace> {
+    if !(dt_s.is_finite() && dt_s > 0.0) {
+        return Err(LtiError::InvalidArgument(format!("the sample time must be finite and > 0 s, got {dt_s}")));
+    }
+    let e = parse_in(text, "z")?;
+    let params = e.params();
+    if !params.is_empty() {
+        return Err(LtiError::InvalidArgument(format!(
+            "the expression has parameters without values: {}",
+            params.join(", ")
+        )));
+    }
+    // A factor z^-k of the whole expression is a delay of k samples (as `show` prints one), not k
+    // poles at the origin.
+    let (e, k) = split_shift(e);
+    // The rational function of z realized as one of s has the same matrices; only their meaning
+    // (a shift instead of an integrator) changes with the sample time.
+    let mut g = e.to_ss(&HashMap::new())?;
+    g.dt = dt_s;
+    if k > 0 {
+        g.input_delay = vec![k as f64 * dt_s; g.nu()];
+    }
+    Ok(g)
+}
+
+/// The expression without its multiplicative factors z^-k (k > 0), and the sum of their k.
+fn split_shift(e: Expr) -> (Expr, i32) {
+    match e {
+        Expr::Pow(b, k) if k < 0 && *b == Expr::S => (Expr::Num(1.0), -k),
+        Expr::Mul(a, b) => {
+            let ((a, ka), (b, kb)) = (split_shift(*a), split_shift(*b));
+            (Expr::Mul(Box::new(a), Box::new(b)), ka + kb)
+        }
+        Expr::Div(a, b) => {
+            let (a, ka) = split_shift(*a);
+            (Expr::Div(Box::new(a), b), ka)
+        }
+        other => (other, 0),
+    }
 }
 
 impl Expr {
@@ -1253,6 +1315,8 @@ fn lex(text: &str) -> Result<Vec<(Tok, usize)>> {
 }
 
 struct Parser {
+    /// The transfer function's variable: "s", or "z" for a discrete model.
+    var: &'static str,
     toks: Vec<(Tok, usize)>,
     pos: usize,
     /// Current recursion depth (parentheses, signs, exp calls).
@@ -1392,7 +1456,15 @@ impl Parser {
         let col = self.col();
         match self.bump() {
             Tok::Num(x) => Ok((Expr::Num(x), 1)),
-            Tok::Ident(n) if n == "s" => Ok((Expr::S, 1)),
+            Tok::Ident(n) if n == self.var => Ok((Expr::S, 1)),
+            Tok::Ident(n) if n == "exp" && self.var == "z" => Err(LtiError::Parse {
+                column: col,
+                message: "a discrete model's delay is written z^-k (k samples), not exp(...)".into(),
+            }),
+            Tok::Ident(n) if n == "s" && self.var == "z" => Err(LtiError::Parse {
+                column: col,
+                message: "a discrete model (given a sample time) is written in z, not s".into(),
+            }),
             Tok::Ident(n) if n == "exp" => {
                 if self.peek() != &Tok::Op('(') {
                     return Err(self.err(format!("expected '(' after 'exp', found {}", self.peek().describe())));

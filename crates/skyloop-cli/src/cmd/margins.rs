@@ -17,6 +17,9 @@ pub struct Args {
     /// The controller C of --plant.
     #[arg(long, requires = "plant", allow_hyphen_values = true)]
     controller: Option<String>,
+    /// Sample time, s: the loop expression is a discrete transfer function in z.
+    #[arg(long)]
+    dt: Option<f64>,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
@@ -29,7 +32,7 @@ fn hz(w: f64) -> f64 {
 /// Computes every margin and prints them.
 pub fn run(a: Args) -> skyloop::Result<()> {
     let sys = match (&a.model, &a.plant, &a.controller) {
-        (Some(m), _, _) => skyloop::model::load_model(m)?,
+        (Some(m), _, _) => skyloop::model::load_model_dt(m, a.dt)?,
         (None, Some(p), Some(c)) => skyloop::loops::open_loop(p, c)?,
         _ => return Err("give a loop MODEL, or --plant and --controller".into()),
     };

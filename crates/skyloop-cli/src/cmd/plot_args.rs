@@ -16,6 +16,9 @@ pub struct ModelArgs {
     /// The controller C of --plant (u = C·(r − y)).
     #[arg(long, requires = "plant", allow_hyphen_values = true)]
     pub controller: Option<String>,
+    /// Sample time, s: the expressions are discrete transfer functions in z.
+    #[arg(long)]
+    pub dt: Option<f64>,
     /// Legend name of each model, in order (repeat the flag); default: the text of the model.
     #[arg(long = "label")]
     pub labels: Vec<String>,
@@ -32,7 +35,7 @@ impl ModelArgs {
         }
         for m in &self.models {
             names.push(short_label(m));
-            models.push(skyloop::model::load_model(m)?);
+            models.push(skyloop::model::load_model_dt(m, self.dt)?);
         }
         if self.labels.len() > models.len() {
             return Err(format!("--label given {} times for {} models", self.labels.len(), models.len()).into());

@@ -16,11 +16,14 @@ pub struct Args {
     /// Print LTI JSON instead of a table.
     #[arg(long)]
     json: bool,
+    /// Sample time, s: the expression is a discrete transfer function in z (delays as z^-k).
+    #[arg(long)]
+    dt: Option<f64>,
 }
 
 /// Loads the model and prints it.
 pub fn run(a: Args) -> skyloop::Result<()> {
-    let sys = skyloop::model::load_model(&a.model)?;
+    let sys = skyloop::model::load_model_dt(&a.model, a.dt)?;
     if a.json {
         return output::print_json(&skyloop::lti::json::LtiJson::from_ss(&sys));
     }

@@ -62,6 +62,9 @@ pub struct D2cArgs {
     /// Print LTI JSON instead of the transfer function.
     #[arg(long)]
     json: bool,
+    /// Sample time, s, of an expression in z.
+    #[arg(long)]
+    dt: Option<f64>,
 }
 
 fn write(sim: &Simulation, out: &Option<std::path::PathBuf>, json: bool, title: &str) -> skyloop::Result<()> {
@@ -146,7 +149,7 @@ pub fn run_impulse(a: ImpulseArgs) -> skyloop::Result<()> {
 
 /// `d2c`.
 pub fn run_d2c(a: D2cArgs) -> skyloop::Result<()> {
-    let sys = load_model(&a.model)?;
+    let sys = skyloop::model::load_model_dt(&a.model, a.dt)?;
     if sys.is_continuous() {
         return Err(format!("{}: the model is continuous; d2c needs a discrete one (dt > 0)", a.model).into());
     }
