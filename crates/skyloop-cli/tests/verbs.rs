@@ -133,3 +133,17 @@ fn first_hour_defects_stay_fixed() {
     assert_eq!(code, 2);
     assert!(err.contains("-0.01") && !err.contains("unexpected argument"), "{err}");
 }
+
+/// A flash dump's empty sessions are summarized, not listed one per line; a poorly validating
+/// identification says so.
+#[test]
+fn log_info_summarizes_and_identify_warns() {
+    let log = format!("{}/../../testdata/logs/btfl_all.bbl", env!("CARGO_MANIFEST_DIR"));
+    let (code, out, err) = skyloop(&["log", "info", &log]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(out.lines().filter(|l| l.trim_start().starts_with("not decodable")).count(), 1, "{out}");
+    assert!(out.contains("37 session(s): 2–3, 5–11"), "{out}");
+    let (code, out, err) = skyloop(&["identify", &log, "--axis", "roll"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("held-out validation is poor") || err.contains("held-out validation is poor"), "{out}{err}");
+}

@@ -138,14 +138,26 @@ fn info(file: &Path, session: Option<usize>, json: bool) -> skyloop::Result<()> 
     }
     if !sessions.is_empty() {
         println!("sessions:");
+        for s in sessions.iter().filter(|s| s.error.is_none()) {
+            println!(
+                "  {:>3}  {:>8} frames  {:>8.2} s  {:>7.1} Hz  {}",
+                s.index, s.main_frames, s.duration_s, s.rate_hz, s.firmware
+            );
+        }
+        // Sessions that hold nothing (a log started and stopped on the bench) in one line per
+        // reason, not one line each: a flash dump can hold dozens.
+        let mut reasons: Vec<(String, Vec<usize>)> = Vec::new();
         for s in &sessions {
-            match &s.error {
-                None => println!(
-                    "  {:>3}  {:>8} frames  {:>8.2} s  {:>7.1} Hz  {}",
-                    s.index, s.main_frames, s.duration_s, s.rate_hz, s.firmware
-                ),
-                Some(e) => println!("  {:>3}  not decodable: {e}", s.index),
+            if let Some(e) = &s.error {
+                let why = e.split(": ").last().unwrap_or(e).replace(&format!("session {} ", s.index), "");
+                match reasons.iter_mut().find(|(w, _)| *w == why) {
+                    Some((_, ix)) => ix.push(s.index),
+                    None => reasons.push((why, vec![s.index])),
+                }
             }
+        }
+        for (why, ix) in reasons {
+            println!("  not decodable ({why}): {} session(s): {}", ix.len(), ranges(&ix));
         }
     }
     if let Some(t) = &tuning {
@@ -165,6 +177,21 @@ fn info(file: &Path, session: Option<usize>, json: bool) -> skyloop::Result<()> 
 
 fn opt(x: Option<f64>) -> String {
     x.map_or("-".to_string(), |v| format!("{v}"))
+}
+
+/// Session numbers as ranges: "2, 3, 5–11, 13" → "2–3, 5–11, 13".
+fn ranges(ix: &[usize]) -> String {
+    let mut out: Vec<String> = Vec::new();
+    let mut k = 0;
+    while k < ix.len() {
+        let mut j = k;
+        while j + 1 < ix.len() && ix[j + 1] == ix[j] + 1 {
+            j += 1;
+        }
+        out.push(if j > k { format!("{}–{}", ix[k], ix[j]) } else { ix[k].to_string() });
+        k = j + 1;
+    }
+    out.join(", ")
 }
 
 fn print_tuning(t: &FirmwareTuning) {
