@@ -147,3 +147,17 @@ fn log_info_summarizes_and_identify_warns() {
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("held-out validation is poor") || err.contains("held-out validation is poor"), "{out}{err}");
 }
+
+/// (s−1)/((s−0.5)(s−2)) has its real RHP zero between its two real RHP poles: every stabilizing
+/// controller is unstable (parity interlacing), so hinfstruct's must be flagged.
+#[test]
+fn hinfstruct_flags_an_unstable_controller() {
+    let plant = tmp("pi.json");
+    let (code, _, err) = skyloop(&["augw", "(s-1)/((s-0.5)*(s-2))", "--w1", "0.1/(s+0.01)", "--w2", "0.1", "--out", &plant]);
+    assert_eq!(code, 0, "{err}");
+    let (code, out, err) = skyloop(&["hinfstruct", &plant, "--nmeas", "1", "--ncon", "1", "--order", "2", "--json"]);
+    assert_eq!(code, 0, "{err}");
+    let v: Value = serde_json::from_str(&out).unwrap();
+    assert!(v["warnings"][0].as_str().unwrap().contains("controller itself is unstable"), "{v}");
+    assert!(err.contains("warning: the controller itself is unstable"), "{err}");
+}

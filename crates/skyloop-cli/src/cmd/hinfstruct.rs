@@ -42,6 +42,24 @@ pub fn run(a: Args) -> skyloop::Result<()> {
         ..Default::default()
     };
     let sol = hinfstruct(&p, a.nmeas, a.ncon, a.order, &opts)?;
+    // H∞ optimality allows an unstable controller (the closed loop is stable); flying one is risky:
+    // whenever the loop opens (arming, saturation, a sensor fault) it diverges on its own.
+    let unstable: Vec<String> = skyloop::lti::poles_zeros::poles(&sol.controller)?
+        .iter()
+        .filter(|z| !skyloop::lti::stabsep::is_stable_pole(**z, sol.controller.dt))
+        .map(|z| format!("{:.4}{:+.4}j", z.re, z.im))
+        .collect();
+    let warnings: Vec<String> = if unstable.is_empty() {
+        Vec::new()
+    } else {
+        vec![format!(
+            "the controller itself is unstable (poles {}): the closed loop is stable, but whenever the loop opens (arming, actuator saturation) the controller diverges; more --starts or another --order may find a stable one, unless the plant needs an unstable controller (an odd number of real unstable poles between two real right-half-plane zeros or beyond)",
+            unstable.join(", ")
+        )]
+    };
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
     if a.json {
         return print_json(&serde_json::json!({
             "gamma": sol.gamma,
@@ -49,6 +67,7 @@ pub fn run(a: Args) -> skyloop::Result<()> {
             "stabilized_starts": sol.stabilized_starts,
             "starts_run": sol.starts_run,
             "added_starts": sol.added_starts,
+            "warnings": warnings,
         }));
     }
     println!(
