@@ -231,9 +231,9 @@ pub fn read_bytes(bytes: &[u8], source: &str) -> Result<Log> {
             }
             if let Err(e) = parser.consume_bytes(&bytes[a..b]) {
                 return if parser.in_data() {
-                    Ok(Outcome::Malformed(e.to_string()))
+                    Ok(Outcome::Malformed(readable(&e.to_string())))
                 } else {
-                    Err(e.to_string())
+                    Err(readable(&e.to_string()))
                 };
             }
         }
@@ -353,4 +353,38 @@ pub fn read_bytes(bytes: &[u8], source: &str) -> Result<Log> {
     };
     super::check_not_empty(&log)?;
     Ok(log)
+}
+
+/// The parser's message without the Rust `Debug` dump of its internal structures that some of its
+/// errors carry (`... FlattenedFormat { message_name: "rate", fields: [...] }`): the reader of an
+/// error wants what is wrong with the file, not the parser's data structures.
+fn readable(msg: &str) -> String {
+    let b = msg.as_bytes();
+    let cut = (0..b.len()).find(|&i| {
+        b[i].is_ascii_uppercase()
+            && (i == 0 || !b[i - 1].is_ascii_alphanumeric())
+            && msg[i..].find(|c: char| !c.is_ascii_alphanumeric()).is_some_and(|n| msg[i + n..].starts_with(" {") || msg[i + n..].starts_with(" ["))
+    });
+    let head = cut.map_or(msg, |i| &msg[..i]).trim_end_matches([' ', ':', '(', ',']).trim();
+    if head.is_empty() {
+        "malformed message definitions".into()
+    } else if cut.is_some() {
+        format!("{head} (malformed message definitions)")
+    } else {
+        head.to_string()
+    }
+}
+
+
+#[cfg(test)]
+mod readable_tests {
+    use super::readable;
+
+    #[test]
+    fn debug_dumps_are_cut_from_parser_messages() {
+        let m = readable(r#"unknown format for nested type: FlattenedFormat { message_name: "rate", fields: [FlattenedField { name: "x" }] }"#);
+        assert_eq!(m, "unknown format for nested type (malformed message definitions)");
+        assert_eq!(readable("unexpected end of data"), "unexpected end of data");
+        assert_eq!(readable("Format { a: 1 }"), "malformed message definitions");
+    }
 }
