@@ -161,3 +161,12 @@ fn hinfstruct_flags_an_unstable_controller() {
     assert!(v["warnings"][0].as_str().unwrap().contains("controller itself is unstable"), "{v}");
     assert!(err.contains("warning: the controller itself is unstable"), "{err}");
 }
+
+/// tune does not advise an option it does not have.
+#[test]
+fn tune_refusal_names_options_tune_has() {
+    let log = format!("{}/../../testdata/logs/LOG00037.BFL", env!("CARGO_MANIFEST_DIR"));
+    let (code, _, err) = skyloop(&["tune", &log, "--firmware", "betaflight", "--axis", "roll"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(!err.contains("or --allow-poor-fit to fit anyway") && err.contains("skyloop identify LOG --axis roll --allow-poor-fit"), "{err}");
+}

@@ -267,7 +267,18 @@ fn identify_stage(req: &LogTuneRequest) -> Result<Identified> {
         ..Default::default()
     };
     let (log, derived) = crate::firmware::open_log(&req.log, req.session)?;
-    let id = identify_log(&log, &idreq)?;
+    // identify's refusals advise `--allow-poor-fit`, an option tune does not have: a tune is
+    // never proposed from a fit identify would refuse.
+    let id = identify_log(&log, &idreq).map_err(|e| match e {
+        Error::Input(m) if m.contains("--allow-poor-fit") => Error::Input(format!(
+            "{} (tune proposes no gains from such a fit; `skyloop identify LOG --axis {} --allow-poor-fit` shows it)",
+            m.replace(", or pass --allow-poor-fit to see it anyway", "")
+                .replace("; give --fmin-hz/--fmax-hz or --allow-poor-fit to fit anyway", "; give --fmin-hz/--fmax-hz")
+                .replace(" or --allow-poor-fit", ""),
+            req.axis.name()
+        )),
+        other => other,
+    })?;
     let log_fw = Firmware::of_log(&log);
     if req.firmware != Firmware::Generic && log_fw != Some(req.firmware) {
         let l = log_fw.map_or("CSV", |f| f.display_name());
