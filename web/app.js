@@ -20,6 +20,7 @@ function startWorker() {
     if (!w) return;
     waiting.delete(m.id);
     if (m.dead) { worker.terminate(); startWorker(); }
+    if (m.ms !== undefined) timings.last_compute_ms = m.ms;
     if (m.ok) w.resolve(m.result); else w.reject(new Error(m.error));
   };
   worker.onerror = (e) => {
@@ -123,9 +124,9 @@ function renderModel(v) {
     x = v.causal_step.t_s;
     const lo = v.causal_step.y.map((y, k) => y - 2 * v.causal_step.y_std[k]);
     const hi = v.causal_step.y.map((y, k) => y + 2 * v.causal_step.y_std[k]);
-    series.push({ label: "measured (causal FIR), ±2σ", y: v.causal_step.y, color: COLORS.measured });
-    series.push({ label: "", y: lo, color: "rgba(44,160,44,0.35)", width: 1 });
-    series.push({ label: "", y: hi, color: "rgba(44,160,44,0.35)", width: 1 });
+    series.push({ label: "measured (causal FIR)", y: v.causal_step.y, color: COLORS.measured });
+    series.push({ label: "−2σ", y: lo, color: "rgba(44,160,44,0.35)", width: 1 });
+    series.push({ label: "+2σ", y: hi, color: "rgba(44,160,44,0.35)", width: 1 });
     if (cur) series.push({ label: "predicted, flown tune", y: x.map((t) => interp(cur.step.t_s, cur.step.y, t)), color: COLORS.flown });
   } else if (cur) {
     x = cur.step.t_s;
@@ -190,11 +191,14 @@ function buildSliders(live) {
   const box = $("sliders");
   box.innerHTML = "";
   const integer = Object.values(live.flown.gains).every((x) => Number.isInteger(x));
+  const header = state.tune.current ? state.tune.current.gains : {};
   const add = (key, label, flown, proposed, min, max, step, unit) => {
+    // Betaflight's d_min: the flown tune is analysed at the D the firmware applied.
+    const applied = header[key] !== undefined && header[key] !== flown ? ` (d_min; header ${header[key]})` : "";
     const row = document.createElement("label");
     row.className = "slider";
     row.innerHTML = `<span class="name">${label}</span><input type="range" min="${min}" max="${max}" step="${step}" data-key="${key}">` +
-      `<output></output><span class="muted small">flown ${+flown.toFixed(4)}${unit}, proposed ${+proposed.toFixed(4)}${unit}</span>`;
+      `<output></output><span class="muted small">flown ${+flown.toFixed(4)}${unit}${applied}, proposed ${+proposed.toFixed(4)}${unit}</span>`;
     row.querySelector("input").addEventListener("input", onSlider);
     box.appendChild(row);
   };
@@ -210,29 +214,32 @@ function buildSliders(live) {
   });
 }
 
-function readSliders() {
+/** The knobs with the sliders' values (a cutoff's slider only when it was moved). */
+function readSliders(moved) {
   const k = JSON.parse(JSON.stringify(state.knobs));
   for (const inp of $("sliders").querySelectorAll("input")) {
     const key = inp.dataset.key, val = Number(inp.value);
-    if (key.startsWith("dterm_hz.")) k.dterm[Number(key.split(".")[1])].cutoff_hz = val;
+    if (key.startsWith("dterm_hz.")) { if (inp === moved) k.dterm[Number(key.split(".")[1])].cutoff_hz = val; }
     else k.gains[key] = val;
-    inp.parentElement.querySelector("output").textContent = key.startsWith("dterm") ? `${val} Hz` : String(+val.toFixed(6));
+    if (!key.startsWith("dterm") || inp === moved) inp.parentElement.querySelector("output").textContent = key.startsWith("dterm") ? `${val} Hz` : String(+val.toFixed(6));
   }
   return k;
 }
 
+/** Puts the sliders at `k` and analyses `k` itself (a slider's step could round a cutoff). */
 async function setKnobs(k) {
   state.knobs = JSON.parse(JSON.stringify(k));
   for (const inp of $("sliders").querySelectorAll("input")) {
     const key = inp.dataset.key;
-    inp.value = key.startsWith("dterm_hz.") ? k.dterm[Number(key.split(".")[1])].cutoff_hz : k.gains[key];
+    const val = key.startsWith("dterm_hz.") ? k.dterm[Number(key.split(".")[1])].cutoff_hz : k.gains[key];
+    inp.value = val;
+    inp.parentElement.querySelector("output").textContent = key.startsWith("dterm") ? `${val} Hz` : String(+val.toFixed(6));
   }
-  readSliders();
   await evaluate(state.knobs);
 }
 
-function onSlider() {
-  state.knobs = readSliders();
+function onSlider(ev) {
+  state.knobs = readSliders(ev.target);
   evaluate(state.knobs);
 }
 
@@ -247,7 +254,7 @@ async function evaluate(knobs) {
     renderLive(r);
     timings.last_render_ms = performance.now() - t0;
     timings.renders = (timings.renders || 0) + 1;
-    $("timing").textContent = `re-verified and drawn in ${fmt(timings.last_render_ms, 0)} ms`;
+    $("timing").textContent = `re-verified in ${fmt(timings.last_compute_ms, 0)} ms, drawn in ${fmt(timings.last_render_ms - timings.last_compute_ms, 0)} ms`;
     showError($("error"), null);
   } catch (e) {
     showError($("error"), e);
@@ -323,7 +330,10 @@ function renderBode(magEl, phEl, curves, m) {
   });
   const pc = phAt(m.crossover_hz);
   const turn = Math.round((pc + 180) / 360) * 360 - 180;
-  linePlot(phEl, {
+  // A delay turns the phase without end: the window shows two turns around the −180° the margins read.
+  const top = Math.max(...curves.map((c) => Math.max(...c.e.loop.phase_deg)));
+  const yRange = [turn - 360, Math.min(top, turn + 360) + 20];
+  linePlot(phEl, { yRange,
     x, logX: true, height: 200, xLabel: "frequency [Hz]", yLabel: "phase of L [deg]",
     series: curves.map((c) => ({ label: c.label, y: c.e.loop.phase_deg, color: c.color, dash: c.dash })),
     marks: [{ x: m.crossover_hz, y: pc, label: `PM ${fmt(m.phase_margin_deg, 1)}°`, color: COLORS.live },
@@ -341,8 +351,8 @@ function renderNoise(r) {
     x: s.freq_hz, logX: true, logY: true, height: 230,
     xLabel: "frequency [Hz]", yLabel: "PSD [(PID unit)²/Hz]",
     series: [
-      { label: "flown", y: pos(s.flown), color: COLORS.flown },
-      { label: "your gains", y: pos(s.proposed), color: COLORS.live },
+      { label: "flown", y: pos(s.flown_output_psd), color: COLORS.flown },
+      { label: "your gains", y: pos(s.proposed_output_psd), color: COLORS.live },
     ],
     marks: [{ x: n.band_hz[0], label: `noise band from ${fmt(n.band_hz[0], 0)} Hz`, color: "#444" }],
   });

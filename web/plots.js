@@ -55,7 +55,10 @@ function drawMarks(u, marks, hlines) {
     if (!(y >= top && y <= top + height)) continue;
     ctx.strokeStyle = "#444"; ctx.setLineDash([4 * dpr, 3 * dpr]);
     ctx.beginPath(); ctx.moveTo(left, y); ctx.lineTo(left + width, y); ctx.stroke();
-    if (h.label) { ctx.fillStyle = "#444"; ctx.fillText(h.label, left + 4 * dpr, y - 3 * dpr); }
+    if (h.label) {
+      ctx.fillStyle = "#444";
+      ctx.fillText(h.label, left + width - ctx.measureText(h.label).width - 4 * dpr, y - 3 * dpr);
+    }
   }
   let k = 0;
   for (const m of marks) {

@@ -107,7 +107,7 @@ async function demo(browser, base, ref) {
 
 async function sliders(page) {
   const before = await page.evaluate(() => ({ live: window.skyloop.state.live, badge: document.querySelector("#badge").textContent, renders: window.skyloop.timings.renders }));
-  const times = [];
+  const times = [], computeTimes = [];
   const pInput = "#sliders input[data-key=p]";
   const pMax = Number(await page.getAttribute(pInput, "max"));
   const p0 = Number(await page.inputValue(pInput));
@@ -117,6 +117,7 @@ async function sliders(page) {
     await page.$eval(pInput, (el, val) => { el.value = String(val); el.dispatchEvent(new Event("input")); }, x);
     await page.waitForFunction((m) => window.skyloop.timings.renders > m, n, { timeout: 60000 });
     times.push(await page.evaluate(() => window.skyloop.timings.last_render_ms));
+    computeTimes.push(await page.evaluate(() => window.skyloop.timings.last_compute_ms));
   }
   const after = await page.evaluate(() => ({ live: window.skyloop.state.live, badge: document.querySelector("#badge").textContent }));
   check(after.live.gains.p !== before.live.gains.p, `slider moved P ${before.live.gains.p} → ${after.live.gains.p}`);
@@ -125,7 +126,8 @@ async function sliders(page) {
   check(after.badge !== before.badge, `the badge changed: "${after.badge.replace(/\s+/g, " ").trim()}"`);
   await page.screenshot({ path: join(shots, "tune-slider.png"), fullPage: true });
   times.sort((a, b) => a - b);
-  console.log(`SPEED slider re-render (re-verify in wasm + redraw): median ${times[times.length >> 1].toFixed(1)} ms, max ${times[times.length - 1].toFixed(1)} ms over ${times.length} moves (target ≤ 50 ms)`);
+  computeTimes.sort((a, b) => a - b);
+  console.log(`SPEED slider re-render (re-verify in wasm + redraw): median ${times[times.length >> 1].toFixed(1)} ms, max ${times[times.length - 1].toFixed(1)} ms over ${times.length} moves, of which the wasm re-analysis median ${computeTimes[computeTimes.length >> 1].toFixed(1)} ms (target ≤ 50 ms)`);
 }
 
 async function speed(page) {
@@ -157,7 +159,11 @@ async function shaping(browser, base) {
     plant: document.querySelector("#ncf-p").value, w1: document.querySelector("#ncf-w1").value,
     w2: document.querySelector("#ncf-w2").value, pade: 3, factor: 1.1 } }));
   compareAt(v, ref, ["gamma_min", "gamma"], "ncfsyn");
-  check(JSON.stringify(v.controller) === JSON.stringify(ref.controller), "ncfsyn controller JSON equals the CLI's");
+  const flat = (c) => [c.a, c.b, c.c, c.d].flat(2);
+  const [ca, cb] = [flat(v.controller), flat(ref.controller)];
+  const scale = Math.max(...cb.map(Math.abs));
+  check(ca.length === cb.length && ca.every((x, k) => Math.abs(x - cb[k]) <= TOL * scale),
+    `ncfsyn controller matrices equal the CLI's to 1e-6 of the largest entry (${ca.length} numbers)`);
   const shown = await page.textContent("#ncf-out");
   check(shown.includes(ref.gamma_min.toFixed(4)), `γmin ${ref.gamma_min.toFixed(4)} shown`);
   const margins = cliJson(["margins", "2*exp(-0.1*s)/(s*(s+1))", "--json"]);
