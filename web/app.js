@@ -19,9 +19,15 @@ function startWorker() {
     const w = waiting.get(m.id);
     if (!w) return;
     waiting.delete(m.id);
-    if (m.dead) { worker.terminate(); startWorker(); }
     if (m.ms !== undefined) timings.last_compute_ms = m.ms;
     if (m.ok) w.resolve(m.result); else w.reject(new Error(m.error));
+    if (m.dead) {
+      // A panic left the module unusable: a fresh worker (the log must be tuned again).
+      for (const other of waiting.values()) other.reject(new Error(m.error));
+      waiting.clear();
+      worker.terminate();
+      startWorker();
+    }
   };
   worker.onerror = (e) => {
     for (const w of waiting.values()) w.reject(new Error(`the worker failed: ${e.message || e}`));
@@ -158,12 +164,12 @@ function renderCompare(v, live) {
   const m = (f, d) => (c) => (c ? fmt(f(c), d) : "—");
   rows.push(
     ["disk margin α", m((c) => c.margins.disk_alpha, 3)],
-    ["  worst over uncertainty", m((c) => c.worst_margins.disk_alpha, 3)],
+    ["  worst over uncertainty", m((c) => (c.worst_margins ? c.worst_margins.disk_alpha : NaN), 3)],
     ["gain margin [dB]", m((c) => c.margins.gain_margin_db, 2)],
     ["phase margin [deg]", m((c) => c.margins.phase_margin_deg, 1)],
     ["crossover [Hz]", m((c) => c.margins.crossover_hz, 2)],
     ["Ms", m((c) => c.margins.ms, 3)],
-    ["  worst over uncertainty", m((c) => c.worst_margins.ms, 3)],
+    ["  worst over uncertainty", m((c) => (c.worst_margins ? c.worst_margins.ms : NaN), 3)],
     ["step rise time [ms]", m((c) => 1e3 * c.rise_time_s, 1)],
     ["step overshoot [%]", m((c) => c.overshoot_pct, 1)],
     ["motor noise vs flown", (c) => noiseRatio(v, c)],
@@ -200,6 +206,7 @@ function buildSliders(live) {
     row.innerHTML = `<span class="name">${label}</span><input type="range" min="${min}" max="${max}" step="${step}" data-key="${key}">` +
       `<output></output><span class="muted small">flown ${+flown.toFixed(4)}${unit}${applied}, proposed ${+proposed.toFixed(4)}${unit}</span>`;
     row.querySelector("input").addEventListener("input", onSlider);
+    row.querySelector("input").addEventListener("change", onSlider);
     box.appendChild(row);
   };
   for (const [k, f] of Object.entries(live.flown.gains)) {
@@ -240,27 +247,35 @@ async function setKnobs(k) {
 
 function onSlider(ev) {
   state.knobs = readSliders(ev.target);
-  evaluate(state.knobs);
+  evaluate(state.knobs, ev.type === "change");
 }
 
-/** Re-analyses the knobs; while one request runs, only the latest move waits (no backlog). */
-async function evaluate(knobs) {
-  if (state.busy) { state.pending = knobs; return; }
+/**
+ * Re-analyses the knobs: while a slider is dragged on the nominal plant (`robust` false), on
+ * release over the whole uncertainty set. While one request runs only the latest waits (no
+ * backlog); a waiting release keeps its robust analysis.
+ */
+async function evaluate(knobs, robust = true) {
+  if (state.busy) {
+    state.pending = { knobs, robust: robust || (state.pending !== null && state.pending.robust) };
+    return;
+  }
   state.busy = true;
   const t0 = performance.now();
   try {
-    const r = await rpc("retune", { gains: knobValues(knobs) });
+    const r = await rpc("retune", { gains: Object.assign(knobValues(knobs), { robust }) });
     state.live = r;
     renderLive(r);
     timings.last_render_ms = performance.now() - t0;
     timings.renders = (timings.renders || 0) + 1;
+    if (robust) timings.robust_renders = (timings.robust_renders || 0) + 1;
     $("timing").textContent = `re-verified in ${fmt(timings.last_compute_ms, 0)} ms, drawn in ${fmt(timings.last_render_ms - timings.last_compute_ms, 0)} ms`;
     showError($("error"), null);
   } catch (e) {
     showError($("error"), e);
   } finally {
     state.busy = false;
-    if (state.pending) { const k = state.pending; state.pending = null; evaluate(k); }
+    if (state.pending) { const p = state.pending; state.pending = null; evaluate(p.knobs, p.robust); }
   }
 }
 
@@ -291,12 +306,13 @@ function renderLive(r) {
 }
 
 function renderBadge(r) {
-  const m = r.margins, w = r.worst_margins;
+  // Judged on the worst case over the uncertainty set; while a slider is dragged, on the nominal.
+  const m = r.margins, w = r.worst_margins || m;
   const level = !m.stable || !w.stable ? "bad" : w.disk_alpha >= 0.5 ? "good" : w.disk_alpha >= 0.3 ? "fair" : "bad";
   const word = { good: "robust", fair: "thin margins", bad: m.stable ? "fragile" : "UNSTABLE" }[level];
   $("badge").className = `badge ${level}`;
   $("badge").innerHTML = `<div class="big">${word}</div>
-    <div>disk α <b>${fmt(m.disk_alpha, 3)}</b> <small>(worst ${fmt(w.disk_alpha, 3)})</small></div>
+    <div>disk α <b>${fmt(m.disk_alpha, 3)}</b> <small>${r.worst_margins ? `(worst ${fmt(w.disk_alpha, 3)})` : "(nominal; worst case on release)"}</small></div>
     <div>GM <b>${fmt(m.gain_margin_db, 1)} dB</b> · PM <b>${fmt(m.phase_margin_deg, 1)}°</b></div>
     <div>Ms <b>${fmt(m.ms, 2)}</b> · crossover <b>${fmt(m.crossover_hz, 1)} Hz</b></div>`;
 }

@@ -87,13 +87,17 @@ pub fn tune_log(bytes: &[u8], name: &str, opts: &str) -> Result<String, JsError>
     Ok(v.to_string())
 }
 
-/// Another gain set (the firmware's keys, `dterm_hz`) analysed on the last log tune's model:
-/// [`LiveLoop::evaluate`]'s JSON.
+/// Another gain set (the firmware's keys, `dterm_hz`, and `robust`: false for the nominal plant
+/// alone, while a slider is dragged) analysed on the last log tune's model: [`LiveLoop::evaluate`]'s
+/// JSON.
 #[wasm_bindgen]
 pub fn retune(gains: &str) -> Result<String, JsError> {
     let v = parse_opts(gains)?;
     LIVE.with(|l| match l.borrow().as_ref() {
-        Some(live) => to_text(live.gains(&v).and_then(|g| live.evaluate(&g))),
+        Some(live) => {
+            let robust = v.get("robust").and_then(Value::as_bool).unwrap_or(true);
+            to_text(live.gains(&v).and_then(|g| live.evaluate(&g, robust)))
+        }
         None => Err(JsError::new(
             "no log tune with flown gains to re-analyse: tune a Betaflight, INAV or PX4 log first",
         )),

@@ -35,7 +35,7 @@ fn live_retune_at_the_proposal_is_the_proposal() {
     let (v, live) = api::tune_log(&bytes, &path, &json!({"axis": "roll"}), None).unwrap();
     let live = live.expect("a Betaflight log with flown gains");
     let g = live.gains(&v["proposed"]["gains"]).unwrap();
-    let r = live.evaluate(&g).unwrap();
+    let r = live.evaluate(&g, true).unwrap();
     for k in ["disk_alpha", "gain_margin_db", "phase_margin_deg", "crossover_hz", "ms", "mt"] {
         assert_eq!(r["margins"][k], v["proposed"]["margins"][k], "{k}");
         assert_eq!(r["worst_margins"][k], v["proposed"]["worst_margins"][k], "{k}");
@@ -44,8 +44,9 @@ fn live_retune_at_the_proposal_is_the_proposal() {
     // A lower P: a different loop, still analysed.
     let mut knobs = v["live"]["flown"]["gains"].clone();
     knobs["p"] = json!(7);
-    let r2 = live.evaluate(&live.gains(&knobs).unwrap()).unwrap();
+    let r2 = live.evaluate(&live.gains(&knobs).unwrap(), false).unwrap();
     assert!(r2["margins"]["crossover_hz"].as_f64() < r["margins"]["crossover_hz"].as_f64());
+    assert!(r2["worst_margins"].is_null());
     assert!(live.gains(&json!({"p": -1})).is_err());
     assert!(live.gains(&json!({"dterm_hz": [100, 100, 100, 100]})).is_err());
 }

@@ -131,7 +131,9 @@ impl LiveLoop {
     }
 
     /// One gain set analysed as `tune LOG` analyses the flown and proposed tunes (the `proposed`
-    /// object of `tune --json`, without the 6-DOF flight), plus `loop` (L = P·C_fb on
+    /// object of `tune --json`, without the 6-DOF flight; with `robust` false on the nominal plant
+    /// alone, about a seventh of the work, for a slider being dragged: `worst_margins` is then
+    /// null), plus `loop` (L = P·C_fb on
     /// [`GRID_POINTS`] frequencies from 1 Hz to the loop's Nyquist frequency: `freq_hz`, `mag_db`,
     /// `phase_deg`, `re`, `im`), `disk` (the region of the Nyquist plane the disk margin keeps L
     /// out of: `center_re`, `radius`), `noise` (the predicted motor-command noise against the
@@ -139,10 +141,15 @@ impl LiveLoop {
     ///
     /// # Errors
     /// Filter settings the controller cannot be built from, or a loop whose margins fail.
-    pub fn evaluate(&self, g: &RateGains) -> Result<Value> {
+    pub fn evaluate(&self, g: &RateGains, robust: bool) -> Result<Value> {
         let c = g.feedback_controller()?;
-        let a = analyse(g.to_json(), &c, &g.reference_path()?, &self.held, self.wn, None)?;
+        let held = if robust { &self.held[..] } else { &self.held[..1] };
+        let a = analyse(g.to_json(), &c, &g.reference_path()?, held, self.wn, None)?;
         let mut v = a.to_json();
+        if !robust {
+            v["worst_margins"] = Value::Null;
+        }
+        v["robust"] = json!(robust);
         let (n, hi) = (GRID_POINTS, (0.5 * g.loop_hz()).max(10.0));
         let freq_hz: Vec<f64> = (0..n)
             .map(|k| 10f64.powf(hi.log10() * k as f64 / (n - 1) as f64))
