@@ -363,7 +363,10 @@ function renderBode(magEl, phEl, curves, m) {
 function renderNoise(r) {
   const n = r.noise;
   if (!n) { $("noise-text").textContent = "no gyro spectrum in this log: noise not predicted"; return; }
+  $("noise-text").textContent = `motor-command noise power in ${fmt(n.band_hz[0], 0)}–${fmt(n.band_hz[1], 0)} Hz: ×${fmt(n.proposed / n.flown, 2)} the flown tune's (the tuner's budget: ×1.25)` +
+    (n.spectra ? "" : "; spectrum redrawn on release");
   const s = n.spectra;
+  if (!s) return;
   const pos = (a) => a.map((y) => (y > 0 ? y : null));
   linePlot($("plot-noise"), {
     x: s.freq_hz, logX: true, logY: true, height: 230,
@@ -374,7 +377,6 @@ function renderNoise(r) {
     ],
     marks: [{ x: n.band_hz[0], label: `noise band from ${fmt(n.band_hz[0], 0)} Hz`, color: "#444" }],
   });
-  $("noise-text").textContent = `motor-command noise power in ${fmt(n.band_hz[0], 0)}–${fmt(n.band_hz[1], 0)} Hz: ×${fmt(n.proposed / n.flown, 2)} the flown tune's (the tuner's budget: ×1.25)`;
 }
 
 function renderCli(r) {

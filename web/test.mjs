@@ -30,7 +30,12 @@ function check(ok, what) {
   console.log(`${ok ? "ok  " : "FAIL"}  ${what}`);
   if (!ok) failures++;
 }
-const close = (a, b) => typeof a === "number" && typeof b === "number" && Math.abs(a - b) <= TOL * Math.max(1, Math.abs(b));
+let worstRel = 0;
+const close = (a, b) => {
+  if (typeof a !== "number" || typeof b !== "number") return false;
+  worstRel = Math.max(worstRel, Math.abs(a - b) / Math.max(1, Math.abs(b)));
+  return Math.abs(a - b) <= TOL * Math.max(1, Math.abs(b));
+};
 
 function cliBinary() {
   for (const p of [process.env.SKYLOOP_CLI, join(root, "target/release/skyloop"), join(root, "target/debug/skyloop")]) {
@@ -194,5 +199,6 @@ try {
   await browser.close();
   server.close();
 }
+console.log(`largest page-vs-CLI difference of the compared numbers: ${worstRel.toExponential(2)} (relative, or absolute below 1)`);
 console.log(failures ? `${failures} checks failed` : "all checks passed");
 process.exit(failures ? 1 : 0);

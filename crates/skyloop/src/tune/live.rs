@@ -10,6 +10,7 @@
 //! (Betaflight and INAV: one per lowpass stage, a notch stage keeps its own; PX4: one value,
 //! `IMU_DGYRO_CUTOFF`).
 
+use super::candidates::Screen;
 use super::log::{analyse, noise_of};
 use super::noise::GyroNoise;
 use crate::error::{Error, Result};
@@ -133,7 +134,7 @@ impl LiveLoop {
     /// One gain set analysed as `tune LOG` analyses the flown and proposed tunes (the `proposed`
     /// object of `tune --json`, without the 6-DOF flight; with `robust` false on the nominal plant
     /// alone, about a seventh of the work, for a slider being dragged: `worst_margins` is then
-    /// null), plus `loop` (L = P·C_fb on
+    /// null, and `noise` carries the band's powers without spectra), plus `loop` (L = P·C_fb on
     /// [`GRID_POINTS`] frequencies from 1 Hz to the loop's Nyquist frequency: `freq_hz`, `mag_db`,
     /// `phase_deg`, `re`, `im`), `disk` (the region of the Nyquist plane the disk margin keeps L
     /// out of: `center_re`, `radius`), `noise` (the predicted motor-command noise against the
@@ -156,13 +157,34 @@ impl LiveLoop {
             .collect();
         v["loop"] = loop_response(&self.held[0], &c, &freq_hz)?;
         v["disk"] = disk_json(a.margins.disk_alpha);
-        v["noise"] = match &self.gyro_noise {
-            Some(gn) => noise_of(gn, &self.flown, g, &self.held[..1])?.to_json(),
-            None => Value::Null,
+        v["noise"] = match (&self.gyro_noise, robust) {
+            (Some(gn), true) => noise_of(gn, &self.flown, g, &self.held[..1])?.to_json(),
+            (Some(gn), false) => self.noise_ratio(gn, g)?,
+            (None, _) => Value::Null,
         };
         v["knobs"] = Self::knobs(g);
         v["cli"] = json!(g.cli());
         Ok(v)
+    }
+}
+
+impl LiveLoop {
+    /// The predicted motor-command noise power of `g` and of the flown tune in the whole noise
+    /// band, as [`noise_of`] computes its `flown` and `proposed` (one screen each, without its
+    /// sub-bands, spectra and D-term check): `{flown, proposed, ratio, band_hz, spectra: null}`.
+    fn noise_ratio(&self, gn: &GyroNoise, g: &RateGains) -> Result<Value> {
+        let (f, w) = gn.band_weights(gn.band_hz);
+        let power = |g: &RateGains| -> Result<f64> {
+            Ok(Screen::new(&g.block()?, &self.held[..1], 10.0, &f, &w)?.noise(g.continuous()))
+        };
+        let (flown, proposed) = (power(&self.flown)?, power(g)?);
+        Ok(json!({
+            "flown": flown,
+            "proposed": proposed,
+            "ratio": proposed / flown.max(f64::MIN_POSITIVE),
+            "band_hz": [gn.band_hz.0, gn.band_hz.1],
+            "spectra": Value::Null,
+        }))
     }
 }
 

@@ -1035,7 +1035,8 @@ fn proposed_reference_path(req: &LogTuneRequest, treq: &TuneRequest, proposed: &
 }
 
 /// The noise report of `proposed` against `flown` on the log's gyro spectrum, with the D-term check
-/// of the flown tune.
+/// of the flown tune. Each gain set through its own filters (a live re-analysis may move the D-term
+/// cutoffs; a proposal keeps the flown ones).
 pub(crate) fn noise_of(
     gn: &noise::GyroNoise,
     flown: &RateGains,
@@ -1045,7 +1046,7 @@ pub(crate) fn noise_of(
     let block = flown.block()?;
     let power = |g: &RateGains, band: (f64, f64)| -> Result<f64> {
         let (f, w) = gn.band_weights(band);
-        Ok(Screen::new(&block, &held[..1], 10.0, &f, &w)?.noise(g.continuous()))
+        Ok(Screen::new(&g.block()?, &held[..1], 10.0, &f, &w)?.noise(g.continuous()))
     };
     let bands = gn
         .sub_bands()
@@ -1072,7 +1073,7 @@ pub(crate) fn noise_of(
         1.0
     };
     let per_f = |g: &RateGains| -> Result<Vec<f64>> {
-        let sc = Screen::new(&block, &held[..1], 10.0, &f, &w)?;
+        let sc = Screen::new(&g.block()?, &held[..1], 10.0, &f, &w)?;
         Ok(sc.noise_terms(g.continuous()).into_iter().map(|v| v / df).collect())
     };
     let spectra = noise::Spectra {
