@@ -175,7 +175,7 @@ function renderCompare(v, live) {
     ["step rise time [ms]", m((c) => 1e3 * c.rise_time_s, 1)],
     ["step overshoot [%]", m((c) => c.overshoot_pct, 1)],
     ["motor noise vs flown", (c) => noiseRatio(v, c)],
-    ["6-DOF overshoot 200 deg/s [%]", m((c) => (c.flight ? c.flight.doublets[0].overshoot_pct : NaN), 1)],
+    ["6-DOF overshoot 200 deg/s [%]", (c) => (c && c.flight ? fmt(c.flight.doublets[0].overshoot_pct, 1) : c === live && c ? "tune only" : "—")],
   );
   $("compare").innerHTML = head + rows.map(([name, f]) =>
     `<tr><td>${name.replace(/^  /, "&nbsp;&nbsp;")}</td>${cols.map((c, i) => `<td class="${i === 2 ? "live" : ""}">${f(c)}</td>`).join("")}</tr>`).join("");
