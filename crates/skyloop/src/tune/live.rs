@@ -111,7 +111,7 @@ impl LiveLoop {
                     axis: *axis,
                     filters: px4::Filters {
                         dgyro_cutoff_hz: cutoffs.first().copied().unwrap_or(filters.dgyro_cutoff_hz),
-                        ..filters.clone()
+                        ..*filters
                     },
                 }
             }
