@@ -6,7 +6,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use crate::error::{PlotError, Result};
-use crate::render::{register_font, text_style, FONT};
+use crate::render::{register_font, text_style};
 use crate::ticks::{format_tick, nice_step};
 
 /// A line drawn over the heatmap, e.g. a motor harmonic against throttle.
@@ -110,8 +110,11 @@ impl Heatmap {
         let err = |m: String| PlotError::Draw { path: name.clone(), message: m };
         std::fs::File::create(path).map_err(|e| err(format!("cannot create the file: {e}")))?;
         match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+            // No bitmap file backend on wasm32 (see `render::register_font`).
+            #[cfg(not(target_arch = "wasm32"))]
             Some("png") => {
-                let backend = crate::raster_text::PngBackend::new(BitMapBackend::new(path, (WIDTH, HEIGHT)), FONT).map_err(err)?;
+                let backend = crate::raster_text::PngBackend::new(BitMapBackend::new(path, (WIDTH, HEIGHT)), crate::render::FONT)
+                    .map_err(err)?;
                 let root = backend.into_drawing_area();
                 self.draw(&root).map_err(err)?;
                 root.present().map_err(|e| err(e.to_string()))

@@ -42,6 +42,7 @@ pub mod mu;
 pub mod nichols;
 pub mod nyquist;
 pub mod pzmap;
+#[cfg(not(target_arch = "wasm32"))] // PNG files only (see render::register_font)
 mod raster_text;
 mod render;
 pub mod report;

@@ -29,9 +29,11 @@ fn neutral() -> RGBColor {
 
 /// The embedded DejaVu Sans (Bitstream Vera licence, `fonts/DejaVu-LICENSE.txt`): text is drawn with
 /// it on every machine, so no system font library (fontconfig, freetype) or C compiler is needed.
+#[cfg(not(target_arch = "wasm32"))]
 pub(crate) static FONT: &[u8] = include_bytes!("../fonts/DejaVuSans.ttf");
 
 /// Registers the embedded font as plotters' "sans-serif" once per process.
+#[cfg(not(target_arch = "wasm32"))]
 pub(crate) fn register_font() -> std::result::Result<(), String> {
     static REGISTERED: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     let ok = *REGISTERED.get_or_init(|| plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).is_ok());
@@ -40,6 +42,13 @@ pub(crate) fn register_font() -> std::result::Result<(), String> {
     } else {
         Err("the embedded font could not be loaded".into())
     }
+}
+
+/// plotters has no font registration on wasm32 (its ab_glyph backend is native only): a browser page
+/// draws its plots itself and takes only the figures' data from here.
+#[cfg(target_arch = "wasm32")]
+pub(crate) fn register_font() -> std::result::Result<(), String> {
+    Err("figures are not rendered in WebAssembly builds (the page draws them from their data)".into())
 }
 
 // Rendering lives here, beside the backends; `figure` holds only data, so the two modules do not
@@ -81,6 +90,8 @@ pub(crate) fn save(fig: &Figure, path: &Path) -> Result<()> {
             draw_figure(fig, &root).map_err(draw_err)?;
             root.present().map_err(|e| draw_err(e.to_string()))
         }
+        // No bitmap file backend on wasm32 (see `register_font`).
+        #[cfg(not(target_arch = "wasm32"))]
         Some("png") => {
             let backend =
                 crate::raster_text::PngBackend::new(BitMapBackend::new(path, size), FONT).map_err(draw_err)?;

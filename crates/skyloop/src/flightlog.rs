@@ -133,3 +133,25 @@ pub fn plot_fields(log: &Log, fields: &[String], out: &Path) -> Result<Vec<Span>
     fig.save(out)?;
     Ok(spans)
 }
+
+/// The `skyloop log info --json` object of a log read from `file`: `file`, `format`, `duration_s`,
+/// `clock_origin_s`, `notes`, `groups` (name, fields, samples, rate_hz, duration_s), `sessions` (a
+/// blackbox file's sessions, read from `bytes`, the whole file; empty for other formats or without
+/// bytes) and `tuning` (the firmware's settings from the header, or null).
+pub fn info_json(file: &str, log: &Log, bytes: Option<&[u8]>) -> serde_json::Value {
+    use skyloop_sysid::logs::{blackbox, LogFormat};
+    let sessions = match bytes {
+        Some(b) if log.format == LogFormat::Blackbox => blackbox::sessions(b, file),
+        _ => Vec::new(),
+    };
+    serde_json::json!({
+        "file": file,
+        "format": format!("{:?}", log.format).to_lowercase(),
+        "duration_s": log.duration_s(),
+        "clock_origin_s": log.clock_origin_s,
+        "notes": log.notes,
+        "groups": log.info(),
+        "sessions": sessions,
+        "tuning": skyloop_sysid::logs::tuning::FirmwareTuning::from_log(log),
+    })
+}

@@ -72,3 +72,13 @@ pub fn margins_json(sys: &StateSpace) -> Result<Value> {
     let dm = diskmargin(sys)?;
     Ok(margins_to_json(&all, &m, &dm))
 }
+
+/// The `skyloop ncfsyn --json` object: `gamma_min`, `gamma` and `controller` (LTI JSON of C for
+/// u = C·(r − y)).
+pub fn ncfsyn_json(sol: &skyloop_robust::ncfsyn::NcfSolution) -> Value {
+    json!({
+        "gamma_min": sol.gamma_min,
+        "gamma": sol.gamma,
+        "controller": skyloop_lti::json::LtiJson::from_ss(&sol.controller),
+    })
+}

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use skyloop::flightlog::{export_csv, plot_fields};
+use skyloop::flightlog::{export_csv, info_json, plot_fields};
 use skyloop::sysid::logs::tuning::{ArduPilotTuning, FirmwareTuning};
 use skyloop::sysid::logs::{blackbox, detect, Log, LogFormat, OpenOptions};
 
@@ -110,28 +110,22 @@ pub fn run(a: Args) -> skyloop::Result<()> {
 fn info(file: &Path, session: Option<usize>, json: bool) -> skyloop::Result<()> {
     let file = file.to_path_buf();
     let log = open(&file, session)?;
-    let tuning = FirmwareTuning::from_log(&log);
-    let sessions = if log.format == LogFormat::Blackbox {
+    let bytes = if log.format == LogFormat::Blackbox {
         let bytes = std::fs::read(&file).map_err(|e| format!("cannot read {}: {e}", file.display()))?;
         debug_assert_eq!(detect(&bytes), LogFormat::Blackbox);
-        blackbox::sessions(&bytes, &file.display().to_string())
+        Some(bytes)
     } else {
-        Vec::new()
+        None
+    };
+    if json {
+        return print_json(&info_json(&file.display().to_string(), &log, bytes.as_deref()));
+    }
+    let tuning = FirmwareTuning::from_log(&log);
+    let sessions = match &bytes {
+        Some(b) => blackbox::sessions(b, &file.display().to_string()),
+        None => Vec::new(),
     };
     let groups = log.info();
-    if json {
-        let v = serde_json::json!({
-            "file": file.display().to_string(),
-            "format": format!("{:?}", log.format).to_lowercase(),
-            "duration_s": log.duration_s(),
-            "clock_origin_s": log.clock_origin_s,
-            "notes": log.notes,
-            "groups": groups,
-            "sessions": sessions,
-            "tuning": tuning,
-        });
-        return print_json(&v);
-    }
     println!("{}: {:?} log, {:.2} s", log.source, log.format, log.duration_s());
     for n in &log.notes {
         println!("note: {n}");

@@ -3,7 +3,6 @@
 
 use crate::output::print_json;
 use clap::Args as ClapArgs;
-use skyloop::lti::json::LtiJson;
 use skyloop::model::load_model;
 use skyloop::robust::ncfsyn::{ncfsyn, NcfOptions};
 
@@ -57,11 +56,7 @@ pub fn run(a: Args) -> skyloop::Result<()> {
         eprintln!("wrote {}", path.display());
     }
     if a.json {
-        return print_json(&serde_json::json!({
-            "gamma_min": sol.gamma_min,
-            "gamma": sol.gamma,
-            "controller": LtiJson::from_ss(&sol.controller),
-        }));
+        return print_json(&skyloop::json_out::ncfsyn_json(&sol));
     }
     println!(
         "gamma_min {:.6}  (NCF margin 1/gamma_min = {:.4})",

@@ -116,18 +116,24 @@ impl Log {
     /// DataFlash sync bytes 0xA3 0x95) or else treating it as CSV.
     pub fn open(path: &Path, opts: &OpenOptions) -> Result<Log> {
         let bytes = read_capped(path)?;
-        let name = path.display().to_string();
+        Log::from_bytes(&bytes, &path.display().to_string(), opts)
+    }
+
+    /// Reads a log from its bytes (a file already in memory: a browser's dropped file), choosing the
+    /// reader as [`Log::open`] does; `name` names it in messages.
+    pub fn from_bytes(bytes: &[u8], name: &str, opts: &OpenOptions) -> Result<Log> {
+        let name = name.to_string();
         if bytes.is_empty() {
             // Detection reads the first bytes; with none, the CSV reader's "empty CSV file" would
             // misname a truncated .ulg or .bbl download.
             return Err(SysidError::Log(format!("{name}: the file is empty (0 bytes)")));
         }
-        match detect(&bytes) {
-            LogFormat::Ulog => ulog::read_bytes(&bytes, &name),
-            LogFormat::Blackbox => blackbox::read_bytes(&bytes, &name, opts.session),
-            LogFormat::Dataflash => dataflash::read_bytes(&bytes, &name),
+        match detect(bytes) {
+            LogFormat::Ulog => ulog::read_bytes(bytes, &name),
+            LogFormat::Blackbox => blackbox::read_bytes(bytes, &name, opts.session),
+            LogFormat::Dataflash => dataflash::read_bytes(bytes, &name),
             LogFormat::Csv => {
-                let text = std::str::from_utf8(&bytes).map_err(|_| {
+                let text = std::str::from_utf8(bytes).map_err(|_| {
                     SysidError::Log(format!(
                         "{name}: not a ULog, blackbox, DataFlash or CSV file (binary content that is not UTF-8 text)"
                     ))

@@ -125,6 +125,24 @@ pub fn open_log(path: &std::path::Path, session: Option<usize>) -> Result<(skylo
     Ok((log, notes))
 }
 
+/// [`open_log`] on a log's bytes already in memory (a browser's dropped file); `name` names it in
+/// messages.
+///
+/// # Errors
+/// A file that is not a log the readers know, or a session that is not in it.
+pub fn open_log_bytes(bytes: &[u8], name: &str, session: Option<usize>) -> Result<(skyloop_sysid::logs::Log, Vec<String>)> {
+    let mut log = skyloop_sysid::logs::Log::from_bytes(
+        bytes,
+        name,
+        &skyloop_sysid::logs::OpenOptions {
+            session,
+            ..Default::default()
+        },
+    )?;
+    let notes = prepare_log(&mut log);
+    Ok((log, notes))
+}
+
 /// Interprets a freshly read log for the firmware that wrote it: channels the firmware computes but
 /// does not record are derived (Betaflight 3.x: the setpoint from rcCommand through the rate
 /// curve). Returns notes saying what was derived.

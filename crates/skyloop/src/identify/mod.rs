@@ -94,6 +94,28 @@ fn restart(specs: &[ParamSpec], at: &BTreeMap<String, f64>) -> Vec<ParamSpec> {
 /// for 2 s, a band above a channel's Nyquist frequency, options out of range ([`Error::Input`] names
 /// the flag), a fit that fails or whose fit percentage is below 0 (unless `allow_poor_fit`).
 pub fn identify(a: &IdentifyRequest) -> Result<Identification> {
+    check_request(a)?;
+    let (log, derived) = crate::firmware::open_log(&a.data, a.session)?;
+    let mut id = identify_log(&log, a)?;
+    id.notes.extend(derived);
+    Ok(id)
+}
+
+/// [`identify`] on a log's bytes already in memory (a browser's dropped file); `a.data` only names
+/// it in messages.
+///
+/// # Errors
+/// As [`identify`].
+pub fn identify_bytes(bytes: &[u8], a: &IdentifyRequest) -> Result<Identification> {
+    check_request(a)?;
+    let (log, derived) = crate::firmware::open_log_bytes(bytes, &a.data.display().to_string(), a.session)?;
+    let mut id = identify_log(&log, a)?;
+    id.notes.extend(derived);
+    Ok(id)
+}
+
+/// The options of a request checked before the log is read.
+fn check_request(a: &IdentifyRequest) -> Result<()> {
     a.method.parse::<Method>()?;
     a.window.parse::<Window>()?;
     for (name, v) in [
@@ -122,10 +144,7 @@ pub fn identify(a: &IdentifyRequest) -> Result<Identification> {
             a.blocks
         )));
     }
-    let (log, derived) = crate::firmware::open_log(&a.data, a.session)?;
-    let mut id = identify_log(&log, a)?;
-    id.notes.extend(derived);
-    Ok(id)
+    Ok(())
 }
 
 /// [`identify`] on a log already read (and prepared by [`crate::firmware::prepare_log`]); `a.data`

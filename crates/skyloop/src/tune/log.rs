@@ -23,6 +23,7 @@ use super::candidates::{front, search, Scores, Screen, SearchLimits};
 use super::deconv::{step_from_log, DeconvOptions, MeasuredStep};
 use super::flight::{fly, FlightCheck, FlightSetup};
 use super::noise::{self, NoiseReport};
+use super::live::LiveLoop;
 use super::verdict::{proposal_text, Verdict, VerdictKind};
 use super::{outcome_for_gains, tune, with_hold, Firmware, GenericStructure, Maximize, TuneOutcome, TuneRequest};
 use crate::error::{Error, Result};
@@ -175,6 +176,8 @@ pub struct LogTuneOutcome {
     pub axis: Axis,
     /// The flown tune's closed loop setpoint → gyro, measured against predicted.
     pub closed_loop: Option<super::model_check::ClosedLoopCheck>,
+    /// What re-analysing other gains on this log's model needs (None without flown gains).
+    pub live: Option<LiveLoop>,
 }
 
 /// Largest RMS difference between the predicted and the measured step (per unit step) that
@@ -203,11 +206,34 @@ fn rate_model(k: f64, tau: f64, td: f64) -> Result<StateSpace> {
 /// An identification that fails (its error names the cause and the flags that change it), a
 /// firmware that does not match the log's, or a tuning failure.
 pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
+    check_sigma(req)?;
+    progress(req, "identify");
+    let (log, derived) = crate::firmware::open_log(&req.log, req.session)?;
+    tune_from_read_log(req, log, derived)
+}
+
+/// [`tune_from_log`] on a log's bytes already in memory (a browser's dropped file); `req.log` only
+/// names it in messages.
+///
+/// # Errors
+/// As [`tune_from_log`].
+pub fn tune_from_log_bytes(req: &LogTuneRequest, bytes: &[u8]) -> Result<LogTuneOutcome> {
+    check_sigma(req)?;
+    progress(req, "identify");
+    let (log, derived) = crate::firmware::open_log_bytes(bytes, &req.log.display().to_string(), req.session)?;
+    tune_from_read_log(req, log, derived)
+}
+
+fn check_sigma(req: &LogTuneRequest) -> Result<()> {
     if !(req.sigma.is_finite() && (0.0..=5.0).contains(&req.sigma)) {
         return Err(Error::Input(format!("--sigma must be in 0..=5, got {}", req.sigma)));
     }
-    progress(req, "identify");
-    let mut idn = identify_stage(req)?;
+    Ok(())
+}
+
+/// The stages after the log is read (and prepared, with `derived` its notes).
+fn tune_from_read_log(req: &LogTuneRequest, log: Log, derived: Vec<String>) -> Result<LogTuneOutcome> {
+    let mut idn = identify_stage(req, log, derived)?;
     let mut notes = std::mem::take(&mut idn.notes);
     let hdr = header_stage(req, &idn, &mut notes)?;
     progress(req, "the flown tune");
@@ -215,6 +241,12 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
     progress(req, "candidates and 6-DOF");
     let pr = propose_stage(req, &idn, &hdr, &fl)?;
     let warnings = warnings_of(req, &fl, &pr.analysis);
+    let live = fl.flown_rg.clone().map(|flown| LiveLoop {
+        flown,
+        held: fl.held.clone(),
+        wn: fl.wn,
+        gyro_noise: pr.gyro_noise.clone(),
+    });
     Ok(LogTuneOutcome {
         params: BTreeMap::from([
             ("K".to_string(), idn.k),
@@ -240,6 +272,7 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
         front: pr.front,
         axis: req.axis,
         closed_loop: fl.closed_loop,
+        live,
     })
 }
 
@@ -257,7 +290,7 @@ struct Identified {
     notes: Vec<String>,
 }
 
-fn identify_stage(req: &LogTuneRequest) -> Result<Identified> {
+fn identify_stage(req: &LogTuneRequest, log: Log, derived: Vec<String>) -> Result<Identified> {
     let idreq = IdentifyRequest {
         data: req.log.clone(),
         axis: Some(req.axis.name().to_string()),
@@ -266,7 +299,6 @@ fn identify_stage(req: &LogTuneRequest) -> Result<Identified> {
         fmax_hz: req.fmax_hz,
         ..Default::default()
     };
-    let (log, derived) = crate::firmware::open_log(&req.log, req.session)?;
     // identify's refusals advise `--allow-poor-fit`, an option tune does not have: a tune is
     // never proposed from a fit identify would refuse.
     let id = identify_log(&log, &idreq).map_err(|e| match e {
@@ -541,6 +573,7 @@ struct Proposal {
     verdict: Verdict,
     front: Vec<(Value, Scores, f64)>,
     noise: Option<NoiseReport>,
+    gyro_noise: Option<noise::GyroNoise>,
 }
 
 fn propose_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, fl: &Flown) -> Result<Proposal> {
@@ -550,12 +583,14 @@ fn propose_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, fl: &Flow
     let ax = req.axis.index();
     let mut front_pts = Vec::new();
     let mut noise_report = None;
+    let mut gyro_noise = None;
     let (proposed, proposed_analysis, verdict) = match (&fl.flown_rg, &fl.current) {
         (Some(g), Some(cur)) => {
             let spans: Vec<(f64, f64)> = id.segments.iter().map(|s| (s.from_s, s.to_s)).collect();
             let dterm = format!("axisD[{ax}]");
             let dterm = log.series(&dterm).is_ok().then_some(dterm.as_str());
             let gn = noise::measure(log, &id.output, dterm, &spans, cur.margins.crossover_hz)?;
+            gyro_noise = Some(gn.clone());
             if let Some(why) = &refusal {
                 let mut out = outcome_for_gains(g, held, &req.goals, Vec::new())?;
                 out.cli.clear();
@@ -622,6 +657,7 @@ fn propose_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, fl: &Flow
         verdict,
         front: front_pts,
         noise: noise_report,
+        gyro_noise,
     })
 }
 
@@ -772,7 +808,7 @@ fn step_rms(m: &MeasuredStep, c: &TuneAnalysis) -> Result<f64> {
     Ok((s / n as f64).sqrt())
 }
 
-fn analyse(
+pub(crate) fn analyse(
     gains: Value,
     c: &StateSpace,
     cr: &StateSpace,
@@ -1010,8 +1046,9 @@ fn proposed_reference_path(req: &LogTuneRequest, treq: &TuneRequest, proposed: &
 }
 
 /// The noise report of `proposed` against `flown` on the log's gyro spectrum, with the D-term check
-/// of the flown tune.
-fn noise_of(
+/// of the flown tune. Each gain set through its own filters (a live re-analysis may move the D-term
+/// cutoffs; a proposal keeps the flown ones).
+pub(crate) fn noise_of(
     gn: &noise::GyroNoise,
     flown: &RateGains,
     proposed: &RateGains,
@@ -1020,7 +1057,7 @@ fn noise_of(
     let block = flown.block()?;
     let power = |g: &RateGains, band: (f64, f64)| -> Result<f64> {
         let (f, w) = gn.band_weights(band);
-        Ok(Screen::new(&block, &held[..1], 10.0, &f, &w)?.noise(g.continuous()))
+        Ok(Screen::new(&g.block()?, &held[..1], 10.0, &f, &w)?.noise(g.continuous()))
     };
     let bands = gn
         .sub_bands()
@@ -1047,7 +1084,7 @@ fn noise_of(
         1.0
     };
     let per_f = |g: &RateGains| -> Result<Vec<f64>> {
-        let sc = Screen::new(&block, &held[..1], 10.0, &f, &w)?;
+        let sc = Screen::new(&g.block()?, &held[..1], 10.0, &f, &w)?;
         Ok(sc.noise_terms(g.continuous()).into_iter().map(|v| v / df).collect())
     };
     let spectra = noise::Spectra {

@@ -28,6 +28,7 @@ pub mod deconv;
 pub mod feedforward;
 pub mod fir_step;
 pub mod flight;
+pub mod live;
 pub mod log;
 pub mod model_check;
 pub mod noise;
