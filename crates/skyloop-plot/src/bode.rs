@@ -236,7 +236,8 @@ fn bode_panels(data: &[BodeData], opts: &BodeOptions) -> (Panel, Panel) {
     }
     if let Some((lo, hi, floor)) = phase_window(data, opts) {
         phase.y_range = Some((lo, hi));
-        phase.y_label = format!("phase [deg] (where |·| ≥ {floor:.0} dB)");
+        // The phase is only meaningful where the gain is not negligible; say so in words.
+        phase.y_label = format!("phase [deg], shown where gain ≥ {floor:.0} dB");
     }
     (mag, phase)
 }

@@ -27,7 +27,8 @@ pub struct TracePanel {
     pub references: Vec<(f64, String)>,
 }
 
-/// Builds a figure of stacked trace panels over time in seconds.
+/// Builds a figure of stacked trace panels over time in seconds; traces whose label starts with
+/// "reference" are dashed.
 pub fn traces_figure(title: &str, panels: &[TracePanel]) -> Figure {
     let panels = panels
         .iter()
@@ -37,7 +38,15 @@ pub fn traces_figure(title: &str, panels: &[TracePanel]) -> Figure {
             series: tp
                 .traces
                 .iter()
-                .map(|t| Series::line(t.label.clone(), t.t.clone(), t.y.clone()))
+                .map(|t| {
+                    // A trace named "reference …" is a command, drawn dashed by the convention of
+                    // every figure here (the response solid).
+                    if t.label.starts_with("reference") {
+                        Series::dashed(t.label.clone(), t.t.clone(), t.y.clone())
+                    } else {
+                        Series::line(t.label.clone(), t.t.clone(), t.y.clone())
+                    }
+                })
                 .collect(),
             markers: tp
                 .references

@@ -32,13 +32,13 @@ pub fn write_run(dir: &Path, stem: &str, title: &str, trace: &[Sample], nu: usiz
     };
     let panels = vec![
         skyloop_plot::traces::TracePanel {
-            y_label: "tracked (ref dashed by name)".into(),
+            y_label: "tracked quantity (by mode: attitude rad, position m, rate rad/s)".into(),
             traces: vec![
-                tr("ref0", &|s| s.reference[0]),
-                tr("tracked0", &|s| s.tracked[0]),
-                tr("ref1", &|s| s.reference[1]),
-                tr("tracked1", &|s| s.tracked[1]),
-                tr("tracked2", &|s| s.tracked[2]),
+                tr("reference, axis 1", &|s| s.reference[0]),
+                tr("tracked, axis 1", &|s| s.tracked[0]),
+                tr("reference, axis 2", &|s| s.reference[1]),
+                tr("tracked, axis 2", &|s| s.tracked[1]),
+                tr("tracked, axis 3", &|s| s.tracked[2]),
             ],
             references: vec![],
         },

@@ -202,7 +202,7 @@ fn glossary() -> Vec<(&'static str, String)> {
     [
         ("L, S, T", "loop transfer L = P·C; sensitivity S = 1/(1+L) (disturbance → output); complementary sensitivity T = L/(1+L) (reference → output, and the noise path)"),
         ("γ", "the H∞ norm the synthesis reached: for loop shaping the 4-block norm of the shaped loop, for mixed sensitivity the weighted closed-loop norm; smaller is better, 1/γ is a robustness margin"),
-        ("b(P,C)", "the normalized-coprime-factor stability margin (MATLAB ncfmargin), 0 to 1: the loop stays stable for every plant within this ν-gap distance of P; above about 0.25 (γ below 4) is a good robust design"),
+        ("b(P,C)", "the normalized-coprime-factor stability margin (MATLAB ncfmargin), 0 to 1: the loop stays stable for every plant within this ν-gap distance of P. For the shaped plant W2·P·W1 that ncfsyn designs, b = 1/γ, and above about 0.25 (γ below 4) is a good design; for the unweighted loop P·C here b is usually much smaller (the weights' gain and lag are in it), so a small b(P,C) beside a good γ is not a contradiction: γ judges the shaped design, b(P,C) the tolerance of the real loop to plant error in the ν-gap sense"),
         ("PM, GM", "classic phase and gain margins (MATLAB margin), read at the gain and phase crossovers with the exact delay"),
         ("gain crossovers", "every frequency where |L| = 1; a loop that crosses 0 dB again above the first crossover has the delay margin set by the highest one"),
         ("delay margin", "the extra loop delay that makes the loop unstable: the smallest PM/ω over all gain crossovers"),
