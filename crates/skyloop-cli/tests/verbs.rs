@@ -170,3 +170,15 @@ fn tune_refusal_names_options_tune_has() {
     assert_eq!(code, 2, "{err}");
     assert!(!err.contains("or --allow-poor-fit to fit anyway") && err.contains("skyloop identify LOG --axis roll --allow-poor-fit"), "{err}");
 }
+
+/// Sizes a user sets are refused up front, naming the option and its bound.
+#[test]
+fn sizes_are_bounded_up_front() {
+    let (code, _, err) = skyloop(&["hinfstruct", &format!("{}/../../examples/augw-plant.json", env!("CARGO_MANIFEST_DIR")), "--nmeas", "1", "--ncon", "1", "--order", "50", "--starts", "1000"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("minutes") && err.contains("1000 starts"), "{err}");
+    let log = format!("{}/../../testdata/logs/btfl_all.bbl", env!("CARGO_MANIFEST_DIR"));
+    let (code, _, err) = skyloop(&["identify", &log, "--axis", "roll", "--n-freq", "1000000"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--n-freq 1000000") && err.contains("20000"), "{err}");
+}

@@ -15,9 +15,8 @@
 //! Not modelled: TPA, anti-gravity, I-term relax, d_min's dynamic D (a flown tune with d_min is
 //! analysed at D = d_min by [`crate::tune::log`]), feedforward smoothing.
 
-use super::filters::{FilterChain, Path, RawGyroTap, Shape, Stage, StageKind, ThrottleCurve, STAGE_NAMES};
+use super::filters::{static_notches, FilterChain, Path, RawGyroTap, Shape, Stage, StageKind, ThrottleCurve, STAGE_NAMES};
 use super::{chain, derivative_rolloff, Lowpass};
-use skyloop_control::filter::notch_q;
 use crate::error::{Error, Result};
 use serde::Serialize;
 use skyloop_lti::StateSpace;
@@ -428,20 +427,7 @@ pub fn filter_chain(b: &BetaflightTuning, log: &Log) -> (FilterChain, Vec<String
     lowpass(&b.gyro_lowpass2, "gyro_lpf2", Path::Gyro, None);
     lowpass(&b.dterm_lowpass, "dterm_lpf1", Path::Dterm, None);
     lowpass(&b.dterm_lowpass2, "dterm_lpf2", Path::Dterm, None);
-    for (k, n) in b.gyro_notches.iter().take(2).enumerate() {
-        stages.push(Stage {
-            name: format!("gyro_notch{}", k + 1),
-            path: Path::Gyro,
-            kind: StageKind::Notch { center_hz: n.center_hz, q: notch_q(n.center_hz, n.cutoff_hz) },
-        });
-    }
-    if let Some(n) = b.dterm_notch {
-        stages.push(Stage {
-            name: "dterm_notch".into(),
-            path: Path::Dterm,
-            kind: StageKind::Notch { center_hz: n.center_hz, q: notch_q(n.center_hz, n.cutoff_hz) },
-        });
-    }
+    stages.extend(static_notches(&b.gyro_notches, b.dterm_notch));
     if let Some(d) = b.dynamic_notch {
         let count = match d.count {
             Some(c) => c as usize,

@@ -320,6 +320,22 @@ pub fn raw_gyro_tap(log: &skyloop_sysid::logs::Log) -> Option<RawGyroTap> {
     }
 }
 
+/// A blackbox header's static notches as stages: up to two gyro notches (`gyro_notch1`, `gyro_notch2`)
+/// and the D-term notch, each given by its centre and lower cutoff (Betaflight and INAV alike).
+pub(crate) fn static_notches(
+    gyro: &[skyloop_sysid::logs::tuning::Notch],
+    dterm: Option<skyloop_sysid::logs::tuning::Notch>,
+) -> Vec<Stage> {
+    let stage = |name: String, path: Path, n: &skyloop_sysid::logs::tuning::Notch| Stage {
+        name,
+        path,
+        kind: StageKind::Notch { center_hz: n.center_hz, q: notch_q(n.center_hz, n.cutoff_hz) },
+    };
+    let mut out: Vec<Stage> = gyro.iter().take(2).enumerate().map(|(k, n)| stage(format!("gyro_notch{}", k + 1), Path::Gyro, n)).collect();
+    out.extend(dterm.iter().map(|n| stage("dterm_notch".into(), Path::Dterm, n)));
+    out
+}
+
 /// The stage names `--filters` knows, in signal order.
 pub const STAGE_NAMES: [&str; 9] = [
     "rpm",

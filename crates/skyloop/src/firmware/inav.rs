@@ -18,9 +18,8 @@
 //! I-term relax, D-boost, the yaw P lowpass (`yaw_lpf_hz`), the Smith predictor and the gyro filters
 //! (inside a plant identified from the logged gyro).
 
-use super::filters::{FilterChain, Path, Shape, Stage, StageKind};
+use super::filters::{static_notches, FilterChain, Path, Shape, Stage, StageKind};
 use super::{chain, derivative_rolloff, Lowpass};
-use skyloop_control::filter::notch_q;
 use crate::error::{Error, Result};
 use crate::firmware::betaflight::Axis;
 use serde::Serialize;
@@ -277,20 +276,7 @@ pub fn filter_chain(t: &InavTuning) -> (FilterChain, Vec<String>) {
     lowpass(&t.gyro_lowpass, "gyro_lpf1", Path::Gyro);
     lowpass(&t.dterm_lowpass, "dterm_lpf1", Path::Dterm);
     lowpass(&t.dterm_lowpass2, "dterm_lpf2", Path::Dterm);
-    for (k, n) in t.gyro_notches.iter().take(2).enumerate() {
-        stages.push(Stage {
-            name: format!("gyro_notch{}", k + 1),
-            path: Path::Gyro,
-            kind: StageKind::Notch { center_hz: n.center_hz, q: notch_q(n.center_hz, n.cutoff_hz) },
-        });
-    }
-    if let Some(n) = t.dterm_notch {
-        stages.push(Stage {
-            name: "dterm_notch".into(),
-            path: Path::Dterm,
-            kind: StageKind::Notch { center_hz: n.center_hz, q: notch_q(n.center_hz, n.cutoff_hz) },
-        });
-    }
+    stages.extend(static_notches(&t.gyro_notches, t.dterm_notch));
     notes.push("INAV's dynamic gyro notch and its Kalman gyro filter are not modelled".into());
     let loop_hz = t.pid_rate_hz.unwrap_or_else(|| {
         notes.push("the header has no loop time: a 1 kHz PID loop is assumed".into());

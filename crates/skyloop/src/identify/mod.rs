@@ -27,6 +27,12 @@ use report::fit_warnings;
 use request::{apply_bounds, fit_options, param_specs};
 use skyloop_sysid::fit::{evaluate, fit_expr, fit_tf, DelaySpec, FitOptions, FitResult, ParamSpec};
 use skyloop_sysid::logs::flight::{airborne_segments, Axis, Span};
+/// Largest `--n-freq` (frequencies of the SPA/SPAFDR estimates and of the fit grid).
+pub const MAX_N_FREQ: usize = 20_000;
+/// Most samples an ETFE is taken on (its raw ratio of transforms has a point per frequency bin, and
+/// fitting 100 000 unsmoothed points takes minutes).
+pub const MAX_ETFE_SAMPLES: usize = 65_536;
+
 use skyloop_sysid::logs::{median_rate_hz, segments_where, Condition, Log, LogFormat};
 use skyloop_sysid::spectral::{default_nfft_records, estimate, estimate_records, Frf, IoData, Method, Options, Window};
 
@@ -309,6 +315,16 @@ pub fn identify_log(log: &Log, a: &IdentifyRequest) -> Result<Identification> {
         .collect();
     let dt = data.dt_s;
     let has_r = excitation.is_some();
+    // Sizes a user sets are checked before anything is allocated or fitted on them.
+    if !(2..=MAX_N_FREQ).contains(&a.n_freq) {
+        return Err(Error::Input(format!("--n-freq {} is outside 2..={MAX_N_FREQ}", a.n_freq)));
+    }
+    if method == Method::Etfe && data.len() > MAX_ETFE_SAMPLES {
+        return Err(Error::Input(format!(
+            "--method etfe on {} samples: the raw ratio of transforms has one point per sample pair, at most {MAX_ETFE_SAMPLES} samples are taken (use welch or spa, which average)",
+            data.len()
+        )));
+    }
     let mut opts = Options {
         method,
         fmin_hz: a.fmin_hz,

@@ -4,6 +4,9 @@
 //! Plant convention: the Δ channels first, then exogenous inputs / performance outputs, then the
 //! `ncon` controls / `nmeas` measurements ([`skyloop_robust::musyn`]).
 
+/// Most frequencies of a μ-synthesis grid (`n_freq`, or the length of `w_rad_s`).
+pub const MAX_N_FREQ: usize = 2_000;
+
 use crate::error::{Error, Result};
 use serde::Deserialize;
 use skyloop_lti::json::LtiJson;
@@ -134,11 +137,18 @@ impl MusynSpec {
         }
         opts.reduce_order = o.reduce_order;
         match (&o.w_rad_s, o.w_min_rad_s, o.w_max_rad_s, o.n_freq) {
-            (Some(w), None, None, None) => opts.w_rad_s = w.clone(),
+            (Some(w), None, None, None) => {
+                if w.len() > MAX_N_FREQ {
+                    return Err(Error::Spec(format!("options: w_rad_s has {} frequencies, at most {MAX_N_FREQ}", w.len())));
+                }
+                opts.w_rad_s = w.clone()
+            }
             (None, Some(lo), Some(hi), Some(n)) => {
-                if !(lo > 0.0 && hi > lo && hi.is_finite() && n >= 2) {
+                // D-scales are fitted at every frequency of every DK iteration: 100 000 points took
+                // minutes; MATLAB's musyn uses about a hundred.
+                if !(lo > 0.0 && hi > lo && hi.is_finite() && (2..=MAX_N_FREQ).contains(&n)) {
                     return Err(Error::Spec(format!(
-                        "options: need 0 < w_min_rad_s < w_max_rad_s and n_freq >= 2, got {lo}, {hi}, {n}"
+                        "options: need 0 < w_min_rad_s < w_max_rad_s and n_freq in 2..={MAX_N_FREQ}, got {lo}, {hi}, {n}"
                     )));
                 }
                 opts.w_rad_s = skyloop_lti::freqresp::logspace(lo.log10(), hi.log10(), n);
