@@ -589,7 +589,10 @@ fn the_pilots_bare_command_fits_or_refuses_honestly() {
     let out = skyloop(&["identify", &log, "--axis", "roll", "--json"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!err.contains("warning:"), "{err}");
+    // Its held-out half validates poorly (fit 14 %, FRF residual 0.68): that warning and no other.
+    for line in err.lines().filter(|l| l.contains("warning:")) {
+        assert!(line.contains("held-out validation is poor"), "{err}");
+    }
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let band = v["fit_band_hz"].as_array().unwrap();
     let (lo, hi) = (band[0].as_f64().unwrap(), band[1].as_f64().unwrap());

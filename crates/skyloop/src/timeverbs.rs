@@ -131,7 +131,8 @@ pub fn read_inputs(path: &std::path::Path, nu: usize) -> Result<(Vec<f64>, Vec<V
 /// use skyloop::timeverbs::{grid, lsim, signal};
 /// let g = skyloop::model::load_model("1/(s+1)")?;
 /// let t = grid(0.01, 5.0)?;
-/// let u: Vec<Vec<f64>> = t.iter().map(|&x| vec![signal("step")?(x)]).collect::<skyloop::Result<_>>()?;
+/// let step = signal("step")?;
+/// let u: Vec<Vec<f64>> = t.iter().map(|&x| vec![step(x)]).collect();
 /// let r = lsim(&g, &t, u)?;
 /// assert!((r.y[500][0] - (1.0 - (-5.0f64).exp())).abs() < 1e-9);
 /// # Ok::<(), skyloop::Error>(())
