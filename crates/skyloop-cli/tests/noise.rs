@@ -17,7 +17,11 @@ fn json(args: &[&str]) -> Value {
 }
 
 fn nums(v: &Value) -> Vec<f64> {
-    v.as_array().unwrap().iter().map(|x| x.as_f64().unwrap_or(f64::NAN)).collect()
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap_or(f64::NAN))
+        .collect()
 }
 
 /// Betaflight 3.1.5 logs the gyro between its lowpass and its notches (debug NOTCH): the flown
@@ -25,7 +29,13 @@ fn nums(v: &Value) -> Vec<f64> {
 /// is at the notch's edge), and the JSON carries the interface's keys.
 #[test]
 fn flown_chain_on_the_raw_gyro_reproduces_the_logged_gyro() {
-    let v = json(&["noise", &log("pid-analyzer_example_smooth_tune.BBL"), "--axis", "roll", "--json"]);
+    let v = json(&[
+        "noise",
+        &log("pid-analyzer_example_smooth_tune.BBL"),
+        "--axis",
+        "roll",
+        "--json",
+    ]);
     let a = &v["axes"][0];
     assert_eq!(a["axis"], "roll");
     let s = &a["spectra"];
@@ -56,7 +66,15 @@ fn flown_chain_on_the_raw_gyro_reproduces_the_logged_gyro() {
 /// changes.
 #[test]
 fn what_if_changes_the_spectrum_by_the_filter_it_removes() {
-    let v = json(&["noise", &log("LOG00037.BFL"), "--axis", "pitch", "--filters", "gyro_lpf2=off", "--json"]);
+    let v = json(&[
+        "noise",
+        &log("LOG00037.BFL"),
+        "--axis",
+        "pitch",
+        "--filters",
+        "gyro_lpf2=off",
+        "--json",
+    ]);
     let a = &v["axes"][0];
     assert_eq!(v["what_if"]["changes"][0], "gyro_lpf2: pt1 300 Hz → off");
     let (flown, what) = (&a["gyro_chain"], &a["what_if_chain"]);
@@ -65,7 +83,11 @@ fn what_if_changes_the_spectrum_by_the_filter_it_removes() {
     let rise = nums(&what["gain_db"])[k] - nums(&flown["gain_db"])[k];
     assert!((2.5..4.0).contains(&rise), "{rise}");
     let s = &a["spectra"];
-    let (sf, pred, wi) = (nums(&s["freq_hz"]), nums(&s["gyro_predicted"]), nums(&s["gyro_what_if"]));
+    let (sf, pred, wi) = (
+        nums(&s["freq_hz"]),
+        nums(&s["gyro_predicted"]),
+        nums(&s["gyro_what_if"]),
+    );
     for (i, fr) in sf.iter().enumerate() {
         let d = wi[i] - pred[i];
         if *fr < 20.0 {
@@ -80,9 +102,24 @@ fn what_if_changes_the_spectrum_by_the_filter_it_removes() {
 #[test]
 fn writes_the_report_and_figures() {
     let dir = std::env::temp_dir().join(format!("skyloop-noise-{}", std::process::id()));
-    let (code, _, err) = skyloop(&["noise", &log("btfl_001.bbl"), "--axis", "roll", "--out", dir.to_str().unwrap()]);
+    let (code, _, err) = skyloop(&[
+        "noise",
+        &log("btfl_001.bbl"),
+        "--axis",
+        "roll",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
     assert_eq!(code, 0, "{err}");
-    for f in ["noise.json", "noise.txt", "report.html", "roll_spectra.png", "roll_throttle.png", "roll_time.png", "roll_chain.png"] {
+    for f in [
+        "noise.json",
+        "noise.txt",
+        "report.html",
+        "roll_spectra.png",
+        "roll_throttle.png",
+        "roll_time.png",
+        "roll_chain.png",
+    ] {
         assert!(std::fs::metadata(dir.join(f)).unwrap().len() > 1000, "{f}");
     }
     let html = std::fs::read_to_string(dir.join("report.html")).unwrap();

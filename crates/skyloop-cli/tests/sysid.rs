@@ -799,11 +799,22 @@ fn a_log_whose_header_names_inav_is_read_as_inav() {
 fn an_unstable_tf_fit_is_flagged() {
     let p = first_order_csv();
     let ps = p.to_str().unwrap();
-    let v = ok_json(&["identify", ps, "--input", "u", "--output", "y", "--method", "welch", "--tf", "1/3", "--json"]);
-    let den: Vec<f64> = v["tf"]["den"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+    let v = ok_json(&[
+        "identify", ps, "--input", "u", "--output", "y", "--method", "welch", "--tf", "1/3", "--json",
+    ]);
+    let den: Vec<f64> = v["tf"]["den"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
     assert_eq!(den.len(), 4);
     let (a, b, c) = (den[1] / den[0], den[2] / den[0], den[3] / den[0]);
     let stable = a > 0.0 && b > 0.0 && c > 0.0 && a * b > c;
-    let warned = v["warnings"].as_array().unwrap().iter().any(|w| w.as_str().unwrap().contains("right half plane"));
+    let warned = v["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|w| w.as_str().unwrap().contains("right half plane"));
     assert_eq!(stable, !warned, "den {den:?}, warnings {}", v["warnings"]);
 }

@@ -14,13 +14,23 @@ fn json(args: &[&str]) -> Value {
 }
 
 fn tmp(name: &str) -> String {
-    std::env::temp_dir().join(format!("skyloop-verbs-{}-{name}", std::process::id())).to_string_lossy().into_owned()
+    std::env::temp_dir()
+        .join(format!("skyloop-verbs-{}-{name}", std::process::id()))
+        .to_string_lossy()
+        .into_owned()
 }
 
 /// margin(P*C) from --plant/--controller equals the margins of the product written out.
 #[test]
 fn margins_of_plant_and_controller_equal_those_of_the_product() {
-    let a = json(&["margins", "--plant", "10/(s*(s+1))", "--controller", "(s+2)/(s+20)", "--json"]);
+    let a = json(&[
+        "margins",
+        "--plant",
+        "10/(s*(s+1))",
+        "--controller",
+        "(s+2)/(s+20)",
+        "--json",
+    ]);
     let b = json(&["margins", "10*(s+2)/(s*(s+1)*(s+20))", "--json"]);
     for k in ["gain_margin_db", "phase_margin_deg", "delay_margin_s"] {
         if a[k].is_null() && b[k].is_null() {
@@ -38,14 +48,30 @@ fn loopsens_peaks_match_the_closed_forms_and_both_paths() {
     let v = json(&["loopsens", "10/(s*(s+1))", "(s+2)/(s+20)", "--json"]);
     assert_eq!(v["stable"], true);
     let peak = |v: &Value, n: &str| {
-        v["sensitivities"].as_array().unwrap().iter().find(|s| s["name"] == n).unwrap()["peak"].as_f64().unwrap()
+        v["sensitivities"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|s| s["name"] == n)
+            .unwrap()["peak"]
+            .as_f64()
+            .unwrap()
     };
     let s_direct = json(&["norm", "s*(s+1)*(s+20)/(s*(s+1)*(s+20)+10*(s+2))", "--json"]);
     let hinf = s_direct["hinf"].as_f64().unwrap();
-    assert!((peak(&v, "S") - hinf).abs() < 1e-6 * hinf, "{} vs {hinf}", peak(&v, "S"));
+    assert!(
+        (peak(&v, "S") - hinf).abs() < 1e-6 * hinf,
+        "{} vs {hinf}",
+        peak(&v, "S")
+    );
     let d = json(&["loopsens", "10*exp(-1e-9*s)/(s*(s+1))", "(s+2)/(s+20)", "--json"]);
     for n in ["S", "T", "CS", "PS"] {
-        assert!((peak(&v, n) - peak(&d, n)).abs() < 2e-3 * peak(&v, n), "{n}: {} vs {}", peak(&v, n), peak(&d, n));
+        assert!(
+            (peak(&v, n) - peak(&d, n)).abs() < 2e-3 * peak(&v, n),
+            "{n}: {} vs {}",
+            peak(&v, n),
+            peak(&d, n)
+        );
     }
     let (code, _, err) = skyloop(&["loopsens", "1/(s+1)", "[1]"]);
     assert_eq!(code, 2, "{err}");
@@ -70,7 +96,9 @@ fn series_parallel_feedback() {
 /// delay; d2c undoes c2d (zoh).
 #[test]
 fn lsim_impulse_and_d2c() {
-    let v = json(&["lsim", "1/(s+1)", "--input", "step", "--dt", "0.01", "--tfinal", "5", "--json"]);
+    let v = json(&[
+        "lsim", "1/(s+1)", "--input", "step", "--dt", "0.01", "--tfinal", "5", "--json",
+    ]);
     let y = v["y"].as_array().unwrap();
     assert!((y[300][0].as_f64().unwrap() - (1.0 - (-3.0f64).exp())).abs() < 1e-9);
     let csv = tmp("u.csv");
@@ -79,9 +107,18 @@ fn lsim_impulse_and_d2c() {
     let y1 = v["y"][2][0].as_f64().unwrap();
     assert!((y1 - (1.0 - (-1.0f64).exp())).abs() < 1e-9, "{y1}");
     let v = json(&["impulse", "2*exp(-0.25*s)/(s+1)", "--tfinal", "3", "--json"]);
-    let t: Vec<f64> = v["t_s"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+    let t: Vec<f64> = v["t_s"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
     for (k, tk) in t.iter().enumerate().step_by(37) {
-        let want = if *tk > 0.25 + 1e-9 { 2.0 * (-(tk - 0.25)).exp() } else { 0.0 };
+        let want = if *tk > 0.25 + 1e-9 {
+            2.0 * (-(tk - 0.25)).exp()
+        } else {
+            0.0
+        };
         assert!((v["y"][k][0].as_f64().unwrap() - want).abs() < 1e-6, "t {tk}");
     }
     let d = tmp("d.json");
@@ -91,7 +128,10 @@ fn lsim_impulse_and_d2c() {
     let back = json(&["d2c", &d, "--json"]);
     let bp = tmp("back.json");
     std::fs::write(&bp, back.to_string()).unwrap();
-    let (a, b) = (json(&["freqresp", &bp, "--hz", "0.3", "--json"]), json(&["freqresp", "(s+3)/((s+1)*(s+5))", "--hz", "0.3", "--json"]));
+    let (a, b) = (
+        json(&["freqresp", &bp, "--hz", "0.3", "--json"]),
+        json(&["freqresp", "(s+3)/((s+1)*(s+5))", "--hz", "0.3", "--json"]),
+    );
     let (x, y) = (freq_value(&a), freq_value(&b));
     assert!((x.0 - y.0).abs() < 1e-8 && (x.1 - y.1).abs() < 1e-8, "{x:?} vs {y:?}");
     let (code, _, err) = skyloop(&["d2c", "1/(s+1)"]);
@@ -109,7 +149,18 @@ fn augw_then_hinfsyn_then_margins() {
     let plant = tmp("aug.json");
     let k = tmp("K.json");
     let g = "200/((10*s+1)*(0.05*s+1)^2)";
-    let (code, out, err) = skyloop(&["augw", g, "--w1", "(s/2+6.28)/(s+6.28e-3)", "--w2", "0.1", "--w3", "(s+6.28)/(0.01*s+62.8)", "--out", &plant]);
+    let (code, out, err) = skyloop(&[
+        "augw",
+        g,
+        "--w1",
+        "(s/2+6.28)/(s+6.28e-3)",
+        "--w2",
+        "0.1",
+        "--w3",
+        "(s+6.28)/(0.01*s+62.8)",
+        "--out",
+        &plant,
+    ]);
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("nmeas = 1, ncon = 1"), "{out}");
     let h = json(&["hinfsyn", &plant, "--nmeas", "1", "--ncon", "1", "--out", &k, "--json"]);
@@ -141,11 +192,20 @@ fn log_info_summarizes_and_identify_warns() {
     let log = format!("{}/../../testdata/logs/btfl_all.bbl", env!("CARGO_MANIFEST_DIR"));
     let (code, out, err) = skyloop(&["log", "info", &log]);
     assert_eq!(code, 0, "{err}");
-    assert_eq!(out.lines().filter(|l| l.trim_start().starts_with("not decodable")).count(), 1, "{out}");
+    assert_eq!(
+        out.lines()
+            .filter(|l| l.trim_start().starts_with("not decodable"))
+            .count(),
+        1,
+        "{out}"
+    );
     assert!(out.contains("37 session(s): 2–3, 5–11"), "{out}");
     let (code, out, err) = skyloop(&["identify", &log, "--axis", "roll"]);
     assert_eq!(code, 0, "{err}");
-    assert!(out.contains("held-out validation is poor") || err.contains("held-out validation is poor"), "{out}{err}");
+    assert!(
+        out.contains("held-out validation is poor") || err.contains("held-out validation is poor"),
+        "{out}{err}"
+    );
 }
 
 /// (s−1)/((s−0.5)(s−2)) has its real RHP zero between its two real RHP poles: every stabilizing
@@ -153,12 +213,37 @@ fn log_info_summarizes_and_identify_warns() {
 #[test]
 fn hinfstruct_flags_an_unstable_controller() {
     let plant = tmp("pi.json");
-    let (code, _, err) = skyloop(&["augw", "(s-1)/((s-0.5)*(s-2))", "--w1", "0.1/(s+0.01)", "--w2", "0.1", "--out", &plant]);
+    let (code, _, err) = skyloop(&[
+        "augw",
+        "(s-1)/((s-0.5)*(s-2))",
+        "--w1",
+        "0.1/(s+0.01)",
+        "--w2",
+        "0.1",
+        "--out",
+        &plant,
+    ]);
     assert_eq!(code, 0, "{err}");
-    let (code, out, err) = skyloop(&["hinfstruct", &plant, "--nmeas", "1", "--ncon", "1", "--order", "2", "--json"]);
+    let (code, out, err) = skyloop(&[
+        "hinfstruct",
+        &plant,
+        "--nmeas",
+        "1",
+        "--ncon",
+        "1",
+        "--order",
+        "2",
+        "--json",
+    ]);
     assert_eq!(code, 0, "{err}");
     let v: Value = serde_json::from_str(&out).unwrap();
-    assert!(v["warnings"][0].as_str().unwrap().contains("controller itself is unstable"), "{v}");
+    assert!(
+        v["warnings"][0]
+            .as_str()
+            .unwrap()
+            .contains("controller itself is unstable"),
+        "{v}"
+    );
     assert!(err.contains("warning: the controller itself is unstable"), "{err}");
 }
 
@@ -168,13 +253,28 @@ fn tune_refusal_names_options_tune_has() {
     let log = format!("{}/../../testdata/logs/LOG00037.BFL", env!("CARGO_MANIFEST_DIR"));
     let (code, _, err) = skyloop(&["tune", &log, "--firmware", "betaflight", "--axis", "roll"]);
     assert_eq!(code, 2, "{err}");
-    assert!(!err.contains("or --allow-poor-fit to fit anyway") && err.contains("skyloop identify LOG --axis roll --allow-poor-fit"), "{err}");
+    assert!(
+        !err.contains("or --allow-poor-fit to fit anyway")
+            && err.contains("skyloop identify LOG --axis roll --allow-poor-fit"),
+        "{err}"
+    );
 }
 
 /// Sizes a user sets are refused up front, naming the option and its bound.
 #[test]
 fn sizes_are_bounded_up_front() {
-    let (code, _, err) = skyloop(&["hinfstruct", &format!("{}/../../examples/augw-plant.json", env!("CARGO_MANIFEST_DIR")), "--nmeas", "1", "--ncon", "1", "--order", "50", "--starts", "1000"]);
+    let (code, _, err) = skyloop(&[
+        "hinfstruct",
+        &format!("{}/../../examples/augw-plant.json", env!("CARGO_MANIFEST_DIR")),
+        "--nmeas",
+        "1",
+        "--ncon",
+        "1",
+        "--order",
+        "50",
+        "--starts",
+        "1000",
+    ]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("minutes") && err.contains("1000 starts"), "{err}");
     let log = format!("{}/../../testdata/logs/btfl_all.bbl", env!("CARGO_MANIFEST_DIR"));

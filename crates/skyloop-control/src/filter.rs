@@ -67,9 +67,18 @@ impl FilterKind {
             }
         };
         Ok(match *self {
-            FilterKind::Pt1(f) => Coeffs::Lag { k: pt1_gain(check(f)?, dt_s), order: 1 },
-            FilterKind::Pt2(f) => Coeffs::Lag { k: pt1_gain(check(f)? * PT2_CUTOFF_CORRECTION, dt_s), order: 2 },
-            FilterKind::Pt3(f) => Coeffs::Lag { k: pt1_gain(check(f)? * PT3_CUTOFF_CORRECTION, dt_s), order: 3 },
+            FilterKind::Pt1(f) => Coeffs::Lag {
+                k: pt1_gain(check(f)?, dt_s),
+                order: 1,
+            },
+            FilterKind::Pt2(f) => Coeffs::Lag {
+                k: pt1_gain(check(f)? * PT2_CUTOFF_CORRECTION, dt_s),
+                order: 2,
+            },
+            FilterKind::Pt3(f) => Coeffs::Lag {
+                k: pt1_gain(check(f)? * PT3_CUTOFF_CORRECTION, dt_s),
+                order: 3,
+            },
             FilterKind::BiquadLowpass(f) => {
                 // A biquad cannot sit at or above Nyquist; the firmware limits its cutoffs likewise.
                 let f = check(f)?.min(0.499 * nyquist);
@@ -131,7 +140,10 @@ fn biquad(f: f64, dt_s: f64, q: f64, lowpass: bool) -> Coeffs {
     } else {
         [1.0 / a0, -2.0 * cs / a0, 1.0 / a0]
     };
-    Coeffs::Biquad { b, a: [-2.0 * cs / a0, (1.0 - alpha) / a0] }
+    Coeffs::Biquad {
+        b,
+        a: [-2.0 * cs / a0, (1.0 - alpha) / a0],
+    }
 }
 
 /// One running filter stage: coefficients at a fixed sample time and its state (precision `T`).
@@ -230,7 +242,10 @@ mod tests {
                 }
                 let scale = 2.0 / (n / 2) as f64;
                 let (hr, hi) = kind.response(f, DT).unwrap();
-                assert!((re * scale - hr).abs() < 2e-3 && (im * scale - hi).abs() < 2e-3, "{kind:?} at {f} Hz");
+                assert!(
+                    (re * scale - hr).abs() < 2e-3 && (im * scale - hi).abs() < 2e-3,
+                    "{kind:?} at {f} Hz"
+                );
             }
         }
     }
@@ -251,7 +266,10 @@ mod tests {
             assert!((g - core::f64::consts::FRAC_1_SQRT_2).abs() < 0.04, "{k:?}: {g}");
             assert!((gain(k, 0.0) - 1.0).abs() < 1e-12);
         }
-        let n = FilterKind::Notch { center: 240.0, q: notch_q(240.0, 160.0) };
+        let n = FilterKind::Notch {
+            center: 240.0,
+            q: notch_q(240.0, 160.0),
+        };
         assert!(gain(n, 240.0) < 1e-9);
         assert!((gain(n, 0.0) - 1.0).abs() < 1e-12);
         assert!(Filter::<f32>::new(FilterKind::Pt1(-1.0), DT).is_err());

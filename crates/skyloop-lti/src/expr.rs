@@ -107,7 +107,12 @@ pub fn parse(text: &str) -> Result<Expr> {
 /// role `s` plays in [`Expr`]).
 fn parse_in(text: &str, var: &'static str) -> Result<Expr> {
     let toks = lex(text)?;
-    let mut p = Parser { var, toks, pos: 0, depth: 0 };
+    let mut p = Parser {
+        var,
+        toks,
+        pos: 0,
+        depth: 0,
+    };
     let (e, _) = p.sum()?;
     match p.peek() {
         Tok::End => Ok(e),
@@ -173,7 +178,9 @@ pub fn parse_model(text: &str) -> Result<StateSpace> {
 /// ```
 pub fn parse_discrete(text: &str, dt_s: f64) -> Result<StateSpace> {
     if !(dt_s.is_finite() && dt_s > 0.0) {
-        return Err(LtiError::InvalidArgument(format!("the sample time must be finite and > 0 s, got {dt_s}")));
+        return Err(LtiError::InvalidArgument(format!(
+            "the sample time must be finite and > 0 s, got {dt_s}"
+        )));
     }
     let e = parse_in(text, "z")?;
     let params = e.params();

@@ -73,7 +73,11 @@ const HEIGHT: u32 = 420;
 
 impl Heatmap {
     fn check(&self) -> Result<()> {
-        if self.x.is_empty() || self.y.len() < 2 || self.z.len() != self.x.len() || self.z.iter().any(|r| r.len() != self.y.len()) {
+        if self.x.is_empty()
+            || self.y.len() < 2
+            || self.z.len() != self.x.len()
+            || self.z.iter().any(|r| r.len() != self.y.len())
+        {
             return Err(PlotError::Data(format!(
                 "heatmap '{}' needs one row of {} values per x ({} rows for {} x)",
                 self.title,
@@ -107,14 +111,23 @@ impl Heatmap {
     pub fn save(&self, path: &std::path::Path) -> Result<()> {
         self.check()?;
         let name = path.display().to_string();
-        let err = |m: String| PlotError::Draw { path: name.clone(), message: m };
+        let err = |m: String| PlotError::Draw {
+            path: name.clone(),
+            message: m,
+        };
         std::fs::File::create(path).map_err(|e| err(format!("cannot create the file: {e}")))?;
-        match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .as_deref()
+        {
             // No bitmap file backend on wasm32 (see `render::register_font`).
             #[cfg(not(target_arch = "wasm32"))]
             Some("png") => {
-                let backend = crate::raster_text::PngBackend::new(BitMapBackend::new(path, (WIDTH, HEIGHT)), crate::render::FONT)
-                    .map_err(err)?;
+                let backend =
+                    crate::raster_text::PngBackend::new(BitMapBackend::new(path, (WIDTH, HEIGHT)), crate::render::FONT)
+                        .map_err(err)?;
                 let root = backend.into_drawing_area();
                 self.draw(&root).map_err(err)?;
                 root.present().map_err(|e| err(e.to_string()))
@@ -137,7 +150,10 @@ impl Heatmap {
         let mut buf = String::new();
         {
             let root = SVGBackend::with_string(&mut buf, (WIDTH, HEIGHT)).into_drawing_area();
-            let err = |m: String| PlotError::Draw { path: "<svg>".into(), message: m };
+            let err = |m: String| PlotError::Draw {
+                path: "<svg>".into(),
+                message: m,
+            };
             self.draw(&root).map_err(err)?;
             root.present().map_err(|e| err(e.to_string()))?;
         }
@@ -153,8 +169,20 @@ impl Heatmap {
         let (lo, hi) = self.range();
         let dx = |i: usize| -> (f64, f64) {
             let c = self.x[i];
-            let left = if i > 0 { 0.5 * (self.x[i - 1] + c) } else if self.x.len() > 1 { c - 0.5 * (self.x[1] - c) } else { c - 0.5 };
-            let right = if i + 1 < self.x.len() { 0.5 * (self.x[i + 1] + c) } else if i > 0 { c + 0.5 * (c - self.x[i - 1]) } else { c + 0.5 };
+            let left = if i > 0 {
+                0.5 * (self.x[i - 1] + c)
+            } else if self.x.len() > 1 {
+                c - 0.5 * (self.x[1] - c)
+            } else {
+                c - 0.5
+            };
+            let right = if i + 1 < self.x.len() {
+                0.5 * (self.x[i + 1] + c)
+            } else if i > 0 {
+                c + 0.5 * (c - self.x[i - 1])
+            } else {
+                c + 0.5
+            };
             (left, right)
         };
         let half_dy = 0.5 * (self.y[1] - self.y[0]);
@@ -185,24 +213,50 @@ impl Heatmap {
             .map_err(|e| e.to_string())?;
         for (i, row) in self.z.iter().enumerate() {
             let (l, r) = dx(i);
-            let cells = self.y.iter().zip(row).filter(|(y, _)| **y - half_dy < y_max).map(|(y, v)| {
-                let color = if v.is_finite() { colormap((v - lo) / (hi - lo)) } else { RGBColor(235, 235, 235) };
-                Rectangle::new([(l, (y - half_dy).max(0.0)), (r, (y + half_dy).min(y_max))], color.filled())
-            });
+            let cells = self
+                .y
+                .iter()
+                .zip(row)
+                .filter(|(y, _)| **y - half_dy < y_max)
+                .map(|(y, v)| {
+                    let color = if v.is_finite() {
+                        colormap((v - lo) / (hi - lo))
+                    } else {
+                        RGBColor(235, 235, 235)
+                    };
+                    Rectangle::new(
+                        [(l, (y - half_dy).max(0.0)), (r, (y + half_dy).min(y_max))],
+                        color.filled(),
+                    )
+                });
             chart.draw_series(cells).map_err(|e| e.to_string())?;
         }
         for o in &self.overlays {
-            let pts: Vec<(f64, f64)> = o.points.iter().copied().filter(|(x, y)| x.is_finite() && y.is_finite() && *y <= y_max).collect();
-            chart.draw_series(LineSeries::new(pts.clone(), WHITE.stroke_width(2))).map_err(|e| e.to_string())?;
+            let pts: Vec<(f64, f64)> = o
+                .points
+                .iter()
+                .copied()
+                .filter(|(x, y)| x.is_finite() && y.is_finite() && *y <= y_max)
+                .collect();
+            chart
+                .draw_series(LineSeries::new(pts.clone(), WHITE.stroke_width(2)))
+                .map_err(|e| e.to_string())?;
             if let Some(&(x, y)) = pts.last() {
                 let style = text_style(12.0).color(&WHITE).pos(Pos::new(HPos::Right, VPos::Bottom));
-                chart.draw_series(std::iter::once(Text::new(o.label.clone(), (x, y), style))).map_err(|e| e.to_string())?;
+                chart
+                    .draw_series(std::iter::once(Text::new(o.label.clone(), (x, y), style)))
+                    .map_err(|e| e.to_string())?;
             }
         }
         self.draw_bar(&bar, lo, hi)
     }
 
-    fn draw_bar<DB: DrawingBackend>(&self, bar: &DrawingArea<DB, Shift>, lo: f64, hi: f64) -> std::result::Result<(), String> {
+    fn draw_bar<DB: DrawingBackend>(
+        &self,
+        bar: &DrawingArea<DB, Shift>,
+        lo: f64,
+        hi: f64,
+    ) -> std::result::Result<(), String> {
         let mut c = ChartBuilder::on(bar)
             .margin_top(10)
             .margin_bottom(56)
@@ -227,7 +281,10 @@ impl Heatmap {
         let step = (hi - lo) / n as f64;
         c.draw_series((0..n).map(|k| {
             let v = lo + k as f64 * step;
-            Rectangle::new([(0.0, v), (1.0, v + step)], colormap((v + 0.5 * step - lo) / (hi - lo)).filled())
+            Rectangle::new(
+                [(0.0, v), (1.0, v + step)],
+                colormap((v + 0.5 * step - lo) / (hi - lo)).filled(),
+            )
         }))
         .map_err(|e| e.to_string())?;
         Ok(())
@@ -243,7 +300,14 @@ mod tests {
     fn renders_with_a_colour_bar_and_rejects_ragged_rows() {
         let x: Vec<f64> = (0..20).map(|i| 2.5 + 5.0 * i as f64).collect();
         let y: Vec<f64> = (0..100).map(|j| 4.0 * j as f64).collect();
-        let z: Vec<Vec<f64>> = x.iter().map(|t| y.iter().map(|f| -60.0 + 30.0 * (-((f - 3.0 * t) / 20.0).powi(2)).exp()).collect()).collect();
+        let z: Vec<Vec<f64>> = x
+            .iter()
+            .map(|t| {
+                y.iter()
+                    .map(|f| -60.0 + 30.0 * (-((f - 3.0 * t) / 20.0).powi(2)).exp())
+                    .collect()
+            })
+            .collect();
         let h = Heatmap {
             title: "gyro roll".into(),
             x_label: "throttle [%]".into(),
@@ -252,7 +316,10 @@ mod tests {
             x,
             y,
             z,
-            overlays: vec![Overlay { label: "motor ×1".into(), points: vec![(10.0, 30.0), (90.0, 270.0)] }],
+            overlays: vec![Overlay {
+                label: "motor ×1".into(),
+                points: vec![(10.0, 30.0), (90.0, 270.0)],
+            }],
             y_max: None,
             z_range: None,
         };

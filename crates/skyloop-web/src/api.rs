@@ -166,7 +166,12 @@ pub fn freqresp(model: &str, freq_hz: Option<Vec<f64>>) -> Result<Value> {
     };
     let w: Vec<f64> = f.iter().map(|x| 2.0 * std::f64::consts::PI * x).collect();
     let g = skyloop::lti::freqresp::freqresp_flat(&sys, &w)?;
-    Ok(serde_json::to_value(response::ResponseJson::new(&f, &g, sys.ny(), sys.nu()))?)
+    Ok(serde_json::to_value(response::ResponseJson::new(
+        &f,
+        &g,
+        sys.ny(),
+        sys.nu(),
+    ))?)
 }
 
 /// `skyloop step MODEL [--closed-loop] --json`.

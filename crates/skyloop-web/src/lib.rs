@@ -61,7 +61,11 @@ pub fn set_progress(f: js_sys::Function, g: js_sys::Function) {
 fn post_progress(axis: Axis, stage: &str) {
     PROGRESS.with(|p| {
         if let Some(f) = p.borrow().as_ref() {
-            let _ = f.call2(&JsValue::NULL, &JsValue::from_str(axis.name()), &JsValue::from_str(stage));
+            let _ = f.call2(
+                &JsValue::NULL,
+                &JsValue::from_str(axis.name()),
+                &JsValue::from_str(stage),
+            );
         }
     });
 }

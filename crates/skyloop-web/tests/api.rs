@@ -21,9 +21,14 @@ fn log_info_is_the_cli_object() {
 
 #[test]
 fn bad_input_is_an_error_not_a_panic() {
-    let e = api::log_info(&[0xff, 0xfe, 0, 1, 2], "junk.bin", None).unwrap_err().to_string();
+    let e = api::log_info(&[0xff, 0xfe, 0, 1, 2], "junk.bin", None)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("not a ULog, blackbox, DataFlash or CSV file"), "{e}");
-    assert!(api::log_info(&[], "empty.bbl", None).unwrap_err().to_string().contains("empty"));
+    assert!(api::log_info(&[], "empty.bbl", None)
+        .unwrap_err()
+        .to_string()
+        .contains("empty"));
     assert!(api::tune_log(b"time,x\n0,1\n", "a.csv", &json!({}), None).is_err());
     assert!(api::margins("1/(s+").is_err());
     assert!(api::ncfsyn(&json!({"plant": "1/(s+1)", "w1": "s^"})).is_err());
@@ -36,11 +41,21 @@ fn live_retune_at_the_proposal_is_the_proposal() {
     let live = live.expect("a Betaflight log with flown gains");
     let g = live.gains(&v["proposed"]["gains"]).unwrap();
     let r = live.evaluate(&g, true).unwrap();
-    for k in ["disk_alpha", "gain_margin_db", "phase_margin_deg", "crossover_hz", "ms", "mt"] {
+    for k in [
+        "disk_alpha",
+        "gain_margin_db",
+        "phase_margin_deg",
+        "crossover_hz",
+        "ms",
+        "mt",
+    ] {
         assert_eq!(r["margins"][k], v["proposed"]["margins"][k], "{k}");
         assert_eq!(r["worst_margins"][k], v["proposed"]["worst_margins"][k], "{k}");
     }
-    assert_eq!(r["loop"]["freq_hz"].as_array().map(Vec::len), Some(skyloop::tune::live::GRID_POINTS));
+    assert_eq!(
+        r["loop"]["freq_hz"].as_array().map(Vec::len),
+        Some(skyloop::tune::live::GRID_POINTS)
+    );
     // A lower P: a different loop, still analysed.
     let mut knobs = v["live"]["flown"]["gains"].clone();
     knobs["p"] = json!(7);
@@ -61,7 +76,11 @@ fn ncfsyn_of_the_bicopter_paper() {
         "pade": 3,
     }))
     .unwrap();
-    assert!((v["gamma_min"].as_f64().unwrap() - 1.748).abs() < 5e-3, "{}", v["gamma_min"]);
+    assert!(
+        (v["gamma_min"].as_f64().unwrap() - 1.748).abs() < 5e-3,
+        "{}",
+        v["gamma_min"]
+    );
     let b = v["analysis"]["b_pc"].as_f64().unwrap();
     assert!(b > 0.0 && b < 1.0, "{b}");
     let h = api::c_header(&v["controller"].to_string(), 0.002, "ctrl").unwrap();

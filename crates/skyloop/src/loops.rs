@@ -107,8 +107,14 @@ pub fn loopsens(p: &StateSpace, c: &StateSpace) -> Result<(bool, Vec<Sensitivity
     }
     let l = series(c, p)?;
     let names = [
-        ("S", "sensitivity (I + PC)⁻¹: reference → error, output disturbance → output"),
-        ("T", "complementary sensitivity PC(I + PC)⁻¹: reference → output, sensor noise → output"),
+        (
+            "S",
+            "sensitivity (I + PC)⁻¹: reference → error, output disturbance → output",
+        ),
+        (
+            "T",
+            "complementary sensitivity PC(I + PC)⁻¹: reference → output, sensor noise → output",
+        ),
         ("CS", "C(I + PC)⁻¹: reference or sensor noise → control"),
         ("PS", "P(I + CP)⁻¹: input disturbance → output"),
     ];
@@ -133,14 +139,21 @@ pub fn loopsens(p: &StateSpace, c: &StateSpace) -> Result<(bool, Vec<Sensitivity
             .map(|(m, (name, meaning))| {
                 let m = m?;
                 let (peak, w) = skyloop_lti::norms::hinf_norm(&m)?;
-                Ok(Sensitivity { name, meaning, model: Some(m), peak, peak_w_rad_s: w })
+                Ok(Sensitivity {
+                    name,
+                    meaning,
+                    model: Some(m),
+                    peak,
+                    peak_w_rad_s: w,
+                })
             })
             .collect::<Result<Vec<_>>>()?;
         return Ok((stable, out));
     }
     if p.nu() != 1 || p.ny() != 1 {
         return Err(Error::Input(
-            "loopsens: a MIMO loop with delays has no exact form here; replace the delays with `skyloop pade` first".into(),
+            "loopsens: a MIMO loop with delays has no exact form here; replace the delays with `skyloop pade` first"
+                .into(),
         ));
     }
     let all = skyloop_lti::margins::allmargin(&l)?;
@@ -148,7 +161,10 @@ pub fn loopsens(p: &StateSpace, c: &StateSpace) -> Result<(bool, Vec<Sensitivity
     // (a proper controller's CS tends to its feedthrough).
     let (lo, hi) = (all.w_range_rad_s.0 / 10.0, all.w_range_rad_s.1 * 1e4);
     let w: Vec<f64> = (0..8000).map(|k| lo * (hi / lo).powf(k as f64 / 7999.0)).collect();
-    let (pr, cr) = (skyloop_lti::freqresp::freqresp_flat(p, &w)?, skyloop_lti::freqresp::freqresp_flat(c, &w)?);
+    let (pr, cr) = (
+        skyloop_lti::freqresp::freqresp_flat(p, &w)?,
+        skyloop_lti::freqresp::freqresp_flat(c, &w)?,
+    );
     let out = names
         .iter()
         .enumerate()
@@ -169,7 +185,13 @@ pub fn loopsens(p: &StateSpace, c: &StateSpace) -> Result<(bool, Vec<Sensitivity
                 })
                 .fold((0.0, f64::NAN), |a, b| if b.0 > a.0 { b } else { a });
             let peak = if all.stable { peak } else { f64::INFINITY };
-            Sensitivity { name, meaning, model: None, peak, peak_w_rad_s: if all.stable { at } else { f64::NAN } }
+            Sensitivity {
+                name,
+                meaning,
+                model: None,
+                peak,
+                peak_w_rad_s: if all.stable { at } else { f64::NAN },
+            }
         })
         .collect();
     Ok((all.stable, out))

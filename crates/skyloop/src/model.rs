@@ -47,7 +47,12 @@ pub fn load_model(arg: &str) -> Result<StateSpace> {
 pub fn load_model_dt(arg: &str, dt_s: Option<f64>) -> Result<StateSpace> {
     match dt_s {
         Some(dt) if !Path::new(arg).is_file() && !arg.ends_with(".json") => skyloop_lti::expr::parse_discrete(arg, dt)
-            .map_err(|e| Error::Input(format!("'{}' as a discrete expression (--dt {dt}): {e}", abbreviate(arg)))),
+            .map_err(|e| {
+                Error::Input(format!(
+                    "'{}' as a discrete expression (--dt {dt}): {e}",
+                    abbreviate(arg)
+                ))
+            }),
         _ => load_model(arg),
     }
 }
@@ -202,7 +207,9 @@ fn factors(roots: &[skyloop_lti::c64], var: &str) -> Vec<String> {
             _ => out.push((t, 1)),
         }
     }
-    out.into_iter().map(|(t, n)| if n == 1 { t } else { format!("{t}^{n}") }).collect()
+    out.into_iter()
+        .map(|(t, n)| if n == 1 { t } else { format!("{t}^{n}") })
+        .collect()
 }
 
 /// The coefficients of Π(s − r), highest power first (real for conjugate-closed root lists).
@@ -302,9 +309,21 @@ mod tests {
     use skyloop_lti::discretize::{c2d, Method};
 
     fn response(g: &StateSpace, w: f64) -> skyloop_lti::c64 {
-        let z = if g.is_continuous() { skyloop_lti::c64::new(0.0, w) } else { skyloop_lti::c64::new(0.0, w * g.dt).exp() };
+        let z = if g.is_continuous() {
+            skyloop_lti::c64::new(0.0, w)
+        } else {
+            skyloop_lti::c64::new(0.0, w * g.dt).exp()
+        };
         let delay = g.input_delay[0] + g.output_delay[0];
-        skyloop_lti::freqresp::evalfr(&StateSpace { input_delay: vec![0.0], output_delay: vec![0.0], ..g.clone() }, z).unwrap()[(0, 0)]
+        skyloop_lti::freqresp::evalfr(
+            &StateSpace {
+                input_delay: vec![0.0],
+                output_delay: vec![0.0],
+                ..g.clone()
+            },
+            z,
+        )
+        .unwrap()[(0, 0)]
             * skyloop_lti::c64::new(0.0, -w * delay).exp()
     }
 
@@ -327,7 +346,10 @@ mod tests {
                 assert_eq!(back.dt, dt);
                 for w in [0.3, 3.0, 30.0] {
                     let (a, b) = (response(&d, w), response(&back, w));
-                    assert!((a - b).norm() < 1e-6 * a.norm().max(1e-3), "{expr} {form:?} at {w}: {text}: {a} vs {b}");
+                    assert!(
+                        (a - b).norm() < 1e-6 * a.norm().max(1e-3),
+                        "{expr} {form:?} at {w}: {text}: {a} vs {b}"
+                    );
                 }
             }
         }

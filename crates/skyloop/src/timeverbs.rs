@@ -50,20 +50,36 @@ pub fn signal(spec: &str) -> Result<impl Fn(f64) -> f64> {
     let parts: Vec<&str> = spec.split(':').map(str::trim).collect();
     let num = |i: usize, what: &str, default: Option<f64>| -> Result<f64> {
         match (parts.get(i), default) {
-            (Some(s), _) => s.parse::<f64>().ok().filter(|v| v.is_finite()).ok_or_else(|| {
-                Error::Input(format!("--input {spec}: {what} '{s}' is not a finite number"))
-            }),
+            (Some(s), _) => s
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| Error::Input(format!("--input {spec}: {what} '{s}' is not a finite number"))),
             (None, Some(d)) => Ok(d),
-            (None, None) => Err(Error::Input(format!("--input {spec}: give the {what}, e.g. {}:2", parts[0]))),
+            (None, None) => Err(Error::Input(format!(
+                "--input {spec}: give the {what}, e.g. {}:2",
+                parts[0]
+            ))),
         }
     };
     let kind = parts[0];
     let (a, b) = match kind {
         "step" | "ramp" => (0.0, 1.0),
         "sin" | "square" | "pulse" => {
-            let a = num(1, if kind == "pulse" { "width in s" } else { "frequency in Hz" }, None)?;
+            let a = num(
+                1,
+                if kind == "pulse" {
+                    "width in s"
+                } else {
+                    "frequency in Hz"
+                },
+                None,
+            )?;
             if a <= 0.0 {
-                return Err(Error::Input(format!("--input {spec}: the {} must be positive", if kind == "pulse" { "width" } else { "frequency" })));
+                return Err(Error::Input(format!(
+                    "--input {spec}: the {} must be positive",
+                    if kind == "pulse" { "width" } else { "frequency" }
+                )));
             }
             (a, num(2, "amplitude", Some(1.0))?)
         }
@@ -79,7 +95,13 @@ pub fn signal(spec: &str) -> Result<impl Fn(f64) -> f64> {
         "ramp" => t,
         "sin" => b * (2.0 * PI * a * t).sin(),
         "square" => b * if (a * t).fract() < 0.5 { 1.0 } else { -1.0 },
-        _ => if t < a { b } else { 0.0 },
+        _ => {
+            if t < a {
+                b
+            } else {
+                0.0
+            }
+        }
     })
 }
 
@@ -96,7 +118,13 @@ pub fn read_inputs(path: &std::path::Path, nu: usize) -> Result<(Vec<f64>, Vec<V
             .split(',')
             .map(|c| c.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
             .collect::<Option<Vec<_>>>()
-            .ok_or_else(|| Error::Input(format!("{}: line {} has a cell that is not a finite number", path.display(), k + 1)))?;
+            .ok_or_else(|| {
+                Error::Input(format!(
+                    "{}: line {} has a cell that is not a finite number",
+                    path.display(),
+                    k + 1
+                ))
+            })?;
         if v.len() != nu + 1 {
             return Err(Error::Input(format!(
                 "{}: line {} has {} columns; the model has {nu} input(s), so time plus {nu}",
@@ -108,15 +136,27 @@ pub fn read_inputs(path: &std::path::Path, nu: usize) -> Result<(Vec<f64>, Vec<V
         t.push(v[0]);
         u.push(v[1..].to_vec());
         if t.len() > MAX_SAMPLES {
-            return Err(Error::Input(format!("{}: more than {MAX_SAMPLES} rows", path.display())));
+            return Err(Error::Input(format!(
+                "{}: more than {MAX_SAMPLES} rows",
+                path.display()
+            )));
         }
     }
     if t.len() < 2 {
-        return Err(Error::Input(format!("{}: needs at least two rows of samples", path.display())));
+        return Err(Error::Input(format!(
+            "{}: needs at least two rows of samples",
+            path.display()
+        )));
     }
     let h = (t[t.len() - 1] - t[0]) / (t.len() - 1) as f64;
-    if !(h > 0.0) || t.windows(2).any(|w| ((w[1] - w[0]) - h).abs() > 1e-6 * h.max(1e-12) + 1e-9) {
-        return Err(Error::Input(format!("{}: the times must increase in equal steps (lsim holds each input for one step)", path.display())));
+    if !(h > 0.0)
+        || t.windows(2)
+            .any(|w| ((w[1] - w[0]) - h).abs() > 1e-6 * h.max(1e-12) + 1e-9)
+    {
+        return Err(Error::Input(format!(
+            "{}: the times must increase in equal steps (lsim holds each input for one step)",
+            path.display()
+        )));
     }
     Ok((t, u))
 }
@@ -152,5 +192,9 @@ pub fn impulse(sys: &StateSpace, t_s: Option<&[f64]>) -> Result<Simulation> {
     let y = (0..n)
         .map(|k| r.y.iter().flat_map(|row| row.iter().map(move |ch| ch[k])).collect())
         .collect();
-    Ok(Simulation { t_s: r.t_s, u: Vec::new(), y })
+    Ok(Simulation {
+        t_s: r.t_s,
+        u: Vec::new(),
+        y,
+    })
 }

@@ -121,7 +121,11 @@ fn bad_specs_name_the_key() {
     assert!(e.contains("boost"), "{e}");
     // A reduction with nothing to do keeps the controller and says so (MATLAB's balred).
     let r = design(&spec(&BICOPTER.replace("order = 5", "order = 40")).expect("spec")).expect("design");
-    assert!(r.summary.notes.iter().any(|n| n.contains("nothing to reduce")), "{:?}", r.summary.notes);
+    assert!(
+        r.summary.notes.iter().any(|n| n.contains("nothing to reduce")),
+        "{:?}",
+        r.summary.notes
+    );
     let e = err(&BICOPTER.replace("rate_hz = 250.0", "rate_hz = -1.0"));
     assert!(e.contains("discretize.rate_hz"), "{e}");
     let e = err(&BICOPTER.replace("w1 = \"0.03511", "w1 = \"0.03511*("));

@@ -46,6 +46,9 @@ pub fn run(a: Args) -> skyloop::Result<()> {
         p.nu() - ncon
     );
     println!("nmeas = {nmeas}, ncon = {ncon}");
-    println!("next: skyloop hinfsyn {} --nmeas {nmeas} --ncon {ncon} --out K.json", a.out.display());
+    println!(
+        "next: skyloop hinfsyn {} --nmeas {nmeas} --ncon {ncon} --out K.json",
+        a.out.display()
+    );
     Ok(())
 }

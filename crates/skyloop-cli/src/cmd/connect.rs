@@ -4,8 +4,8 @@
 
 use crate::output;
 use skyloop::loops::{closed, in_parallel, in_series, loopsens};
-use skyloop::model::{expressions, load_model, Form};
 use skyloop::lti::StateSpace;
+use skyloop::model::{expressions, load_model, Form};
 
 /// Arguments of `series` and `parallel`.
 #[derive(clap::Args)]
@@ -119,7 +119,13 @@ pub fn run_loopsens(a: LoopsensArgs) -> skyloop::Result<()> {
         eprintln!("wrote {}", dir.display());
     }
     if a.json {
-        let num = |v: f64| if v.is_finite() { serde_json::json!(v) } else { serde_json::Value::Null };
+        let num = |v: f64| {
+            if v.is_finite() {
+                serde_json::json!(v)
+            } else {
+                serde_json::Value::Null
+            }
+        };
         let v = serde_json::json!({
             "stable": stable,
             "sensitivities": sens.iter().map(|s| serde_json::json!({
@@ -129,10 +135,27 @@ pub fn run_loopsens(a: LoopsensArgs) -> skyloop::Result<()> {
         });
         return output::print_json(&v);
     }
-    println!("closed loop {}", if stable { "stable" } else { "UNSTABLE (every peak is infinite)" });
+    println!(
+        "closed loop {}",
+        if stable {
+            "stable"
+        } else {
+            "UNSTABLE (every peak is infinite)"
+        }
+    );
     for s in &sens {
-        let at = if s.peak_w_rad_s.is_finite() { format!(" at {:.4} Hz", hz(s.peak_w_rad_s)) } else { String::new() };
-        println!("{:<3} peak {:.4} ({:+.2} dB){at}   {}", s.name, s.peak, 20.0 * s.peak.log10(), s.meaning);
+        let at = if s.peak_w_rad_s.is_finite() {
+            format!(" at {:.4} Hz", hz(s.peak_w_rad_s))
+        } else {
+            String::new()
+        };
+        println!(
+            "{:<3} peak {:.4} ({:+.2} dB){at}   {}",
+            s.name,
+            s.peak,
+            20.0 * s.peak.log10(),
+            s.meaning
+        );
     }
     if sens.iter().all(|s| s.model.is_none()) {
         println!("(a delay sits inside the loop: peaks from the exact frequency response; no models written)");

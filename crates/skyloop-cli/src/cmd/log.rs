@@ -143,7 +143,11 @@ fn info(file: &Path, session: Option<usize>, json: bool) -> skyloop::Result<()> 
         let mut reasons: Vec<(String, Vec<usize>)> = Vec::new();
         for s in &sessions {
             if let Some(e) = &s.error {
-                let why = e.split(": ").last().unwrap_or(e).replace(&format!("session {} ", s.index), "");
+                let why = e
+                    .split(": ")
+                    .last()
+                    .unwrap_or(e)
+                    .replace(&format!("session {} ", s.index), "");
                 match reasons.iter_mut().find(|(w, _)| *w == why) {
                     Some((_, ix)) => ix.push(s.index),
                     None => reasons.push((why, vec![s.index])),
@@ -182,7 +186,11 @@ fn ranges(ix: &[usize]) -> String {
         while j + 1 < ix.len() && ix[j + 1] == ix[j] + 1 {
             j += 1;
         }
-        out.push(if j > k { format!("{}–{}", ix[k], ix[j]) } else { ix[k].to_string() });
+        out.push(if j > k {
+            format!("{}–{}", ix[k], ix[j])
+        } else {
+            ix[k].to_string()
+        });
         k = j + 1;
     }
     out.join(", ")

@@ -9,7 +9,11 @@ use std::f64::consts::PI;
 #[derive(clap::Args)]
 pub struct Args {
     /// Loop transfer L (expression or LTI JSON path); the loop is closed as u = −y (L = P·C).
-    #[arg(allow_hyphen_values = true, required_unless_present = "plant", conflicts_with = "plant")]
+    #[arg(
+        allow_hyphen_values = true,
+        required_unless_present = "plant",
+        conflicts_with = "plant"
+    )]
     model: Option<String>,
     /// A plant P: with --controller, the loop is L = P·C (MATLAB margin(P*C)).
     #[arg(long, requires = "controller", allow_hyphen_values = true)]
@@ -78,7 +82,11 @@ pub fn run(a: Args) -> skyloop::Result<()> {
     for p in &all.phase_margins {
         // A crossover's delay margin is the delay that brings a stable loop to the edge; an
         // unstable loop has none to give (printing (PM + 360°)/ω beside "0" misled).
-        let dm = if all.stable { format!("delay margin {:.6} s", p.delay_margin_s) } else { "delay margin — (loop unstable)".into() };
+        let dm = if all.stable {
+            format!("delay margin {:.6} s", p.delay_margin_s)
+        } else {
+            "delay margin — (loop unstable)".into()
+        };
         println!("  {:>12.6} Hz   PM {:>9.3} deg   {dm}", hz(p.w_rad_s), p.pm_deg);
     }
     if let Some((lo, hi)) = all.unit_gain_band_rad_s {

@@ -78,23 +78,36 @@ fn write(sim: &Simulation, out: &Option<std::path::PathBuf>, json: bool, title: 
             s.push('\n');
             for (k, t) in sim.t_s.iter().enumerate() {
                 s += &format!("{t}");
-                sim.u.get(k).into_iter().flatten().chain(&sim.y[k]).for_each(|v| s += &format!(",{v}"));
+                sim.u
+                    .get(k)
+                    .into_iter()
+                    .flatten()
+                    .chain(&sim.y[k])
+                    .for_each(|v| s += &format!(",{v}"));
                 s.push('\n');
             }
             std::fs::write(path, s).map_err(|e| skyloop::Error::write(path, e))?;
             eprintln!("wrote {}", path.display());
         } else {
             let ny = sim.y.first().map_or(0, Vec::len);
-            let trace = |label: String, v: Vec<f64>| Trace { label, t: sim.t_s.clone(), y: v };
+            let trace = |label: String, v: Vec<f64>| Trace {
+                label,
+                t: sim.t_s.clone(),
+                y: v,
+            };
             let mut panels = vec![TracePanel {
                 y_label: "output".into(),
-                traces: (0..ny).map(|i| trace(format!("y{}", i + 1), sim.y.iter().map(|r| r[i]).collect())).collect(),
+                traces: (0..ny)
+                    .map(|i| trace(format!("y{}", i + 1), sim.y.iter().map(|r| r[i]).collect()))
+                    .collect(),
                 references: Vec::new(),
             }];
             if let Some(nu) = sim.u.first().map(Vec::len).filter(|n| *n > 0) {
                 panels.push(TracePanel {
                     y_label: "input".into(),
-                    traces: (0..nu).map(|j| trace(format!("u{}", j + 1), sim.u.iter().map(|r| r[j]).collect())).collect(),
+                    traces: (0..nu)
+                        .map(|j| trace(format!("u{}", j + 1), sim.u.iter().map(|r| r[j]).collect()))
+                        .collect(),
                     references: Vec::new(),
                 });
             }
@@ -107,7 +120,11 @@ fn write(sim: &Simulation, out: &Option<std::path::PathBuf>, json: bool, title: 
     if out.is_none() {
         let last = sim.y.last().cloned().unwrap_or_default();
         let peak = sim.y.iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()));
-        println!("{} samples to t = {} s; final y = {last:?}; largest |y| = {peak}", sim.t_s.len(), sim.t_s.last().unwrap_or(&0.0));
+        println!(
+            "{} samples to t = {} s; final y = {last:?}; largest |y| = {peak}",
+            sim.t_s.len(),
+            sim.t_s.last().unwrap_or(&0.0)
+        );
     }
     Ok(())
 }
@@ -138,7 +155,12 @@ pub fn run_impulse(a: ImpulseArgs) -> skyloop::Result<()> {
         Some(tf) => {
             let g = skyloop::lti::timeresp::auto_grid(&sys, Some(tf))?;
             if g.len() > skyloop::timeverbs::MAX_SAMPLES {
-                return Err(format!("--tfinal {tf} s needs {} samples; at most {}", g.len(), skyloop::timeverbs::MAX_SAMPLES).into());
+                return Err(format!(
+                    "--tfinal {tf} s needs {} samples; at most {}",
+                    g.len(),
+                    skyloop::timeverbs::MAX_SAMPLES
+                )
+                .into());
             }
             Some(g)
         }
@@ -151,7 +173,11 @@ pub fn run_impulse(a: ImpulseArgs) -> skyloop::Result<()> {
 pub fn run_d2c(a: D2cArgs) -> skyloop::Result<()> {
     let sys = skyloop::model::load_model_dt(&a.model, a.dt)?;
     if sys.is_continuous() {
-        return Err(format!("{}: the model is continuous; d2c needs a discrete one (dt > 0)", a.model).into());
+        return Err(format!(
+            "{}: the model is continuous; d2c needs a discrete one (dt > 0)",
+            a.model
+        )
+        .into());
     }
     let method: Method = match a.method.as_str() {
         "zoh" | "tustin" => a.method.parse().map_err(|e| format!("{e}"))?,

@@ -363,9 +363,14 @@ fn readable(msg: &str) -> String {
     let cut = (0..b.len()).find(|&i| {
         b[i].is_ascii_uppercase()
             && (i == 0 || !b[i - 1].is_ascii_alphanumeric())
-            && msg[i..].find(|c: char| !c.is_ascii_alphanumeric()).is_some_and(|n| msg[i + n..].starts_with(" {") || msg[i + n..].starts_with(" ["))
+            && msg[i..]
+                .find(|c: char| !c.is_ascii_alphanumeric())
+                .is_some_and(|n| msg[i + n..].starts_with(" {") || msg[i + n..].starts_with(" ["))
     });
-    let head = cut.map_or(msg, |i| &msg[..i]).trim_end_matches([' ', ':', '(', ',']).trim();
+    let head = cut
+        .map_or(msg, |i| &msg[..i])
+        .trim_end_matches([' ', ':', '(', ','])
+        .trim();
     if head.is_empty() {
         "malformed message definitions".into()
     } else if cut.is_some() {
@@ -375,14 +380,15 @@ fn readable(msg: &str) -> String {
     }
 }
 
-
 #[cfg(test)]
 mod readable_tests {
     use super::readable;
 
     #[test]
     fn debug_dumps_are_cut_from_parser_messages() {
-        let m = readable(r#"unknown format for nested type: FlattenedFormat { message_name: "rate", fields: [FlattenedField { name: "x" }] }"#);
+        let m = readable(
+            r#"unknown format for nested type: FlattenedFormat { message_name: "rate", fields: [FlattenedField { name: "x" }] }"#,
+        );
         assert_eq!(m, "unknown format for nested type (malformed message definitions)");
         assert_eq!(readable("unexpected end of data"), "unexpected end of data");
         assert_eq!(readable("Format { a: 1 }"), "malformed message definitions");

@@ -116,7 +116,9 @@ impl SegmentPsd {
 
     /// The bins' frequencies, Hz.
     pub fn freq_hz(&self) -> Vec<f64> {
-        (0..self.bins()).map(|k| k as f64 / (self.nfft as f64 * self.dt_s)).collect()
+        (0..self.bins())
+            .map(|k| k as f64 / (self.nfft as f64 * self.dt_s))
+            .collect()
     }
 
     /// The density of one segment (exactly `nfft` samples), (signal unit)²/Hz.
@@ -125,7 +127,11 @@ impl SegmentPsd {
     /// A segment of another length.
     pub fn density(&self, seg: &[f64]) -> Result<Vec<f64>> {
         if seg.len() != self.nfft {
-            return Err(invalid(format!("PSD segment has {} samples, not {}", seg.len(), self.nfft)));
+            return Err(invalid(format!(
+                "PSD segment has {} samples, not {}",
+                seg.len(),
+                self.nfft
+            )));
         }
         let mean = seg.iter().sum::<f64>() / self.nfft as f64;
         let x: Vec<f64> = seg.iter().map(|v| v - mean).collect();
@@ -137,7 +143,11 @@ impl SegmentPsd {
             .enumerate()
             .map(|(k, z)| {
                 // One-sided: every bin but DC and (even nfft) Nyquist carries both signs' power.
-                let two = if k == 0 || (self.nfft % 2 == 0 && k == half - 1) { 1.0 } else { 2.0 };
+                let two = if k == 0 || (self.nfft % 2 == 0 && k == half - 1) {
+                    1.0
+                } else {
+                    2.0
+                };
                 z.norm_sqr() * self.scale * two
             })
             .collect())

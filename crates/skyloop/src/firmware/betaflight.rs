@@ -15,7 +15,9 @@
 //! Not modelled: TPA, anti-gravity, I-term relax, d_min's dynamic D (a flown tune with d_min is
 //! analysed at D = d_min by [`crate::tune::log`]), feedforward smoothing.
 
-use super::filters::{static_notches, FilterChain, Path, RawGyroTap, Shape, Stage, StageKind, ThrottleCurve, STAGE_NAMES};
+use super::filters::{
+    static_notches, FilterChain, Path, RawGyroTap, Shape, Stage, StageKind, ThrottleCurve, STAGE_NAMES,
+};
 use super::{chain, derivative_rolloff, Lowpass};
 use crate::error::{Error, Result};
 use serde::Serialize;
@@ -391,7 +393,10 @@ pub fn flown_from_header(b: &BetaflightTuning, axis: Axis, log: &Log) -> FlownHe
 /// D-term lowpass 1 (dynamic likewise), lowpass 2 and notch. Returns notes on what is assumed.
 pub fn filter_chain(b: &BetaflightTuning, log: &Log) -> (FilterChain, Vec<String>) {
     let mut notes = Vec::new();
-    let one = |k: &str| log.setting(k).and_then(|v| v.split(',').next()?.trim().parse::<f64>().ok());
+    let one = |k: &str| {
+        log.setting(k)
+            .and_then(|v| v.split(',').next()?.trim().parse::<f64>().ok())
+    };
     let minor = b
         .firmware_revision
         .split_whitespace()
@@ -404,24 +409,40 @@ pub fn filter_chain(b: &BetaflightTuning, log: &Log) -> (FilterChain, Vec<String
         ThrottleCurve::Betaflight40
     };
     let mut stages = Vec::new();
-    let mut lowpass = |l: &Option<skyloop_sysid::logs::tuning::Lowpass>, name: &str, path: Path, type_key: Option<&str>| {
-        let Some(l) = l else { return };
-        // 3.x names the gyro lowpass type `gyro_soft_type`.
-        let kind = type_key
-            .and_then(|k| one(k))
-            .map(|t| match t as i64 { 1 => "BIQUAD", _ => "PT1" }.to_string())
-            .unwrap_or_else(|| l.kind.clone());
-        let shape = Shape::from_header(&kind).unwrap_or_else(|| {
-            notes.push(format!("{name}: filter type {kind} is not modelled; taken as PT1"));
-            Shape::Pt1
-        });
-        let kind = match l.dynamic_hz {
-            Some((min_hz, max_hz)) => StageKind::DynamicLowpass { shape, min_hz, max_hz, curve },
-            None if l.cutoff_hz > 0.0 => StageKind::Lowpass { shape, hz: l.cutoff_hz },
-            None => return,
+    let mut lowpass =
+        |l: &Option<skyloop_sysid::logs::tuning::Lowpass>, name: &str, path: Path, type_key: Option<&str>| {
+            let Some(l) = l else { return };
+            // 3.x names the gyro lowpass type `gyro_soft_type`.
+            let kind = type_key
+                .and_then(|k| one(k))
+                .map(|t| {
+                    match t as i64 {
+                        1 => "BIQUAD",
+                        _ => "PT1",
+                    }
+                    .to_string()
+                })
+                .unwrap_or_else(|| l.kind.clone());
+            let shape = Shape::from_header(&kind).unwrap_or_else(|| {
+                notes.push(format!("{name}: filter type {kind} is not modelled; taken as PT1"));
+                Shape::Pt1
+            });
+            let kind = match l.dynamic_hz {
+                Some((min_hz, max_hz)) => StageKind::DynamicLowpass {
+                    shape,
+                    min_hz,
+                    max_hz,
+                    curve,
+                },
+                None if l.cutoff_hz > 0.0 => StageKind::Lowpass { shape, hz: l.cutoff_hz },
+                None => return,
+            };
+            stages.push(Stage {
+                name: name.into(),
+                path,
+                kind,
+            });
         };
-        stages.push(Stage { name: name.into(), path, kind });
-    };
     let v3 = b.version_major == Some(3);
     lowpass(&b.gyro_lowpass, "gyro_lpf1", Path::Gyro, v3.then_some("gyro_soft_type"));
     lowpass(&b.gyro_lowpass2, "gyro_lpf2", Path::Gyro, None);
@@ -438,7 +459,12 @@ pub fn filter_chain(b: &BetaflightTuning, log: &Log) -> (FilterChain, Vec<String
             stages.push(Stage {
                 name: "dyn_notch".into(),
                 path: Path::Gyro,
-                kind: StageKind::DynamicNotch { count, min_hz: d.min_hz, max_hz: d.max_hz, q: d.q.unwrap_or(3.0) },
+                kind: StageKind::DynamicNotch {
+                    count,
+                    min_hz: d.min_hz,
+                    max_hz: d.max_hz,
+                    q: d.q.unwrap_or(3.0),
+                },
             });
             notes.push("dyn_notch: centres tracked at the strongest gyro peaks of each 0.25 s frame (skyloop's spectrum, not the firmware's own FFT tracker)".into());
         }
@@ -447,7 +473,11 @@ pub fn filter_chain(b: &BetaflightTuning, log: &Log) -> (FilterChain, Vec<String
         stages.push(Stage {
             name: "rpm".into(),
             path: Path::Gyro,
-            kind: StageKind::Rpm { harmonics: r.harmonics as usize, q: r.q.unwrap_or(5.0), min_hz: r.min_hz.unwrap_or(100.0) },
+            kind: StageKind::Rpm {
+                harmonics: r.harmonics as usize,
+                q: r.q.unwrap_or(5.0),
+                min_hz: r.min_hz.unwrap_or(100.0),
+            },
         });
     }
     if one("dterm_rpm_notch_harmonics").unwrap_or(0.0) > 0.0 {
@@ -459,7 +489,9 @@ pub fn filter_chain(b: &BetaflightTuning, log: &Log) -> (FilterChain, Vec<String
     });
     let mut chain = FilterChain { loop_hz, stages };
     // Signal order, as `with_changes` keeps it.
-    chain.stages.sort_by_key(|s| (s.path == Path::Dterm, STAGE_NAMES.iter().position(|n| *n == s.name)));
+    chain
+        .stages
+        .sort_by_key(|s| (s.path == Path::Dterm, STAGE_NAMES.iter().position(|n| *n == s.name)));
     (chain, notes)
 }
 
@@ -479,7 +511,12 @@ pub fn raw_gyro_tap(b: &BetaflightTuning, log: &Log) -> Option<RawGyroTap> {
     channels.iter().all(|c| log.channel(c).is_ok()).then(|| RawGyroTap {
         channels,
         applied,
-        what: if mode == 6 { "debug GYRO_SCALED (gyro before every filter)" } else { "debug NOTCH (gyro after the lowpass, before the notches)" }.into(),
+        what: if mode == 6 {
+            "debug GYRO_SCALED (gyro before every filter)"
+        } else {
+            "debug NOTCH (gyro after the lowpass, before the notches)"
+        }
+        .into(),
     })
 }
 

@@ -29,8 +29,8 @@ pub struct NoiseChannels {
 pub fn noise_channels(log: &Log) -> Option<NoiseChannels> {
     let firmware = FlightFirmware::of(log).ok()?;
     let has = |n: &str| log.channel(n).is_ok();
-    let gyro = [LogAxis::Roll, LogAxis::Pitch, LogAxis::Yaw]
-        .map(|a| RateLoopChannels::find(log, a).ok().map(|c| c.output));
+    let gyro =
+        [LogAxis::Roll, LogAxis::Pitch, LogAxis::Yaw].map(|a| RateLoopChannels::find(log, a).ok().map(|c| c.output));
     let listed = |f: &dyn Fn(usize) -> String| (0..8).map(f).filter(|n| has(n)).collect::<Vec<_>>();
     Some(match firmware {
         FlightFirmware::Betaflight | FlightFirmware::Inav => {

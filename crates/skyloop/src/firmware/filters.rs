@@ -167,12 +167,25 @@ impl Stage {
     pub fn filters(&self, op: &OperatingPoint) -> Vec<FilterKind> {
         match &self.kind {
             StageKind::Lowpass { shape, hz } => vec![shape.kind(*hz)],
-            StageKind::DynamicLowpass { shape, min_hz, max_hz, curve } => {
+            StageKind::DynamicLowpass {
+                shape,
+                min_hz,
+                max_hz,
+                curve,
+            } => {
                 let hz = op.throttle.map_or(*min_hz, |t| curve.cutoff_hz(t, *min_hz, *max_hz));
                 vec![shape.kind(hz)]
             }
-            StageKind::Notch { center_hz, q } => vec![FilterKind::Notch { center: *center_hz, q: *q }],
-            StageKind::DynamicNotch { count, min_hz, max_hz, q } => op
+            StageKind::Notch { center_hz, q } => vec![FilterKind::Notch {
+                center: *center_hz,
+                q: *q,
+            }],
+            StageKind::DynamicNotch {
+                count,
+                min_hz,
+                max_hz,
+                q,
+            } => op
                 .peaks_hz
                 .iter()
                 .filter(|f| **f >= *min_hz && **f <= *max_hz)
@@ -193,11 +206,18 @@ impl Stage {
     pub fn describe(&self) -> String {
         let what = match &self.kind {
             StageKind::Lowpass { shape, hz } => format!("{} {hz} Hz", shape.name()),
-            StageKind::DynamicLowpass { shape, min_hz, max_hz, .. } => {
+            StageKind::DynamicLowpass {
+                shape, min_hz, max_hz, ..
+            } => {
                 format!("{} {min_hz}–{max_hz} Hz (follows throttle)", shape.name())
             }
             StageKind::Notch { center_hz, q } => format!("notch {center_hz} Hz, Q {q:.2}"),
-            StageKind::DynamicNotch { count, min_hz, max_hz, q } => {
+            StageKind::DynamicNotch {
+                count,
+                min_hz,
+                max_hz,
+                q,
+            } => {
                 format!("{count} dynamic notch(es) {min_hz}–{max_hz} Hz, Q {q:.2}")
             }
             StageKind::Rpm { harmonics, q, min_hz } => {
@@ -255,13 +275,20 @@ impl FilterChain {
         let mut changes = Vec::new();
         for item in spec.split(',').map(str::trim).filter(|s| !s.is_empty()) {
             let (name, value) = item.split_once('=').ok_or_else(|| {
-                Error::Input(format!("--filters: `{item}` is not name=value (e.g. gyro_lpf1=pt1:150)"))
+                Error::Input(format!(
+                    "--filters: `{item}` is not name=value (e.g. gyro_lpf1=pt1:150)"
+                ))
             })?;
             let (name, value) = (name.trim(), value.trim().to_ascii_lowercase());
             let path = stage_path(name)?;
             let before = out.stages.iter().position(|s| s.name == name);
             // The flown stage's description without its name.
-            let old = before.map(|i| out.stages[i].describe().trim_start_matches(&format!("{name}: ")).to_string());
+            let old = before.map(|i| {
+                out.stages[i]
+                    .describe()
+                    .trim_start_matches(&format!("{name}: "))
+                    .to_string()
+            });
             if value == "off" {
                 if let Some(i) = before {
                     out.stages.remove(i);
@@ -271,7 +298,11 @@ impl FilterChain {
             }
             let prior = before.map(|i| out.stages[i].kind.clone());
             let kind = parse_stage(name, &value, prior.as_ref(), self.loop_hz)?;
-            let stage = Stage { name: name.to_string(), path, kind };
+            let stage = Stage {
+                name: name.to_string(),
+                path,
+                kind,
+            };
             let new = stage.describe().trim_start_matches(&format!("{name}: ")).to_string();
             changes.push(match old {
                 Some(o) if o == new => format!("{name}: {o} (unchanged)"),
@@ -283,7 +314,8 @@ impl FilterChain {
             }
         }
         // Gyro stages first, then the D term's, each in the order the firmware names them.
-        out.stages.sort_by_key(|s| (s.path == Path::Dterm, STAGE_NAMES.iter().position(|n| *n == s.name)));
+        out.stages
+            .sort_by_key(|s| (s.path == Path::Dterm, STAGE_NAMES.iter().position(|n| *n == s.name)));
         Ok((out, changes))
     }
 }
@@ -329,9 +361,17 @@ pub(crate) fn static_notches(
     let stage = |name: String, path: Path, n: &skyloop_sysid::logs::tuning::Notch| Stage {
         name,
         path,
-        kind: StageKind::Notch { center_hz: n.center_hz, q: notch_q(n.center_hz, n.cutoff_hz) },
+        kind: StageKind::Notch {
+            center_hz: n.center_hz,
+            q: notch_q(n.center_hz, n.cutoff_hz),
+        },
     };
-    let mut out: Vec<Stage> = gyro.iter().take(2).enumerate().map(|(k, n)| stage(format!("gyro_notch{}", k + 1), Path::Gyro, n)).collect();
+    let mut out: Vec<Stage> = gyro
+        .iter()
+        .take(2)
+        .enumerate()
+        .map(|(k, n)| stage(format!("gyro_notch{}", k + 1), Path::Gyro, n))
+        .collect();
     out.extend(dterm.iter().map(|n| stage("dterm_notch".into(), Path::Dterm, n)));
     out
 }
@@ -356,7 +396,11 @@ fn stage_path(name: &str) -> Result<Path> {
             STAGE_NAMES.join(", ")
         )));
     }
-    Ok(if name.starts_with("dterm") { Path::Dterm } else { Path::Gyro })
+    Ok(if name.starts_with("dterm") {
+        Path::Dterm
+    } else {
+        Path::Gyro
+    })
 }
 
 /// One `--filters` value for stage `name` (`prior`: the flown stage, whose Q and curve a change
@@ -365,11 +409,16 @@ fn parse_stage(name: &str, v: &str, prior: Option<&StageKind>, loop_hz: f64) -> 
     let nyq = 0.5 * loop_hz;
     let bad = |why: &str| Error::Input(format!("--filters: {name}={v}: {why}"));
     let hz = |s: &str| -> Result<f64> {
-        let f: f64 = s.trim().parse().map_err(|_| bad(&format!("`{s}` is not a frequency in Hz")))?;
+        let f: f64 = s
+            .trim()
+            .parse()
+            .map_err(|_| bad(&format!("`{s}` is not a frequency in Hz")))?;
         if f.is_finite() && f > 0.0 && f < nyq {
             Ok(f)
         } else {
-            Err(bad(&format!("{s} Hz is outside (0, {nyq}) Hz, the loop's Nyquist range")))
+            Err(bad(&format!(
+                "{s} Hz is outside (0, {nyq}) Hz, the loop's Nyquist range"
+            )))
         }
     };
     let (body, q) = match v.split_once("@q") {
@@ -392,31 +441,57 @@ fn parse_stage(name: &str, v: &str, prior: Option<&StageKind>, loop_hz: f64) -> 
         }
     };
     if name == "dyn_notch" {
-        let (n, r) = body.split_once("x:").ok_or_else(|| bad("a dynamic notch is COUNTx:MIN-MAX, e.g. 2x:150-600"))?;
-        let count: usize = n.parse().ok().filter(|c| (1..=5).contains(c)).ok_or_else(|| bad("the notch count must be 1..=5"))?;
+        let (n, r) = body
+            .split_once("x:")
+            .ok_or_else(|| bad("a dynamic notch is COUNTx:MIN-MAX, e.g. 2x:150-600"))?;
+        let count: usize = n
+            .parse()
+            .ok()
+            .filter(|c| (1..=5).contains(c))
+            .ok_or_else(|| bad("the notch count must be 1..=5"))?;
         let (min_hz, max_hz) = range(r)?;
         let q = q.or(match prior {
             Some(StageKind::DynamicNotch { q, .. }) => Some(*q),
             _ => None,
         });
-        return Ok(StageKind::DynamicNotch { count, min_hz, max_hz, q: q.unwrap_or(3.0) });
+        return Ok(StageKind::DynamicNotch {
+            count,
+            min_hz,
+            max_hz,
+            q: q.unwrap_or(3.0),
+        });
     }
     if name == "rpm" {
-        let h: usize = body.strip_suffix('h').and_then(|h| h.parse().ok()).filter(|h| (1..=3).contains(h)).ok_or_else(|| bad("RPM notches are Nh with N harmonics in 1..=3, e.g. 3h"))?;
+        let h: usize = body
+            .strip_suffix('h')
+            .and_then(|h| h.parse().ok())
+            .filter(|h| (1..=3).contains(h))
+            .ok_or_else(|| bad("RPM notches are Nh with N harmonics in 1..=3, e.g. 3h"))?;
         let (pq, pmin) = match prior {
             Some(StageKind::Rpm { q, min_hz, .. }) => (*q, *min_hz),
             _ => (5.0, 100.0),
         };
-        return Ok(StageKind::Rpm { harmonics: h, q: q.unwrap_or(pq), min_hz: pmin });
+        return Ok(StageKind::Rpm {
+            harmonics: h,
+            q: q.unwrap_or(pq),
+            min_hz: pmin,
+        });
     }
-    let (kind, arg) = body.split_once(':').ok_or_else(|| bad("expected TYPE:HZ, e.g. pt1:150 or notch:240/160"))?;
+    let (kind, arg) = body
+        .split_once(':')
+        .ok_or_else(|| bad("expected TYPE:HZ, e.g. pt1:150 or notch:240/160"))?;
     if kind == "notch" {
-        let (c, k) = arg.split_once('/').ok_or_else(|| bad("a notch is notch:CENTER/CUTOFF in Hz"))?;
+        let (c, k) = arg
+            .split_once('/')
+            .ok_or_else(|| bad("a notch is notch:CENTER/CUTOFF in Hz"))?;
         let (c, k) = (hz(c)?, hz(k)?);
         if k >= c {
             return Err(bad("a notch's cutoff must lie below its centre"));
         }
-        return Ok(StageKind::Notch { center_hz: c, q: q.unwrap_or_else(|| notch_q(c, k)) });
+        return Ok(StageKind::Notch {
+            center_hz: c,
+            q: q.unwrap_or_else(|| notch_q(c, k)),
+        });
     }
     let shape = Shape::from_header(kind).ok_or_else(|| bad("the lowpass types are pt1, pt2, pt3 and biquad"))?;
     if arg.contains('-') {
@@ -425,7 +500,12 @@ fn parse_stage(name: &str, v: &str, prior: Option<&StageKind>, loop_hz: f64) -> 
             Some(StageKind::DynamicLowpass { curve, .. }) => *curve,
             _ => ThrottleCurve::Expo(0.5),
         };
-        return Ok(StageKind::DynamicLowpass { shape, min_hz, max_hz, curve });
+        return Ok(StageKind::DynamicLowpass {
+            shape,
+            min_hz,
+            max_hz,
+            curve,
+        });
     }
     Ok(StageKind::Lowpass { shape, hz: hz(arg)? })
 }
@@ -439,8 +519,22 @@ mod tests {
         FilterChain {
             loop_hz: 8000.0,
             stages: vec![
-                Stage { name: "gyro_lpf1".into(), path: Path::Gyro, kind: StageKind::Lowpass { shape: Shape::Pt1, hz: 200.0 } },
-                Stage { name: "dterm_lpf1".into(), path: Path::Dterm, kind: StageKind::Lowpass { shape: Shape::Pt1, hz: 150.0 } },
+                Stage {
+                    name: "gyro_lpf1".into(),
+                    path: Path::Gyro,
+                    kind: StageKind::Lowpass {
+                        shape: Shape::Pt1,
+                        hz: 200.0,
+                    },
+                },
+                Stage {
+                    name: "dterm_lpf1".into(),
+                    path: Path::Dterm,
+                    kind: StageKind::Lowpass {
+                        shape: Shape::Pt1,
+                        hz: 150.0,
+                    },
+                },
             ],
         }
     }
@@ -452,13 +546,28 @@ mod tests {
             .unwrap();
         assert_eq!(c.stages.len(), 3);
         assert_eq!(c.stages[0].name, "dyn_notch");
-        assert_eq!(c.stages[2].kind, StageKind::Lowpass { shape: Shape::Pt2, hz: 150.0 });
+        assert_eq!(
+            c.stages[2].kind,
+            StageKind::Lowpass {
+                shape: Shape::Pt2,
+                hz: 150.0
+            }
+        );
         assert!(lines[0].contains("pt1 200 Hz → pt2 150 Hz"), "{lines:?}");
         assert!(lines[1].contains("→ off"));
-        let op = OperatingPoint { peaks_hz: vec![300.0, 100.0, 450.0], ..Default::default() };
+        let op = OperatingPoint {
+            peaks_hz: vec![300.0, 100.0, 450.0],
+            ..Default::default()
+        };
         // Two notches, only at the peaks inside the range.
         let n = c.stages[0].filters(&op);
-        assert_eq!(n, vec![FilterKind::Notch { center: 300.0, q: 3.5 }, FilterKind::Notch { center: 450.0, q: 3.5 }]);
+        assert_eq!(
+            n,
+            vec![
+                FilterKind::Notch { center: 300.0, q: 3.5 },
+                FilterKind::Notch { center: 450.0, q: 3.5 }
+            ]
+        );
         let h = c.response(Path::Gyro, &[300.0, 450.0, 0.0], &op).unwrap();
         assert!(h[0].norm() < 1e-9 && h[1].norm() < 1e-9 && (h[2].norm() - 1.0).abs() < 1e-12);
     }

@@ -270,7 +270,11 @@ pub fn filter_chain(t: &InavTuning) -> (FilterChain, Vec<String>) {
                 notes.push(format!("{name}: filter type {} is not modelled; taken as PT1", l.kind));
                 Shape::Pt1
             });
-            stages.push(Stage { name: name.into(), path, kind: StageKind::Lowpass { shape, hz: l.cutoff_hz } });
+            stages.push(Stage {
+                name: name.into(),
+                path,
+                kind: StageKind::Lowpass { shape, hz: l.cutoff_hz },
+            });
         }
     };
     lowpass(&t.gyro_lowpass, "gyro_lpf1", Path::Gyro);

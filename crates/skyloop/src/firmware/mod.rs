@@ -130,7 +130,11 @@ pub fn open_log(path: &std::path::Path, session: Option<usize>) -> Result<(skylo
 ///
 /// # Errors
 /// A file that is not a log the readers know, or a session that is not in it.
-pub fn open_log_bytes(bytes: &[u8], name: &str, session: Option<usize>) -> Result<(skyloop_sysid::logs::Log, Vec<String>)> {
+pub fn open_log_bytes(
+    bytes: &[u8],
+    name: &str,
+    session: Option<usize>,
+) -> Result<(skyloop_sysid::logs::Log, Vec<String>)> {
     let mut log = skyloop_sysid::logs::Log::from_bytes(
         bytes,
         name,

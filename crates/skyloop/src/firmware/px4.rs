@@ -175,9 +175,19 @@ pub fn filter_chain(p: &Px4Tuning) -> (FilterChain, Vec<String>) {
         400.0
     });
     let mut stages = Vec::new();
-    for (hz, name, path) in [(p.gyro_cutoff_hz, "gyro_lpf1", Path::Gyro), (p.dgyro_cutoff_hz, "dterm_lpf1", Path::Dterm)] {
+    for (hz, name, path) in [
+        (p.gyro_cutoff_hz, "gyro_lpf1", Path::Gyro),
+        (p.dgyro_cutoff_hz, "dterm_lpf1", Path::Dterm),
+    ] {
         if let Some(hz) = hz.filter(|&h| h > 0.0 && h < 0.5 * loop_hz) {
-            stages.push(Stage { name: name.into(), path, kind: StageKind::Lowpass { shape: Shape::Biquad, hz } });
+            stages.push(Stage {
+                name: name.into(),
+                path,
+                kind: StageKind::Lowpass {
+                    shape: Shape::Biquad,
+                    hz,
+                },
+            });
         }
     }
     notes.push("PX4's dynamic notches (IMU_GYRO_DNF_*) and static notch are not read".into());

@@ -317,7 +317,10 @@ pub fn identify_log(log: &Log, a: &IdentifyRequest) -> Result<Identification> {
     let has_r = excitation.is_some();
     // Sizes a user sets are checked before anything is allocated or fitted on them.
     if !(2..=MAX_N_FREQ).contains(&a.n_freq) {
-        return Err(Error::Input(format!("--n-freq {} is outside 2..={MAX_N_FREQ}", a.n_freq)));
+        return Err(Error::Input(format!(
+            "--n-freq {} is outside 2..={MAX_N_FREQ}",
+            a.n_freq
+        )));
     }
     if method == Method::Etfe && data.len() > MAX_ETFE_SAMPLES {
         return Err(Error::Input(format!(

@@ -54,13 +54,23 @@ pub fn spectra_figure(a: &AxisNoise, units: [&str; 3]) -> Figure {
         }
     }
     for p in a.peaks.iter().take(4) {
-        gyro.markers.push(Marker::Vertical { x: p.freq_hz, label: format!("{:.0} Hz {}", p.freq_hz, p.kind) });
+        gyro.markers.push(Marker::Vertical {
+            x: p.freq_hz,
+            label: format!("{:.0} Hz {}", p.freq_hz, p.kind),
+        });
     }
     let mut panels = vec![gyro];
     if !other.series.is_empty() {
         panels.push(other);
     }
-    Figure::new(format!("{} noise spectra (Welch, {} frames)", a.axis.name(), a.by_time.frames.iter().sum::<usize>()), panels)
+    Figure::new(
+        format!(
+            "{} noise spectra (Welch, {} frames)",
+            a.axis.name(),
+            a.by_time.frames.iter().sum::<usize>()
+        ),
+        panels,
+    )
 }
 
 /// The gyro chain's Bode plot: flown and what-if, gain and phase.
@@ -69,18 +79,27 @@ pub fn chain_figure(a: &AxisNoise) -> Figure {
     let mut phase = Panel::frequency("phase [deg]");
     phase.y_degrees = true;
     let mut add = |name: &str, c: &ChainResponse, k: usize| {
-        gain.series.push(Series::line(name, c.freq_hz.clone(), c.gain_db.clone()).colored(k));
-        phase.series.push(Series::line(name, c.freq_hz.clone(), c.phase_deg.clone()).colored(k));
+        gain.series
+            .push(Series::line(name, c.freq_hz.clone(), c.gain_db.clone()).colored(k));
+        phase
+            .series
+            .push(Series::line(name, c.freq_hz.clone(), c.phase_deg.clone()).colored(k));
     };
     add("flown gyro chain", &a.gyro_chain, 0);
     if let Some(w) = &a.what_if_chain {
         add("what-if gyro chain", w, 1);
     }
     for (f, d) in &a.gyro_chain.delay_ms_at {
-        phase.markers.push(Marker::Vertical { x: *f, label: format!("{d:.2} ms") });
+        phase.markers.push(Marker::Vertical {
+            x: *f,
+            label: format!("{d:.2} ms"),
+        });
     }
     gain.title = format!("{} gyro filter chain at the flight's median throttle", a.axis.name());
-    Figure::new("gyro filter chain (firmware's discrete filters at the loop rate)", vec![gain, phase])
+    Figure::new(
+        "gyro filter chain (firmware's discrete filters at the loop rate)",
+        vec![gain, phase],
+    )
 }
 
 /// A spectrogram as a heatmap, with the motor harmonics where eRPM is logged.
@@ -88,12 +107,22 @@ pub fn heatmap(a: &AxisNoise, h: &Heat, x_label: &str, what: &str, unit: &str) -
     let rows: Vec<usize> = (0..h.x.len()).filter(|&i| h.frames[i] > 0).collect();
     let overlays = (1..=3)
         .filter_map(|k| {
-            let pts: Vec<(f64, f64)> = rows.iter().filter_map(|&i| h.motor_hz[i].map(|m| (h.x[i], m * k as f64))).collect();
-            (pts.len() >= 2).then(|| Overlay { label: format!("motor ×{k}"), points: pts })
+            let pts: Vec<(f64, f64)> = rows
+                .iter()
+                .filter_map(|&i| h.motor_hz[i].map(|m| (h.x[i], m * k as f64)))
+                .collect();
+            (pts.len() >= 2).then(|| Overlay {
+                label: format!("motor ×{k}"),
+                points: pts,
+            })
         })
         .collect();
     Heatmap {
-        title: format!("{} {what} against {}", a.axis.name(), x_label.split(' ').next().unwrap_or("x")),
+        title: format!(
+            "{} {what} against {}",
+            a.axis.name(),
+            x_label.split(' ').next().unwrap_or("x")
+        ),
         x_label: x_label.into(),
         y_label: "frequency [Hz]".into(),
         colorbar_label: format!("PSD [dB re 1 ({unit})²/Hz]"),
@@ -121,12 +150,21 @@ pub fn write_outputs(out: &NoiseAnalysis, dir: &Path) -> Result<()> {
         "{} — {:.1} s airborne in {} frames of {:.3} s at {:.0} Hz; the firmware's filters run at {:.0} Hz.",
         out.firmware, out.airborne_s, out.frames, out.frame_s, out.log_rate_hz, out.loop_hz
     ));
-    let mut rows: Vec<Vec<String>> = out.flown.stages.iter().map(|s| vec!["flown".into(), s.describe()]).collect();
+    let mut rows: Vec<Vec<String>> = out
+        .flown
+        .stages
+        .iter()
+        .map(|s| vec!["flown".into(), s.describe()])
+        .collect();
     if let Some((_, changes)) = &out.what_if {
         rows.extend(changes.iter().map(|c| vec!["what-if change".into(), c.clone()]));
     }
     rep.section("Filter chain").table(&["", "stage"], rows);
-    let what = if out.raw_gyro.is_some() { "raw gyro" } else { "gyro (logged, after the filters)" };
+    let what = if out.raw_gyro.is_some() {
+        "raw gyro"
+    } else {
+        "gyro (logged, after the filters)"
+    };
     for a in &out.axes {
         let name = a.axis.name();
         let spectra = spectra_figure(a, out.units);
@@ -141,18 +179,25 @@ pub fn write_outputs(out: &NoiseAnalysis, dir: &Path) -> Result<()> {
                 Ok(()) => svgs.push((h.to_svg_string()?, h.title.clone())),
                 // A flight without a throttle channel has no throttle rows: say so, keep going.
                 Err(e) => {
-                    rep.section(format!("{name}: spectrogram against {file}")).text(format!("not drawn: {e}"));
+                    rep.section(format!("{name}: spectrogram against {file}"))
+                        .text(format!("not drawn: {e}"));
                 }
             }
         }
         let text = super::report::axis_summary(a, out.units[0]);
         let sec = rep.section(format!("{name} axis"));
         sec.blocks.push(Block::Pre(text));
-        sec.interactive_figure(spectra, "PSD in dB (Welch over the airborne frames); dashed: predicted by a filter chain");
+        sec.interactive_figure(
+            spectra,
+            "PSD in dB (Welch over the airborne frames); dashed: predicted by a filter chain",
+        );
         for (svg, caption) in svgs {
             sec.blocks.push(Block::Svg { svg, caption });
         }
-        sec.figure(chain, "the gyro chain's gain and phase; the markers give its phase delay at 10, 20, 50 and 100 Hz");
+        sec.figure(
+            chain,
+            "the gyro chain's gain and phase; the markers give its phase delay at 10, 20, 50 and 100 Hz",
+        );
     }
     if !out.notes.is_empty() {
         rep.section("Notes").text(out.notes.join("\n"));

@@ -62,9 +62,9 @@ impl FrameSource {
         };
         let mut cols = Vec::new();
         for &a in axes {
-            let g = ch.gyro[a].as_deref().ok_or_else(|| {
-                Error::Input(format!("{}: no gyro channel for axis {a}", log.source))
-            })?;
+            let g = ch.gyro[a]
+                .as_deref()
+                .ok_or_else(|| Error::Input(format!("{}: no gyro channel for axis {a}", log.source)))?;
             cols.push(AxisColumns {
                 gyro: push(g),
                 raw: raw.map(|r| push(&r[a])),
@@ -73,15 +73,23 @@ impl FrameSource {
         }
         let motors: Vec<usize> = ch.motors.iter().map(|m| push(m)).collect();
         let throttle = ch.throttle.as_ref().map(|(n, lo, hi)| (push(n), *lo, *hi));
-        let rotation = ch.rotation.as_ref().map(|(ns, k)| (ns.iter().map(|n| push(n)).collect(), *k));
+        let rotation = ch
+            .rotation
+            .as_ref()
+            .map(|(ns, k)| (ns.iter().map(|n| push(n)).collect(), *k));
         let (t, _) = log.series(&names[cols[0].gyro])?;
         let rate = skyloop_sysid::logs::median_rate_hz(&t);
         if !(rate.is_finite() && rate > 0.0) {
-            return Err(Error::Input(format!("{}: the gyro has no steady sample rate", log.source)));
+            return Err(Error::Input(format!(
+                "{}: the gyro has no steady sample rate",
+                log.source
+            )));
         }
         let refs: Vec<&str> = names.iter().map(String::as_str).collect();
         let d = log.uniform(&refs, Some(rate), None, None)?;
-        let nfft = ((FRAME_S / d.dt_s).round() as usize).next_power_of_two().clamp(64, 4096);
+        let nfft = ((FRAME_S / d.dt_s).round() as usize)
+            .next_power_of_two()
+            .clamp(64, 4096);
         Ok(FrameSource {
             dt_s: d.dt_s,
             t0_s: d.t0_s,
@@ -180,9 +188,17 @@ pub(crate) fn strongest_peaks(d: &[f64], df_hz: f64, n: usize) -> Vec<f64> {
         .take(n)
         .map(|&(k, _)| {
             // Parabolic interpolation of the peak on the dB scale (a Hann window's main lobe).
-            let (a, b, c) = (d[k - 1].max(1e-300).ln(), d[k].max(1e-300).ln(), d[k + 1].max(1e-300).ln());
+            let (a, b, c) = (
+                d[k - 1].max(1e-300).ln(),
+                d[k].max(1e-300).ln(),
+                d[k + 1].max(1e-300).ln(),
+            );
             let den = a - 2.0 * b + c;
-            let off = if den.abs() > 1e-12 { (0.5 * (a - c) / den).clamp(-0.5, 0.5) } else { 0.0 };
+            let off = if den.abs() > 1e-12 {
+                (0.5 * (a - c) / den).clamp(-0.5, 0.5)
+            } else {
+                0.0
+            };
             (k as f64 + off) * df_hz
         })
         .collect()

@@ -21,7 +21,9 @@ pub mod report;
 use crate::error::{Error, Result};
 use crate::firmware::betaflight::Axis;
 use crate::firmware::channels::noise_channels;
-use crate::firmware::filters::{flown_chain, raw_gyro_tap, FilterChain, OperatingPoint, Path, RawGyroTap, Stage, StageKind};
+use crate::firmware::filters::{
+    flown_chain, raw_gyro_tap, FilterChain, OperatingPoint, Path, RawGyroTap, Stage, StageKind,
+};
 use frames::{strongest_peaks, Frame, FrameSource, FRAME_S};
 use num_complex::Complex64;
 use peaks::Peak;
@@ -172,11 +174,16 @@ pub fn analyze(req: &NoiseRequest) -> Result<NoiseAnalysis> {
             log.source
         ))
     })?;
-    let (flown, chain_notes) = flown_chain(&log).ok_or_else(|| Error::Input(format!("{}: the log states no filter settings", log.source)))?;
+    let (flown, chain_notes) =
+        flown_chain(&log).ok_or_else(|| Error::Input(format!("{}: the log states no filter settings", log.source)))?;
     notes.extend(chain_notes);
     let what_if = req.filters.map(|s| flown.with_changes(s)).transpose()?;
     let tap = raw_gyro_tap(&log);
-    let axes: Vec<Axis> = if req.axes.is_empty() { vec![Axis::Roll, Axis::Pitch, Axis::Yaw] } else { req.axes.clone() };
+    let axes: Vec<Axis> = if req.axes.is_empty() {
+        vec![Axis::Roll, Axis::Pitch, Axis::Yaw]
+    } else {
+        req.axes.clone()
+    };
     let idx: Vec<usize> = axes.iter().map(|a| a.index()).collect();
     let src = FrameSource::new(&log, &ch, tap.as_ref().map(|t| &t.channels), &idx)?;
     let spans = airborne(&log, ch.gyro[idx[0]].as_deref().unwrap_or_default(), &mut notes);
@@ -192,10 +199,20 @@ pub fn analyze(req: &NoiseRequest) -> Result<NoiseAnalysis> {
     }
     let seg = SegmentPsd::new(src.nfft, src.dt_s);
     let evals = Evaluators::new(&flown, what_if.as_ref().map(|w| &w.0), tap.as_ref(), &seg.freq_hz())?;
-    if tap.is_none() && what_if.as_ref().is_some_and(|(w, _)| w.stages.iter().filter(|s| is_tracking(s)).any(|s| !flown.stages.contains(s))) {
+    if tap.is_none()
+        && what_if.as_ref().is_some_and(|(w, _)| {
+            w.stages
+                .iter()
+                .filter(|s| is_tracking(s))
+                .any(|s| !flown.stages.contains(s))
+        })
+    {
         notes.push("the what-if changes a tracking notch but the log holds no raw gyro: only the new notches are applied (what the flown ones removed cannot be seen); log debug GYRO_SCALED for an exact what-if".into());
     }
-    let mut acc: Vec<Accum> = idx.iter().map(|_| Accum::new(seg.bins(), starts.len().min(TIME_COLUMNS))).collect();
+    let mut acc: Vec<Accum> = idx
+        .iter()
+        .map(|_| Accum::new(seg.bins(), starts.len().min(TIME_COLUMNS)))
+        .collect();
     let mut ops: Vec<OperatingPoint> = Vec::new();
     for (n, &k) in starts.iter().enumerate() {
         if n % (starts.len() / 10).max(1) == 0 {
@@ -205,7 +222,11 @@ pub fn analyze(req: &NoiseRequest) -> Result<NoiseAnalysis> {
         let col = n * acc[0].time.len() / starts.len();
         for (a, acc) in acc.iter_mut().enumerate() {
             let op = OperatingPoint {
-                peaks_hz: strongest_peaks(frame.raw[a].as_ref().unwrap_or(&frame.gyro[a]), 1.0 / (src.nfft as f64 * src.dt_s), 5),
+                peaks_hz: strongest_peaks(
+                    frame.raw[a].as_ref().unwrap_or(&frame.gyro[a]),
+                    1.0 / (src.nfft as f64 * src.dt_s),
+                    5,
+                ),
                 ..frame.op.clone()
             };
             acc.add(&frame, a, &op, &evals, col)?;
@@ -223,7 +244,10 @@ pub fn analyze(req: &NoiseRequest) -> Result<NoiseAnalysis> {
     }
     Ok(NoiseAnalysis {
         source: log.source.clone(),
-        firmware: log.setting("Firmware revision").unwrap_or("unknown firmware").to_string(),
+        firmware: log
+            .setting("Firmware revision")
+            .unwrap_or("unknown firmware")
+            .to_string(),
         log_rate_hz: src.rate_hz(),
         loop_hz: flown.loop_hz,
         frame_s: src.nfft as f64 * src.dt_s,
@@ -246,7 +270,10 @@ fn airborne(log: &skyloop_sysid::logs::Log, base: &str, notes: &mut Vec<String>)
         Err(e) => {
             notes.push(format!("no airborne segment found ({e}); the whole log is analysed"));
             let (t, _) = log.series(base).unwrap_or_default();
-            vec![Span { from_s: t.first().copied().unwrap_or(0.0), to_s: t.last().copied().unwrap_or(0.0) }]
+            vec![Span {
+                from_s: t.first().copied().unwrap_or(0.0),
+                to_s: t.last().copied().unwrap_or(0.0),
+            }]
         }
     }
 }
@@ -282,7 +309,10 @@ impl ChainEval {
 }
 
 fn is_dynamic(k: &StageKind) -> bool {
-    matches!(k, StageKind::DynamicLowpass { .. } | StageKind::DynamicNotch { .. } | StageKind::Rpm { .. })
+    matches!(
+        k,
+        StageKind::DynamicLowpass { .. } | StageKind::DynamicNotch { .. } | StageKind::Rpm { .. }
+    )
 }
 
 /// Every chain the accumulation applies.
@@ -310,9 +340,15 @@ fn is_tracking(s: &Stage) -> bool {
 }
 
 impl Evaluators {
-    fn new(flown: &FilterChain, what_if: Option<&FilterChain>, tap: Option<&RawGyroTap>, freq: &[f64]) -> Result<Evaluators> {
+    fn new(
+        flown: &FilterChain,
+        what_if: Option<&FilterChain>,
+        tap: Option<&RawGyroTap>,
+        freq: &[f64],
+    ) -> Result<Evaluators> {
         let after = |c: &FilterChain| -> Result<Option<ChainEval>> {
-            tap.map(|t| ChainEval::new(c, Path::Gyro, |s| !t.applied.contains(&s.name), freq)).transpose()
+            tap.map(|t| ChainEval::new(c, Path::Gyro, |s| !t.applied.contains(&s.name), freq))
+                .transpose()
         };
         let what_if = match what_if {
             None => None,
@@ -329,7 +365,11 @@ impl Evaluators {
                 })
             }
         };
-        Ok(Evaluators { freq: freq.to_vec(), after_tap: after(flown)?, what_if })
+        Ok(Evaluators {
+            freq: freq.to_vec(),
+            after_tap: after(flown)?,
+            what_if,
+        })
     }
 }
 
@@ -364,7 +404,12 @@ impl Accum {
     fn add(&mut self, f: &Frame, a: usize, op: &OperatingPoint, ev: &Evaluators, col: usize) -> Result<()> {
         self.count += 1;
         let mul = |d: &[f64], g: &[f64]| d.iter().zip(g).map(|(x, y)| x * y).collect::<Vec<f64>>();
-        let ratio = |new: &[f64], old: &[f64]| new.iter().zip(old).map(|(n, o)| n / o.max(MIN_FLOWN_GAIN2)).collect::<Vec<f64>>();
+        let ratio = |new: &[f64], old: &[f64]| {
+            new.iter()
+                .zip(old)
+                .map(|(n, o)| n / o.max(MIN_FLOWN_GAIN2))
+                .collect::<Vec<f64>>()
+        };
         self.add_to("gyro", &f.gyro[a]);
         if let Some(m) = &f.motors {
             self.add_to("motors", m);
@@ -422,8 +467,11 @@ impl Accum {
         op: &OperatingPoint,
     ) -> Result<AxisNoise> {
         let n = self.count.max(1) as f64;
-        let spectra: Vec<(&'static str, Vec<f64>)> =
-            self.sums.iter().map(|(name, s)| (*name, s.iter().map(|v| db(v / n)).collect())).collect();
+        let spectra: Vec<(&'static str, Vec<f64>)> = self
+            .sums
+            .iter()
+            .map(|(name, s)| (*name, s.iter().map(|v| db(v / n)).collect()))
+            .collect();
         let get = |name: &str| spectra.iter().find(|(n, _)| *n == name).map(|(_, v)| v.clone());
         let by_throttle = heat_rows(
             freq,
@@ -434,7 +482,10 @@ impl Accum {
         );
         let by_time = heat_rows(
             freq,
-            self.time.iter().filter(|(_, c, _)| *c > 0).map(|(s, c, t)| (t / *c as f64, s.as_slice(), *c, None)),
+            self.time
+                .iter()
+                .filter(|(_, c, _)| *c > 0)
+                .map(|(s, c, t)| (t / *c as f64, s.as_slice(), *c, None)),
         );
         let pre = get("gyro_raw").or_else(|| get("gyro")).unwrap_or_default();
         let validation = match (get("gyro_predicted"), get("gyro")) {
@@ -460,10 +511,20 @@ fn db(v: f64) -> f64 {
 }
 
 fn heat_rows<'a>(freq: &[f64], rows: impl Iterator<Item = (f64, &'a [f64], usize, Option<f64>)>) -> Heat {
-    let mut h = Heat { x: Vec::new(), freq_hz: freq.to_vec(), psd_db: Vec::new(), frames: Vec::new(), motor_hz: Vec::new() };
+    let mut h = Heat {
+        x: Vec::new(),
+        freq_hz: freq.to_vec(),
+        psd_db: Vec::new(),
+        frames: Vec::new(),
+        motor_hz: Vec::new(),
+    };
     for (x, s, c, m) in rows {
         h.x.push(x);
-        h.psd_db.push(s.iter().map(|v| if c > 0 { db(v / c as f64) } else { f64::NAN }).collect());
+        h.psd_db.push(
+            s.iter()
+                .map(|v| if c > 0 { db(v / c as f64) } else { f64::NAN })
+                .collect(),
+        );
         h.frames.push(c);
         h.motor_hz.push(m);
     }
@@ -507,8 +568,12 @@ fn median_operating_point(ops: &[OperatingPoint]) -> OperatingPoint {
     let motors = ops.iter().map(|o| o.motor_hz.len()).max().unwrap_or(0);
     OperatingPoint {
         throttle: median(ops.iter().filter_map(|o| o.throttle).collect()),
-        motor_hz: (0..motors).filter_map(|m| median(ops.iter().filter_map(|o| o.motor_hz.get(m).copied()).collect())).collect(),
-        peaks_hz: (0..5).filter_map(|p| median(ops.iter().filter_map(|o| o.peaks_hz.get(p).copied()).collect())).collect(),
+        motor_hz: (0..motors)
+            .filter_map(|m| median(ops.iter().filter_map(|o| o.motor_hz.get(m).copied()).collect()))
+            .collect(),
+        peaks_hz: (0..5)
+            .filter_map(|p| median(ops.iter().filter_map(|o| o.peaks_hz.get(p).copied()).collect()))
+            .collect(),
     }
 }
 

@@ -46,7 +46,13 @@ pub fn find(freq: &[f64], psd_db: &[f64], by_throttle: &Heat, tracks: &[(f64, Ve
         .filter(|&k| psd_db[k] - floor[k] >= MIN_PROMINENCE_DB)
         .map(|k| {
             let (kind, reason) = name(freq[k], width_hz(freq, psd_db, k, floor[k]), by_throttle, tracks);
-            Peak { freq_hz: freq[k], db: psd_db[k], prominence_db: psd_db[k] - floor[k], kind, reason }
+            Peak {
+                freq_hz: freq[k],
+                db: psd_db[k],
+                prominence_db: psd_db[k] - floor[k],
+                kind,
+                reason,
+            }
         })
         .collect();
     peaks.sort_by(|a, b| b.prominence_db.total_cmp(&a.prominence_db));
@@ -69,7 +75,10 @@ fn regression(pairs: &[(f64, f64)]) -> Option<(f64, f64, f64, f64)> {
         return None;
     }
     let n = pairs.len() as f64;
-    let (mt, mf) = (pairs.iter().map(|p| p.0).sum::<f64>() / n, pairs.iter().map(|p| p.1).sum::<f64>() / n);
+    let (mt, mf) = (
+        pairs.iter().map(|p| p.0).sum::<f64>() / n,
+        pairs.iter().map(|p| p.1).sum::<f64>() / n,
+    );
     let (mut stt, mut sff, mut stf) = (0.0, 0.0, 0.0);
     for (t, f) in pairs {
         stt += (t - mt) * (t - mt);
@@ -89,19 +98,30 @@ fn regression(pairs: &[(f64, f64)]) -> Option<(f64, f64, f64, f64)> {
 /// one, else by how it moves with the throttle over the frames' `tracks`.
 fn name(f: f64, width: f64, heat: &Heat, tracks: &[(f64, Vec<f64>)]) -> (&'static str, String) {
     // A harmonic of the logged motor speed, in the rows that have it.
-    let harmonic = heat.motor_hz.iter().zip(&heat.frames).filter(|(m, c)| m.is_some() && **c >= 3).find_map(|(m, _)| {
-        let m = (*m)?;
-        (1..=3).find(|h| ((f - m * *h as f64) / f).abs() < 0.08).map(|h| (h, m))
-    });
+    let harmonic = heat
+        .motor_hz
+        .iter()
+        .zip(&heat.frames)
+        .filter(|(m, c)| m.is_some() && **c >= 3)
+        .find_map(|(m, _)| {
+            let m = (*m)?;
+            (1..=3).find(|h| ((f - m * *h as f64) / f).abs() < 0.08).map(|h| (h, m))
+        });
     if let Some((h, m)) = harmonic {
-        return ("motor harmonic", format!("at harmonic {h} of the logged motor speed ({m:.0} Hz)"));
+        return (
+            "motor harmonic",
+            format!("at harmonic {h} of the logged motor speed ({m:.0} Hz)"),
+        );
     }
     // Where the peak sits frame by frame against that frame's throttle: the nearest of the frame's
     // strongest peaks within ±30 %, regressed on throttle.
     let pairs: Vec<(f64, f64)> = tracks
         .iter()
         .filter_map(|(t, peaks)| {
-            let near = peaks.iter().filter(|p| (**p - f).abs() <= 0.3 * f).min_by(|a, b| (*a - f).abs().total_cmp(&(*b - f).abs()))?;
+            let near = peaks
+                .iter()
+                .filter(|p| (**p - f).abs() <= 0.3 * f)
+                .min_by(|a, b| (*a - f).abs().total_cmp(&(*b - f).abs()))?;
             Some((*t, *near))
         })
         .collect();
@@ -159,7 +179,13 @@ mod tests {
     #[test]
     fn moving_and_fixed_peaks_are_told_apart() {
         let freq: Vec<f64> = (0..=250).map(|k| k as f64 * 2.0).collect();
-        let heat = Heat { x: vec![50.0], freq_hz: freq.clone(), psd_db: vec![vec![0.0; freq.len()]], frames: vec![1], motor_hz: vec![None] };
+        let heat = Heat {
+            x: vec![50.0],
+            freq_hz: freq.clone(),
+            psd_db: vec![vec![0.0; freq.len()]],
+            frames: vec![1],
+            motor_hz: vec![None],
+        };
         let tracks: Vec<(f64, Vec<f64>)> = (0..40)
             .map(|i| {
                 let t = 0.2 + 0.5 * i as f64 / 39.0;
@@ -172,8 +198,16 @@ mod tests {
         assert_eq!(at(420.0).kind, "frame resonance", "{:?}", at(420.0));
         assert_eq!(at(220.0).kind, "motor harmonic", "{:?}", at(220.0));
         // With the motor speed logged, the harmonic is named by it.
-        let with_rpm = Heat { motor_hz: vec![Some(110.0)], frames: vec![5], ..heat };
+        let with_rpm = Heat {
+            motor_hz: vec![Some(110.0)],
+            frames: vec![5],
+            ..heat
+        };
         let q = find(&freq, &mean, &with_rpm, &[]);
-        assert!(q.iter().any(|x| x.kind == "motor harmonic" && x.reason.contains("harmonic 2")), "{q:?}");
+        assert!(
+            q.iter()
+                .any(|x| x.kind == "motor harmonic" && x.reason.contains("harmonic 2")),
+            "{q:?}"
+        );
     }
 }

@@ -126,17 +126,31 @@ impl NoiseAnalysis {
 
 /// Power of a dB spectrum between two frequencies, as dB of the band's mean density.
 fn band_db(freq: &[f64], v: &[f64], lo: f64, hi: f64) -> Option<f64> {
-    let p: Vec<f64> = freq.iter().zip(v).filter(|(f, _)| **f >= lo && **f < hi).map(|(_, d)| 10f64.powf(d / 10.0)).collect();
+    let p: Vec<f64> = freq
+        .iter()
+        .zip(v)
+        .filter(|(f, _)| **f >= lo && **f < hi)
+        .map(|(_, d)| 10f64.powf(d / 10.0))
+        .collect();
     (!p.is_empty()).then(|| 10.0 * (p.iter().sum::<f64>() / p.len() as f64).log10())
 }
 
 /// One axis' text block: chain delay, validation, peaks and the PSD per band of every spectrum.
 pub fn axis_summary(a: &AxisNoise, unit: &str) -> String {
     let mut s = format!("\n{}:\n", a.axis.name());
-    let delays: Vec<String> = a.gyro_chain.delay_ms_at.iter().map(|(f, d)| format!("{d:.2} ms at {f} Hz")).collect();
+    let delays: Vec<String> = a
+        .gyro_chain
+        .delay_ms_at
+        .iter()
+        .map(|(f, d)| format!("{d:.2} ms at {f} Hz"))
+        .collect();
     s += &format!("  flown gyro chain delay: {}\n", delays.join(", "));
     if let Some(w) = &a.what_if_chain {
-        let d: Vec<String> = w.delay_ms_at.iter().map(|(f, d)| format!("{d:.2} ms at {f} Hz")).collect();
+        let d: Vec<String> = w
+            .delay_ms_at
+            .iter()
+            .map(|(f, d)| format!("{d:.2} ms at {f} Hz"))
+            .collect();
         s += &format!("  what-if gyro chain delay: {}\n", d.join(", "));
     }
     if let Some(v) = &a.validation {
@@ -149,7 +163,10 @@ pub fn axis_summary(a: &AxisNoise, unit: &str) -> String {
         s += "  peaks: none 6 dB above the floor\n";
     }
     for p in &a.peaks {
-        s += &format!("  peak {:6.1} Hz {:6.1} dB (+{:.1} dB): {} — {}\n", p.freq_hz, p.db, p.prominence_db, p.kind, p.reason);
+        s += &format!(
+            "  peak {:6.1} Hz {:6.1} dB (+{:.1} dB): {} — {}\n",
+            p.freq_hz, p.db, p.prominence_db, p.kind, p.reason
+        );
     }
     let bands = [(0.0, 20.0), (20.0, 100.0), (100.0, 250.0), (250.0, f64::INFINITY)];
     s += &format!("  mean PSD per band, dB re 1 ({unit})²/Hz:   0–20 Hz  20–100  100–250  250+\n");

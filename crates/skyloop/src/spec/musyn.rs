@@ -139,7 +139,10 @@ impl MusynSpec {
         match (&o.w_rad_s, o.w_min_rad_s, o.w_max_rad_s, o.n_freq) {
             (Some(w), None, None, None) => {
                 if w.len() > MAX_N_FREQ {
-                    return Err(Error::Spec(format!("options: w_rad_s has {} frequencies, at most {MAX_N_FREQ}", w.len())));
+                    return Err(Error::Spec(format!(
+                        "options: w_rad_s has {} frequencies, at most {MAX_N_FREQ}",
+                        w.len()
+                    )));
                 }
                 opts.w_rad_s = w.clone()
             }

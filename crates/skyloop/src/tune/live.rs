@@ -98,7 +98,9 @@ impl LiveLoop {
             RateGains::Px4 { gains, axis, filters } => {
                 let n = px4::param_names(*axis);
                 if cutoffs.len() > 1 {
-                    return Err(Error::Input("dterm_hz: PX4 has one D-term cutoff (IMU_DGYRO_CUTOFF)".into()));
+                    return Err(Error::Input(
+                        "dterm_hz: PX4 has one D-term cutoff (IMU_DGYRO_CUTOFF)".into(),
+                    ));
                 }
                 RateGains::Px4 {
                     gains: px4::Gains {
@@ -126,7 +128,9 @@ impl LiveLoop {
         let dterm = match g {
             RateGains::Betaflight { filters, .. } => stages(&filters.dterm),
             RateGains::Inav { filters, .. } => stages(&filters.dterm),
-            RateGains::Px4 { filters, .. } => vec![json!({"kind": "biquad", "cutoff_hz": filters.dgyro_cutoff_hz, "movable": true})],
+            RateGains::Px4 { filters, .. } => {
+                vec![json!({"kind": "biquad", "cutoff_hz": filters.dgyro_cutoff_hz, "movable": true})]
+            }
         };
         json!({"gains": g.to_json(), "dterm": dterm, "loop_hz": g.loop_hz()})
     }
@@ -200,7 +204,9 @@ fn cutoffs_of(v: &Value) -> Result<Vec<f64>> {
                     .ok_or_else(|| Error::Input(format!("dterm_hz: a cutoff must be a positive number of Hz, got {x}")))
             })
             .collect(),
-        Some(x) => Err(Error::Input(format!("dterm_hz must be a list of cutoffs in Hz, got {x}"))),
+        Some(x) => Err(Error::Input(format!(
+            "dterm_hz must be a list of cutoffs in Hz, got {x}"
+        ))),
     }
 }
 

@@ -22,8 +22,8 @@
 use super::candidates::{front, search, Scores, Screen, SearchLimits};
 use super::deconv::{step_from_log, DeconvOptions, MeasuredStep};
 use super::flight::{fly, FlightCheck, FlightSetup};
-use super::noise::{self, NoiseReport};
 use super::live::LiveLoop;
+use super::noise::{self, NoiseReport};
 use super::verdict::{proposal_text, Verdict, VerdictKind};
 use super::{outcome_for_gains, tune, with_hold, Firmware, GenericStructure, Maximize, TuneOutcome, TuneRequest};
 use crate::error::{Error, Result};
@@ -301,16 +301,17 @@ fn identify_stage(req: &LogTuneRequest, log: Log, derived: Vec<String>) -> Resul
     };
     // identify's refusals advise `--allow-poor-fit`, an option tune does not have: a tune is
     // never proposed from a fit identify would refuse.
-    let id = identify_log(&log, &idreq).map_err(|e| match e {
-        Error::Input(m) if m.contains("--allow-poor-fit") => Error::Input(format!(
+    let id =
+        identify_log(&log, &idreq).map_err(|e| match e {
+            Error::Input(m) if m.contains("--allow-poor-fit") => Error::Input(format!(
             "{} (tune proposes no gains from such a fit; `skyloop identify LOG --axis {} --allow-poor-fit` shows it)",
             m.replace(", or pass --allow-poor-fit to see it anyway", "")
                 .replace("; give --fmin-hz/--fmax-hz or --allow-poor-fit to fit anyway", "; give --fmin-hz/--fmax-hz")
                 .replace(" or --allow-poor-fit", ""),
             req.axis.name()
         )),
-        other => other,
-    })?;
+            other => other,
+        })?;
     let log_fw = Firmware::of_log(&log);
     if req.firmware != Firmware::Generic && log_fw != Some(req.firmware) {
         let l = log_fw.map_or("CSV", |f| f.display_name());
