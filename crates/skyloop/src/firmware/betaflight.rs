@@ -144,15 +144,13 @@ pub fn continuous(g: &Gains, axis: Axis) -> (f64, f64, f64, f64) {
 /// # Errors
 /// A negative gain or one above Betaflight's `PID_GAIN_MAX` (250) once scaled, named.
 pub fn from_continuous(kp: f64, ki: f64, kd: f64, f: u32, axis: Axis) -> Result<Gains> {
-    let conv = |name: &str, k: f64, scale: f64| -> Result<u32> {
-        let v = (k / scale).round();
-        if !(v >= 0.0 && v <= PID_GAIN_MAX as f64) {
-            return Err(Error::Input(format!(
-                "Betaflight {name}_{} = {v} is outside 0..={PID_GAIN_MAX} (continuous gain {k:.6e}); the plant's units may not be PID sum per deg/s",
-                axis.name()
-            )));
-        }
-        Ok(v as u32)
+    let conv = |name: &str, k: f64, scale: f64| {
+        super::integer_gain(
+            &format!("Betaflight {name}_{}", axis.name()),
+            k,
+            k / scale,
+            PID_GAIN_MAX,
+        )
     };
     if f > F_GAIN_MAX {
         return Err(Error::Input(format!(

@@ -91,15 +91,8 @@ pub fn continuous(g: &Gains) -> (f64, f64, f64, f64) {
 /// # Errors
 /// A negative gain or one above 255 once scaled, named.
 pub fn from_continuous(kp: f64, ki: f64, kd: f64, cd: u32, axis: Axis) -> Result<Gains> {
-    let conv = |name: &str, k: f64, m: f64| -> Result<u32> {
-        let v = (k * m).round();
-        if !(v >= 0.0 && v <= GAIN_MAX as f64) {
-            return Err(Error::Input(format!(
-                "INAV mc_{name}_{} = {v} is outside 0..={GAIN_MAX} (continuous gain {k:.6e}); the plant's units may not be PID sum per deg/s",
-                axis.name()
-            )));
-        }
-        Ok(v as u32)
+    let conv = |name: &str, k: f64, m: f64| {
+        super::integer_gain(&format!("INAV mc_{name}_{}", axis.name()), k, k * m, GAIN_MAX)
     };
     if cd > GAIN_MAX {
         return Err(Error::Input(format!(

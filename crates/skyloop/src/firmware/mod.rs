@@ -326,6 +326,22 @@ pub fn chain(stages: &[Lowpass]) -> Result<Option<StateSpace>> {
     Ok(acc)
 }
 
+/// The integer a firmware stores for continuous gain `k`, `scaled` being k in the firmware's units
+/// (rounded here), checked against 0..=`max`; `label` names the parameter in the error
+/// ("Betaflight p_roll", "INAV mc_p_roll").
+///
+/// # Errors
+/// A rounded value outside 0..=`max` (negative, too large or NaN).
+pub(crate) fn integer_gain(label: &str, k: f64, scaled: f64, max: u32) -> Result<u32> {
+    let v = scaled.round();
+    if !(v >= 0.0 && v <= max as f64) {
+        return Err(Error::Input(format!(
+            "{label} = {v} is outside 0..={max} (continuous gain {k:.6e}); the plant's units may not be PID sum per deg/s"
+        )));
+    }
+    Ok(v as u32)
+}
+
 /// The loop rate's sample and hold as a delay: half a period (the zero-order hold's average lag).
 ///
 /// # Errors
