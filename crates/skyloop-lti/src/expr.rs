@@ -813,19 +813,25 @@ fn realize_fact(f: &Fact) -> Result<StateSpace> {
     if f.k == 0.0 {
         return StateSpace::gain(one(0.0), 0.0);
     }
-    let mut k = f.k;
+    // The gain as sign and natural logarithm: the product of the factors' leading coefficients
+    // may leave the floating-point range ((1e-200·s + 1)² has 1e-400) while the realization, whose
+    // sections are each scaled near unit gain, does not.
+    let mut negative = f.k < 0.0;
+    let mut log_k = f.k.abs().ln();
     let mut z = Vec::new();
     let mut p = Vec::new();
-    for q in &f.num {
-        k *= factor_roots(q, &mut z)?;
+    for (q, sign) in f.num.iter().map(|q| (q, 1.0)).chain(f.den.iter().map(|q| (q, -1.0))) {
+        let lead = factor_roots(q, if sign > 0.0 { &mut z } else { &mut p })?;
+        negative ^= lead < 0.0;
+        log_k += sign * lead.abs().ln();
     }
-    for q in &f.den {
-        k /= factor_roots(q, &mut p)?;
-    }
-    if !k.is_finite() || k == 0.0 {
-        return Err(LtiError::InvalidArgument(format!(
-            "the expression's gain {k} is out of the floating-point range"
-        )));
+    let out_of_range = |log_k: f64| {
+        LtiError::InvalidArgument(format!(
+            "the expression's gain e^{log_k:.4} is out of the floating-point range"
+        ))
+    };
+    if !log_k.is_finite() {
+        return Err(out_of_range(log_k));
     }
     // Cancel roots shared by numerator and denominator (to 1e-10 relative, as tf_to_ss does).
     let mut zk = Vec::new();
@@ -912,11 +918,14 @@ fn realize_fact(f: &Fact) -> Result<StateSpace> {
         sections.push((Poly::one(), Den::Pair(s, w)));
     }
     if sections.is_empty() {
+        let k = if negative { -log_k.exp() } else { log_k.exp() };
+        if !k.is_finite() || k == 0.0 {
+            return Err(out_of_range(log_k));
+        }
         return StateSpace::gain(one(k), 0.0);
     }
     // Each section scaled to unit gain at its own corner frequency, the total gain spread evenly
     // (in logarithms, so 1e±300 gains neither overflow nor leave one section with all of it).
-    let mut log_k = k.abs().ln();
     let mut models = Vec::with_capacity(sections.len());
     for (num, den) in &sections {
         let w0 = if den.mag() > 0.0 && den.mag().is_finite() {
@@ -941,13 +950,11 @@ fn realize_fact(f: &Fact) -> Result<StateSpace> {
     let mut scaled = Vec::with_capacity(models.len());
     for (i, (mut m, g)) in models.into_iter().enumerate() {
         let mut f = (per - g.ln()).exp();
-        if i == 0 && k < 0.0 {
+        if i == 0 && negative {
             f = -f;
         }
         if !f.is_finite() || f == 0.0 {
-            return Err(LtiError::InvalidArgument(format!(
-                "the expression's gain {k} is out of the floating-point range"
-            )));
+            return Err(out_of_range(log_k));
         }
         // Split the factor between B and C so both stay balanced.
         let h = f.abs().sqrt();

@@ -433,6 +433,12 @@ fn allmargin_counted(l: &StateSpace) -> Result<(AllMargins, usize)> {
         }
         let (wa, wb) = (g.w[k], g.w[k + 1]);
         let (la, lb) = (g.l[k], g.l[k + 1]);
+        // Where the computed response over- or underflowed (NaN: inf − inf in a long chain of
+        // integrators, say) no side of |L| = 1 or of the real axis is known: a NaN compared as
+        // "below 1" would report a crossover at the overflow's edge.
+        if la.re.is_nan() || la.im.is_nan() || lb.re.is_nan() || lb.im.is_nan() {
+            continue;
+        }
         // Phase crossover: Im L changes sign where Re L < 0 (sin(arg L) is bounded and smooth there).
         if (la.im > 0.0) != (lb.im > 0.0) && (la.re < 0.0 || lb.re < 0.0) {
             let wc = brent_root(
@@ -457,6 +463,8 @@ fn allmargin_counted(l: &StateSpace) -> Result<(AllMargins, usize)> {
             let wc = brent_root(|w| lp.at_or_inf(w).norm().ln(), wa, wb, tol(wa, wb));
             let v = lp.at(wc)?;
             let pm = (-v).arg();
+            // (−180, 180]: −L = −1 − 0i (a signed zero) would read −180°.
+            let pm = if pm <= -PI { PI } else { pm };
             let pm_pos = if pm < 0.0 { pm + 2.0 * PI } else { pm };
             phase_margins.push(PhaseMargin {
                 pm_deg: pm.to_degrees(),

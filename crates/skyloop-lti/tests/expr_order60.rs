@@ -273,3 +273,43 @@ fn real_zeros_over_complex_pairs_order_60() {
     let e = response_error(&t, &sys, -3.0, 2.5);
     assert!(e < TOL, "response error {e:e}");
 }
+
+/// A chain of 1000 integrators: |L| = ω^-1000 overflows below 0.5 rad/s (NaN in the computed
+/// response), which once read as a gain crossover at 0.078 Hz with a NaN phase margin. The only
+/// crossover is at 1 rad/s, where L = (−j)^1000 = +1: PM 180°, no phase crossover, unstable.
+#[test]
+fn margins_of_a_thousand_integrators_find_the_one_crossover() {
+    let l = skyloop_lti::expr::parse_model("1/s^1000").unwrap();
+    let all = skyloop_lti::margins::allmargin(&l).unwrap();
+    assert!(!all.stable);
+    assert_eq!(all.phase_margins.len(), 1, "{all:?}");
+    let pm = all.phase_margins[0];
+    assert!((pm.w_rad_s - 1.0).abs() < 1e-9 && pm.pm_deg == 180.0, "{pm:?}");
+    assert!(all.gain_margins.is_empty(), "{all:?}");
+}
+
+/// (1e-200·s + 1)² has a leading coefficient 1e-400 beyond the floating-point range, but its
+/// realization does not: the H∞ norm is 1 (at DC) and the H2 norm 1/(2·sqrt(τ)) = 5e99.
+#[test]
+fn extreme_time_constants_realize_and_have_their_norms() {
+    for (expr, hinf, h2) in [
+        ("1/(1e-200*s+1)^2", 1.0, 5e99),
+        ("1/(1e200*s+1)^2", 1.0, 5e-101),
+        ("-3/(1e-200*s+1)^3", 3.0, f64::NAN),
+    ] {
+        let g = skyloop_lti::expr::parse_model(expr).unwrap();
+        let (n, _) = skyloop_lti::norms::hinf_norm(&g).unwrap();
+        assert!((n - hinf).abs() < 1e-9 * hinf, "{expr}: {n}");
+        if h2.is_finite() {
+            let n2 = skyloop_lti::norms::h2_norm(&g).unwrap();
+            assert!((n2 / h2 - 1.0).abs() < 1e-9, "{expr}: {n2}");
+        }
+    }
+    let e = skyloop_lti::expr::parse_model("1e300*1e300/(s+1)")
+        .map(|_| ())
+        .unwrap_err();
+    assert!(
+        e.to_string().contains("floating-point range") || e.to_string().contains("1e300"),
+        "{e}"
+    );
+}

@@ -30,9 +30,10 @@ fn num(v: f64) -> String {
     }
 }
 
-/// The text safe inside a C block comment: no `*/` (which would end it) and no line breaks.
+/// The text safe inside a C block comment: no `*/` (which would end it), no `/*` (gcc's -Wcomment,
+/// an error under -Werror) and no line breaks.
 fn comment_safe(t: &str) -> String {
-    t.replace("*/", "* /").replace(['\n', '\r'], " ")
+    t.replace("*/", "* /").replace("/*", "/ *").replace(['\n', '\r'], " ")
 }
 
 /// Writes the C header text for a discrete model.
@@ -137,7 +138,8 @@ pub fn header(d: &skyloop_lti::StateSpace, name: &str, ty: &str, u_min: f64, u_m
         let _ = writeln!(s, "        xn[i] = acc;\n    }}");
         let _ = writeln!(s, "    for (int i = 0; i < {up}_NX; ++i) s->x[i] = xn[i];");
     } else {
-        let _ = writeln!(s, "    (void)xn;");
+        // A pure gain has no state to update: v and xn are unused (an error under -Werror).
+        let _ = writeln!(s, "    (void)xn;\n    (void)v;");
     }
     let _ = writeln!(s, "}}\n\n#endif /* {up}_H */");
     s
