@@ -316,3 +316,42 @@ fn monte_carlo_spreads_are_bounded() {
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(err.contains("monte_carlo.mass_sd") && err.contains("0..=1"), "{err}");
 }
+
+/// A long run states its cost up front and reports progress on stderr (a line every 10 % when
+/// stderr is not a terminal); one beyond the step bound is refused before it starts.
+#[test]
+fn long_simulations_state_their_cost_and_progress() {
+    let dir = tmp("long");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let text = std::fs::read_to_string(example("bicopter-hinf.toml")).expect("example");
+    let scn = dir.join("long.toml");
+    std::fs::write(
+        &scn,
+        text.replacen("duration_s = 8.0", "duration_s = 1100.0", 1)
+            .replacen("log_hz = 250.0", "log_hz = 50.0", 1),
+    )
+    .expect("write");
+    let o = skyloop()
+        .arg("simulate")
+        .arg(&scn)
+        .arg("--out")
+        .arg(dir.join("out"))
+        .output()
+        .expect("runs");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("M physics steps") && err.contains("simulated 50 %") && err.contains("simulated 100 %"),
+        "{err}"
+    );
+    std::fs::write(&scn, text.replacen("duration_s = 8.0", "duration_s = 360000.0", 1)).expect("write");
+    let o = skyloop()
+        .arg("simulate")
+        .arg(&scn)
+        .arg("--out")
+        .arg(dir.join("out"))
+        .output()
+        .expect("runs");
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("sim.duration_s × sim.physics_hz"));
+}

@@ -19,5 +19,5 @@ pub mod vehicle;
 pub use error::{Result, SimError};
 pub use linearize::{linearize, Linearization};
 pub use scenario::Scenario;
-pub use sim::{simulate, Metrics, Sample, Simulation};
+pub use sim::{simulate, simulate_with_progress, Metrics, Sample, Simulation};
 pub use vehicle::{Vehicle, VehicleSpec};

@@ -8,6 +8,13 @@ use crate::geometry::V3;
 use crate::sensors::GyroSpec;
 use crate::vehicle::VehicleSpec;
 
+/// Most physics steps one run may take (sim.duration_s × sim.physics_hz): a step costs 1–3 µs,
+/// so the bound is about 10 minutes of CPU.
+pub const MAX_STEPS: f64 = 2e8;
+
+/// Most trace samples one run may log (sim.duration_s × sim.log_hz): about 500 MB in memory.
+pub const MAX_TRACE_SAMPLES: f64 = 2e6;
+
 /// A vehicle given by preset name (with optional overrides of the rigid body) or in full.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(untagged)]
@@ -172,8 +179,25 @@ impl Scenario {
         check_numbers(&tree, "")?;
         check_pos(self.sim.duration_s, "sim.duration_s")?;
         check_pos(self.sim.physics_hz, "sim.physics_hz")?;
-        if self.sim.duration_s * self.sim.physics_hz > 1e9 {
-            return Err(SimError::Param("sim.duration_s × physics_hz exceeds 1e9 steps".into()));
+        let steps = self.sim.duration_s * self.sim.physics_hz;
+        if steps > MAX_STEPS {
+            return Err(SimError::Param(format!(
+                "sim.duration_s × sim.physics_hz = {steps:.3e} physics steps exceeds {MAX_STEPS:.0e} \
+                 (about 10 minutes at a few µs per step): shorten sim.duration_s or lower sim.physics_hz"
+            )));
+        }
+        // The trace is kept in memory (≈ 250 bytes a sample) and written as CSV and a plot.
+        let log_hz = if self.sim.log_hz > 0.0 {
+            self.sim.log_hz
+        } else {
+            self.controller.rate_hz
+        };
+        let samples = self.sim.duration_s * log_hz;
+        if samples > MAX_TRACE_SAMPLES {
+            return Err(SimError::Param(format!(
+                "sim.duration_s × sim.log_hz = {samples:.3e} trace samples exceeds {MAX_TRACE_SAMPLES:.0e} \
+                 (≈ 250 bytes each in memory, more as CSV): lower sim.log_hz (it defaults to the controller's rate_hz)"
+            )));
         }
         for r in &self.reference {
             r.value(self.controller.mode)?;
@@ -268,5 +292,31 @@ mod number_tests {
         assert_ne!(bad, text);
         let e = Scenario::from_toml(&bad).unwrap_err().to_string();
         assert!(e.contains("sim.duration_s") && e.contains("finite"), "{e}");
+    }
+
+    /// Runs whose steps or trace would take more than ~10 minutes or ~500 MB are refused up front
+    /// with the keys named; a long legal run reports its progress to the end.
+    #[test]
+    fn long_runs_are_bounded_and_report_progress() {
+        let text = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../examples/bicopter-hinf.toml"
+        ))
+        .expect("example");
+        let e = Scenario::from_toml(&text.replacen("duration_s = 8.0", "duration_s = 360000.0", 1))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("sim.physics_hz") && e.contains("2e8"), "{e}");
+        let e = Scenario::from_toml(&text.replacen("duration_s = 8.0", "duration_s = 36000.0", 1))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("sim.log_hz") && e.contains("2e6"), "{e}");
+        let scn = Scenario::from_toml(&text.replacen("duration_s = 8.0", "duration_s = 200.0", 1)).expect("valid");
+        let mut calls = Vec::new();
+        crate::simulate_with_progress(&scn, &mut |d, t| calls.push((d, t))).expect("runs");
+        let total = (200.0 * scn.sim.physics_hz) as u64;
+        assert!(calls.len() >= 3, "{calls:?}");
+        assert_eq!(calls.last(), Some(&(total, total)));
+        assert!(calls.windows(2).all(|w| w[0].0 <= w[1].0));
     }
 }

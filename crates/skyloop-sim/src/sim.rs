@@ -357,11 +357,26 @@ impl Simulation {
 
     /// Runs to `duration_s`, logging every `log_every` steps; returns the trace and its metrics.
     pub fn run(&mut self, duration_s: f64, log_every: u64, settle_band: f64) -> (Vec<Sample>, Metrics) {
+        self.run_with_progress(duration_s, log_every, settle_band, &mut |_, _| {})
+    }
+
+    /// [`Simulation::run`], calling `progress(steps done, steps in all)` every 65 536 physics steps
+    /// and at the end (long runs show progress).
+    pub fn run_with_progress(
+        &mut self,
+        duration_s: f64,
+        log_every: u64,
+        settle_band: f64,
+        progress: &mut dyn FnMut(u64, u64),
+    ) -> (Vec<Sample>, Metrics) {
         let steps = (duration_s / self.dt).round() as u64;
         let log_every = log_every.max(1);
         let mut trace = Vec::with_capacity((steps / log_every + 2) as usize);
         trace.push(self.sample());
-        for _ in 0..steps {
+        for i in 0..steps {
+            if i % 65_536 == 0 {
+                progress(i, steps);
+            }
             self.step();
             if self.k % log_every == 0 || self.crashed {
                 trace.push(self.sample());
@@ -370,6 +385,7 @@ impl Simulation {
                 break;
             }
         }
+        progress(steps, steps);
         let m = metrics(
             &trace,
             &self.refs,
@@ -447,9 +463,17 @@ pub fn metrics(trace: &[Sample], refs: &[(f64, V3)], band_abs: f64, sat: u64, ct
 /// # Ok::<(), skyloop_sim::SimError>(())
 /// ```
 pub fn simulate(scn: &Scenario) -> Result<(Vec<Sample>, Metrics)> {
+    simulate_with_progress(scn, &mut |_, _| {})
+}
+
+/// [`simulate`], calling `progress(physics steps done, steps in all)` as it goes.
+///
+/// # Errors
+/// As [`simulate`].
+pub fn simulate_with_progress(scn: &Scenario, progress: &mut dyn FnMut(u64, u64)) -> Result<(Vec<Sample>, Metrics)> {
     let mut sim = Simulation::new(scn, scn.sim.seed)?;
     let every = log_every(scn)?;
-    Ok(sim.run(scn.sim.duration_s, every, scn.sim.settle_band))
+    Ok(sim.run_with_progress(scn.sim.duration_s, every, scn.sim.settle_band, progress))
 }
 
 /// Physics steps between log samples.

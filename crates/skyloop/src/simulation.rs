@@ -65,13 +65,14 @@ pub fn write_run(dir: &Path, stem: &str, title: &str, trace: &[Sample], nu: usiz
     Ok(skyloop_plot::traces::plot_traces(&svg, title, &panels)?)
 }
 
-/// Runs `scn` once and writes `trajectory.csv`, `trajectory.svg` and `metrics.json` into `out`.
+/// Runs `scn` once and writes `trajectory.csv`, `trajectory.svg` and `metrics.json` into `out`;
+/// `progress` is called with (physics steps done, steps in all) every 65 536 steps.
 ///
 /// # Errors
 /// The simulation failing (an invalid vehicle or controller) or a file that cannot be written.
-pub fn simulate_to(scn: &Scenario, out: &Path) -> Result<Metrics> {
+pub fn simulate_to(scn: &Scenario, out: &Path, progress: &mut dyn FnMut(u64, u64)) -> Result<Metrics> {
     std::fs::create_dir_all(out).map_err(|e| Error::create(out, e))?;
-    let (trace, m) = skyloop_sim::simulate(scn)?;
+    let (trace, m) = skyloop_sim::simulate_with_progress(scn, progress)?;
     let nu = scn.vehicle.resolve().and_then(|v| v.build())?.nu();
     write_run(out, "trajectory", &scn.name, &trace, nu)?;
     let mpath = out.join("metrics.json");

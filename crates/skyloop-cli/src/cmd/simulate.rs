@@ -99,7 +99,7 @@ pub fn run(a: Args) -> skyloop::Result<()> {
         println!("wrote {}", path.display());
         return Ok(());
     }
-    let m = simulate_to(&scn, &a.out)?;
+    let m = run_once(&scn, &a.out)?;
     if a.json {
         return output::print_json(&m);
     }
@@ -113,4 +113,43 @@ pub fn run(a: Args) -> skyloop::Result<()> {
     println!("crashed          {}", m.crashed);
     println!("wrote {}/trajectory.csv, trajectory.svg, metrics.json", a.out.display());
     Ok(())
+}
+
+/// One run with its cost stated up front and progress on stderr (a bar on a terminal, a line every
+/// 10 % otherwise) when it takes more than a million physics steps.
+fn run_once(scn: &skyloop::sim::Scenario, out: &std::path::Path) -> skyloop::Result<skyloop::sim::Metrics> {
+    use std::io::IsTerminal;
+    let steps = (scn.sim.duration_s * scn.sim.physics_hz).round() as u64;
+    if steps <= 1_000_000 {
+        return simulate_to(scn, out, &mut |_, _| {});
+    }
+    eprintln!(
+        "simulating {} s at {} Hz: {:.1} M physics steps (a few seconds per million)",
+        scn.sim.duration_s,
+        scn.sim.physics_hz,
+        steps as f64 / 1e6
+    );
+    let bar = std::io::stderr().is_terminal().then(|| {
+        let b = indicatif::ProgressBar::new(steps);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("{bar:40} {percent:>3}% of the run, {eta} left")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    });
+    let mut last_tenth = 0;
+    let m = simulate_to(scn, out, &mut |done, total| match &bar {
+        Some(b) => b.set_position(done),
+        None => {
+            let tenth = done * 10 / total.max(1);
+            if tenth > last_tenth {
+                last_tenth = tenth;
+                eprintln!("simulated {} %", tenth * 10);
+            }
+        }
+    });
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    m
 }
