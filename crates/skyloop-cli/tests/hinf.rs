@@ -83,3 +83,28 @@ fn ncfsyn_bad_factor_exits_2() {
     assert_eq!(code, 2);
     assert!(err.contains("factor"), "{err}");
 }
+
+/// Synthesis failures say what about the plant or weights causes them, with the solver's own words
+/// on a second line (before: "care: …"/"balance: matrix has NaN or infinite entries" alone).
+#[test]
+fn synthesis_failures_name_the_model_property() {
+    for (args, first) in [
+        (
+            vec!["ncfsyn", "1/(s+1)", "--w1", "1e200"],
+            "the shaped plant W2·P·W1 has state-space entries",
+        ),
+        (
+            vec!["ncfsyn", "1/((1e-8*s+1)*(1e8*s+1))"],
+            "the shaped plant W2·P·W1 has poles from",
+        ),
+    ] {
+        let (code, _, err) = skyloop(&args);
+        assert_eq!(code, 2, "{args:?}");
+        let mut lines = err.lines();
+        assert!(lines.next().is_some_and(|l| l.contains(first)), "{args:?}: {err}");
+        assert!(
+            lines.next().is_some_and(|l| l.trim_start().starts_with("(solver: ")),
+            "{args:?}: {err}"
+        );
+    }
+}

@@ -5,6 +5,7 @@ use clap::Args as ClapArgs;
 use skyloop::lti::json::LtiJson;
 use skyloop::model::load_model;
 use skyloop::robust::hinfsyn::{hinfsyn_with, HinfOptions};
+use skyloop::synthesis::diagnose::{explain, Synthesis};
 
 /// Arguments of `skyloop hinfsyn`.
 #[derive(ClapArgs)]
@@ -46,9 +47,23 @@ pub fn run(a: Args) -> skyloop::Result<()> {
         rel_tol: a.tol,
     };
     crate::output::bench(a.bench, || {
-        hinfsyn_with(&p, a.nmeas, a.ncon, &opts).map_err(|e| format!("hinfsyn: {e}"))
+        hinfsyn_with(&p, a.nmeas, a.ncon, &opts).map_err(|e| {
+            explain(
+                "hinfsyn",
+                &e,
+                &[("the generalized plant P", &p)],
+                Synthesis::Generalized,
+            )
+        })
     })?;
-    let sol = hinfsyn_with(&p, a.nmeas, a.ncon, &opts).map_err(|e| format!("hinfsyn: {e}"))?;
+    let sol = hinfsyn_with(&p, a.nmeas, a.ncon, &opts).map_err(|e| {
+        explain(
+            "hinfsyn",
+            &e,
+            &[("the generalized plant P", &p)],
+            Synthesis::Generalized,
+        )
+    })?;
     if let Some(path) = &a.out {
         std::fs::write(path, skyloop::lti::json::to_json_string(&sol.controller))
             .map_err(|e| skyloop::Error::write(path, e))?;

@@ -49,7 +49,7 @@ pub fn run(a: Args) -> skyloop::Result<()> {
         factor: a.factor,
         pade_order: a.pade,
     };
-    let sol = ncfsyn(&p, w1.as_ref(), w2.as_ref(), &opts).map_err(|e| format!("ncfsyn: {e}"))?;
+    let sol = ncfsyn(&p, w1.as_ref(), w2.as_ref(), &opts).map_err(|e| why_not(&e, &p, w1.as_ref(), w2.as_ref()))?;
     if let Some(path) = &a.out {
         std::fs::write(path, skyloop::lti::json::to_json_string(&sol.controller))
             .map_err(|e| skyloop::Error::write(path, e))?;
@@ -69,4 +69,33 @@ pub fn run(a: Args) -> skyloop::Result<()> {
         sol.controller.nx()
     );
     Ok(())
+}
+
+/// The failure said about the models: the shaped plant W2·P·W1 first (delays left out), then P and
+/// each weight.
+fn why_not(
+    e: &skyloop::robust::RobustError,
+    p: &skyloop::lti::StateSpace,
+    w1: Option<&skyloop::lti::StateSpace>,
+    w2: Option<&skyloop::lti::StateSpace>,
+) -> String {
+    use skyloop::lti::interconnect::series;
+    use skyloop::synthesis::diagnose::{explain, Synthesis};
+    let mut rational = p.clone();
+    rational.input_delay.iter_mut().for_each(|d| *d = 0.0);
+    rational.output_delay.iter_mut().for_each(|d| *d = 0.0);
+    let shaped = w1
+        .map_or(Ok(rational.clone()), |w| series(w, &rational))
+        .and_then(|g| w2.map_or(Ok(g.clone()), |w| series(&g, w)));
+    let mut models: Vec<(&str, &skyloop::lti::StateSpace)> = vec![("the plant P", p)];
+    if let Some(w) = w1 {
+        models.push(("the weight W1", w));
+    }
+    if let Some(w) = w2 {
+        models.push(("the weight W2", w));
+    }
+    if let Ok(g) = &shaped {
+        models.insert(0, ("the shaped plant W2·P·W1", g));
+    }
+    explain("ncfsyn", e, &models, Synthesis::LoopShaping)
 }

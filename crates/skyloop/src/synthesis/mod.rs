@@ -1,4 +1,7 @@
-//! Synthesis workflows driven by a spec file: μ-synthesis by DK-iteration and its outputs.
+//! Synthesis workflows driven by a spec file: μ-synthesis by DK-iteration and its outputs; and
+//! [`diagnose`], which says what about the plant or weights made a synthesis fail.
+
+pub mod diagnose;
 
 use crate::error::{Error, Result};
 use crate::spec::musyn::MusynSpec;
@@ -14,7 +17,14 @@ pub fn musyn_from_spec(spec: &MusynSpec) -> Result<MusynSolution> {
     let p = spec.plant()?;
     let blocks = spec.structure()?;
     let opts = spec.options()?;
-    musyn(&p, &blocks, spec.nmeas, spec.ncon, &opts).map_err(|e| Error::Failed(format!("musyn: {e}")))
+    musyn(&p, &blocks, spec.nmeas, spec.ncon, &opts).map_err(|e| {
+        Error::Failed(diagnose::explain(
+            "musyn",
+            &e,
+            &[("the spec's generalized plant", &p)],
+            diagnose::Synthesis::Generalized,
+        ))
+    })
 }
 
 /// Writes `controller.json` (the best controller, LTI JSON) and `musyn.json` (the summary) to `dir`.
