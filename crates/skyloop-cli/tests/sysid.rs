@@ -333,17 +333,17 @@ fn identify_betaflight_rate_loop() {
 fn identify_axis_preset_on_a_betaflight_acro_flight() {
     // btfl_all.bbl session 4, the ~130 s acro flight: the pilot's one command.
     let log = log_path("btfl_all.bbl");
-    let args = [
-        "identify",
-        &log,
-        "--axis",
-        "roll",
-        "--fmin-hz",
-        "1",
-        "--fmax-hz",
-        "40",
-        "--json",
-    ];
+    // With the band narrowed to 1..40 Hz the model predicts the held-out half worse than its mean
+    // (fit −1.3 %): refused, not printed as a result (the robustness campaign's item 16).
+    let narrowed = ["identify", &log, "--axis", "roll", "--fmin-hz", "1", "--fmax-hz", "40"];
+    let out = skyloop(&narrowed);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("does not validate") && err.contains("--allow-poor-fit"),
+        "{err}"
+    );
+    let args = ["identify", &log, "--axis", "roll", "--json"];
     let out = skyloop(&args);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();

@@ -306,6 +306,7 @@ fn identify_stage(req: &LogTuneRequest, log: Log, derived: Vec<String>) -> Resul
             Error::Input(m) if m.contains("--allow-poor-fit") => Error::Input(format!(
             "{} (tune proposes no gains from such a fit; `skyloop identify LOG --axis {} --allow-poor-fit` shows it)",
             m.replace(", or pass --allow-poor-fit to see it anyway", "")
+                .replace(", or pass --allow-poor-fit to see the fit anyway", "")
                 .replace("; give --fmin-hz/--fmax-hz or --allow-poor-fit to fit anyway", "; give --fmin-hz/--fmax-hz")
                 .replace(" or --allow-poor-fit", ""),
             req.axis.name()
