@@ -41,6 +41,33 @@ fn margins_of_plant_and_controller_equal_those_of_the_product() {
     }
 }
 
+/// A controller written to a file by `ncfsyn --out` enters an expression as `@C.json`: the margins
+/// of `@P.json*@C.json` (and of a plant expression times the file) equal those of
+/// `--plant P --controller C`.
+#[test]
+fn expressions_name_model_files() {
+    let dir = tmp("at-files");
+    std::fs::create_dir_all(&dir).unwrap();
+    let c = format!("{dir}/C.json");
+    let p = format!("{dir}/P.json");
+    let plant = "0.09*exp(-0.03*s)/(s*(0.03*s+1))";
+    let (code, _, err) = skyloop(&["ncfsyn", plant, "--w1", "20*(s+2)/s", "--out", &c]);
+    assert_eq!(code, 0, "{err}");
+    let pj = json(&["show", plant, "--json"]);
+    std::fs::write(&p, pj.to_string()).unwrap();
+    let a = json(&["margins", "--plant", plant, "--controller", &c, "--json"]);
+    for expr in [format!("@{p}*@{c}"), format!("{plant}*@{c}")] {
+        let b = json(&["margins", &expr, "--json"]);
+        for k in ["gain_margin_db", "phase_margin_deg", "delay_margin_s"] {
+            let (x, y) = (a[k].as_f64().unwrap(), b[k].as_f64().unwrap());
+            assert!((x - y).abs() < 1e-6 * y.abs().max(1.0), "{expr} {k}: {x} vs {y}");
+        }
+    }
+    let (code, _, err) = skyloop(&["margins", &format!("{dir}/nothere.json")]);
+    assert_eq!(code, 2);
+    assert!(err.contains("@"), "{err}");
+}
+
 /// loopsens's S peak is the H∞ norm of 1/(1 + L) written out; with a negligible loop delay the
 /// frequency-response path gives the same peaks as the state-space path.
 #[test]

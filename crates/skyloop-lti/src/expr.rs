@@ -6,9 +6,13 @@
 //! product := unary (('*' | '/') unary)*
 //! unary   := ('-' | '+') unary | power
 //! power   := primary ('^' ['-'] integer)?
-//! primary := number | 's' | parameter | 'exp' '(' sum ')' | '(' sum ')'
+//! primary := number | 's' | parameter | 'exp' '(' sum ')' | '(' sum ')' | file
+//! file    := '@' path-ending-in-.json | '@"' any-path '"'
 //! ```
 //! Numbers accept `1`, `1.5`, `.5`, `1e-3`; parameters are identifiers other than `s` and `exp`.
+//! A file reference reads a continuous SISO model in LTI JSON (what `--out` writes) and stands for
+//! it with its delays: `@C.json*(s+1)`, `@plant.json*@ctl/K.json`, `@"my model.txt"/s`. Unquoted,
+//! the path runs to the first `.json` (so `@C.json/s` divides by s); quote any other path.
 //! The parser accepts at most [`MAX_DEPTH`] nested parentheses, signs and `exp(...)` calls, and a
 //! missing `*` is named with its fix (`2s` → "write 2*s").
 //!
@@ -96,6 +100,8 @@ pub enum Expr {
     Pow(Box<Expr>, i32),
     /// Exponential; `exp(-T*s)` is a delay of T seconds.
     Exp(Box<Expr>),
+    /// A model read from a file (`@C.json`): a continuous SISO state-space model with its delays.
+    Model(Box<StateSpace>),
 }
 
 /// Parses an expression; errors carry the 1-based column and what was expected.
@@ -120,8 +126,8 @@ fn parse_in(text: &str, var: &'static str) -> Result<Expr> {
             // Juxtaposition ("2s", "s(s+1)", ")(") is the usual slip: name the fix.
             let prev = p.pos.checked_sub(1).map(|i| p.toks[i].0.clone());
             let hint = match (&prev, t) {
-                (Some(a), Tok::Ident(_) | Tok::Num(_) | Tok::Op('('))
-                    if matches!(a, Tok::Num(_) | Tok::Ident(_) | Tok::Op(')')) =>
+                (Some(a), Tok::Ident(_) | Tok::Num(_) | Tok::Op('(') | Tok::File(_))
+                    if matches!(a, Tok::Num(_) | Tok::Ident(_) | Tok::Op(')') | Tok::File(_)) =>
                 {
                     format!(" (write {}*{} to multiply)", a.text(), t.text())
                 }
@@ -231,7 +237,7 @@ impl Expr {
 
     fn collect_params(&self, v: &mut Vec<String>) {
         match self {
-            Expr::Num(_) | Expr::S => {}
+            Expr::Num(_) | Expr::S | Expr::Model(_) => {}
             Expr::Param(n) => v.push(n.clone()),
             Expr::Neg(a) | Expr::Pow(a, _) | Expr::Exp(a) => a.collect_params(v),
             Expr::Add(a, b) | Expr::Sub(a, b) | Expr::Mul(a, b) | Expr::Div(a, b) => {
@@ -254,6 +260,7 @@ impl Expr {
             Expr::Div(a, b) => a.eval(s, params)? / b.eval(s, params)?,
             Expr::Pow(a, k) => a.eval(s, params)?.powi(*k),
             Expr::Exp(a) => a.eval(s, params)?.exp(),
+            Expr::Model(g) => model_at(g, s)?,
         })
     }
 
@@ -283,6 +290,14 @@ impl Expr {
                 delay: 0.0,
             },
             Expr::Param(n) => Rat::constant(param_value(n, params)?),
+            Expr::Model(g) => {
+                let tf = crate::convert::ss_to_tf(&without_delay(g))?;
+                Rat {
+                    num: tf.num[0][0].clone(),
+                    den: tf.den[0][0].clone(),
+                    delay: model_delay(g),
+                }
+            }
             Expr::Neg(a) => {
                 let r = a.rational(params)?;
                 Rat { num: -&r.num, ..r }
@@ -323,6 +338,50 @@ impl Expr {
             }
         })
     }
+}
+
+/// The model without its delays (carried separately, as every realized value's delay is).
+fn without_delay(g: &StateSpace) -> StateSpace {
+    let mut r = g.clone();
+    r.input_delay.iter_mut().for_each(|d| *d = 0.0);
+    r.output_delay.iter_mut().for_each(|d| *d = 0.0);
+    r
+}
+
+/// A SISO model's total delay, s.
+fn model_delay(g: &StateSpace) -> f64 {
+    g.input_delay.first().copied().unwrap_or(0.0) + g.output_delay.first().copied().unwrap_or(0.0)
+}
+
+/// G(s) with its delay.
+fn model_at(g: &StateSpace, s: c64) -> Result<c64> {
+    let ev = crate::freqresp::FreqEvaluator::new(&without_delay(g))?;
+    let mut ws = ev.workspace();
+    let mut out = [c64::new(0.0, 0.0)];
+    ev.eval_into(s, &mut ws, &mut out)?;
+    Ok(out[0] * (-s * model_delay(g)).exp())
+}
+
+/// Reads the model a file reference names: LTI JSON, continuous and SISO (an expression is a
+/// scalar transfer function in s).
+fn read_model_file(path: &str, column: usize) -> Result<StateSpace> {
+    let bad = |message: String| LtiError::Parse { column, message };
+    let text = std::fs::read_to_string(path).map_err(|e| bad(format!("@{path}: cannot read the file: {e}")))?;
+    let g = crate::json::from_json_str(&text).map_err(|e| bad(format!("@{path}: {e}")))?;
+    if g.nu() != 1 || g.ny() != 1 {
+        return Err(bad(format!(
+            "@{path}: an expression takes SISO models; this one has {} outputs and {} inputs",
+            g.ny(),
+            g.nu()
+        )));
+    }
+    if g.dt != 0.0 {
+        return Err(bad(format!(
+            "@{path}: a discrete model (dt = {} s) cannot enter an expression in s; convert it with `skyloop d2c` first",
+            g.dt
+        )));
+    }
+    Ok(g)
 }
 
 fn param_value(name: &str, params: &HashMap<String, f64>) -> Result<f64> {
@@ -1093,6 +1152,10 @@ impl Expr {
             Expr::Num(x) => Step::Done(Val::F(Fact::constant(*x))),
             Expr::S => Step::Done(Val::F(Fact::from_poly(Poly::s(), 1.0, 0.0))),
             Expr::Param(n) => Step::Done(Val::F(Fact::constant(param_value(n, params)?))),
+            Expr::Model(g) => Step::Done(Val::S(Sys {
+                g: Box::new(without_delay(g)),
+                delay: model_delay(g),
+            })),
             Expr::Neg(a) => Step::Done(neg_val(a.realize(params, visits)?)),
             Expr::Add(a, b) => add_val(&a.realize(params, visits)?, &b.realize(params, visits)?)?,
             Expr::Sub(a, b) => add_val(&a.realize(params, visits)?, &neg_val(b.realize(params, visits)?))?,
@@ -1239,6 +1302,8 @@ enum Tok {
     Num(f64),
     Ident(String),
     Op(char),
+    /// A file reference `@path` (the path without the `@` and quotes).
+    File(String),
     End,
 }
 
@@ -1249,6 +1314,7 @@ impl Tok {
             Tok::Num(x) => format!("{x}"),
             Tok::Ident(n) => n.clone(),
             Tok::Op(c) => c.to_string(),
+            Tok::File(p) => format!("@{p}"),
             Tok::End => String::new(),
         }
     }
@@ -1258,6 +1324,7 @@ impl Tok {
             Tok::Num(x) => format!("the number {x}"),
             Tok::Ident(n) => format!("'{n}'"),
             Tok::Op(c) => format!("'{c}'"),
+            Tok::File(p) => format!("the file reference '@{p}'"),
             Tok::End => "the end of the expression".into(),
         }
     }
@@ -1317,6 +1384,10 @@ fn lex(text: &str) -> Result<Vec<(Tok, usize)>> {
         } else if "+-*/^()".contains(c) {
             out.push((Tok::Op(c), col));
             i += 1;
+        } else if c == '@' {
+            let (path, next) = file_reference(&ch, i)?;
+            out.push((Tok::File(path), col));
+            i = next;
         } else {
             return Err(LtiError::Parse {
                 column: col,
@@ -1326,6 +1397,40 @@ fn lex(text: &str) -> Result<Vec<(Tok, usize)>> {
     }
     out.push((Tok::End, ch.len() + 1));
     Ok(out)
+}
+
+/// The path of the file reference whose `@` is at `at`, and the index after it: a quoted path
+/// (`@"…"`), or the shortest run of non-space characters ending in `.json`.
+fn file_reference(ch: &[char], at: usize) -> Result<(String, usize)> {
+    let column = at + 1;
+    if ch.get(at + 1) == Some(&'"') {
+        let end = (at + 2..ch.len())
+            .find(|&j| ch[j] == '"')
+            .ok_or_else(|| LtiError::Parse {
+                column,
+                message: "the quoted file name after '@\"' has no closing '\"'".into(),
+            })?;
+        let path: String = ch[at + 2..end].iter().collect();
+        if path.is_empty() {
+            return Err(LtiError::Parse {
+                column,
+                message: "an empty file name after '@'".into(),
+            });
+        }
+        return Ok((path, end + 1));
+    }
+    let mut j = at + 1;
+    while j < ch.len() && !ch[j].is_whitespace() {
+        j += 1;
+        let tail: String = ch[at + 1..j].iter().collect();
+        if tail.len() > 5 && tail.to_ascii_lowercase().ends_with(".json") {
+            return Ok((tail, j));
+        }
+    }
+    Err(LtiError::Parse {
+        column,
+        message: "after '@' a model file: a name ending in .json (@C.json) or a quoted path (@\"C model.txt\")".into(),
+    })
 }
 
 struct Parser {
@@ -1502,10 +1607,19 @@ impl Parser {
                 self.close(col)?;
                 Ok(e)
             }
+            Tok::File(path) => {
+                if self.var == "z" {
+                    return Err(LtiError::Parse {
+                        column: col,
+                        message: "file references (@FILE) are read into expressions in s only".into(),
+                    });
+                }
+                Ok((Expr::Model(Box::new(read_model_file(&path, col)?)), 1))
+            }
             t => {
                 self.pos -= usize::from(t != Tok::End);
                 Err(self.err(format!(
-                    "expected a number, 's', a parameter, 'exp(' or '(', found {}",
+                    "expected a number, 's', a parameter, 'exp(', '(' or @FILE, found {}",
                     t.describe()
                 )))
             }

@@ -313,3 +313,59 @@ fn extreme_time_constants_realize_and_have_their_norms() {
         "{e}"
     );
 }
+
+/// `@FILE.json` reads an LTI JSON model into an expression: the product with (s+1) matches the
+/// file's model times (s+1) at every frequency, delays included; unquoted paths end at `.json`,
+/// quoted ones take any name; MIMO, discrete and missing files are named errors with the column.
+#[test]
+fn file_references_stand_for_their_models() {
+    let dir = std::env::temp_dir().join(format!("skyloop-expr-at-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let c = skyloop_lti::expr::parse_model("exp(-0.01*s)*5*(s+3)/((s+10)*(s^2+2*s+50))").unwrap();
+    let path = dir.join("C.json");
+    std::fs::write(&path, skyloop_lti::json::to_json_string(&c)).unwrap();
+    let odd = dir.join("C model.txt");
+    std::fs::write(&odd, skyloop_lti::json::to_json_string(&c)).unwrap();
+    let p = path.display().to_string();
+    let q = odd.display().to_string();
+    for (text, factor) in [
+        (format!("@{p}*(s+1)"), "(s+1)"),
+        (format!("(s+1)*@{p}"), "(s+1)"),
+        (format!("@{p}/s"), "1/s"),
+        (format!("@\"{q}\"/(s+2)"), "1/(s+2)"),
+    ] {
+        let g = skyloop_lti::expr::parse_model(&text).unwrap();
+        let f = skyloop_lti::expr::parse(factor).unwrap();
+        let e = skyloop_lti::expr::parse(&text).unwrap();
+        for w in [0.1, 1.0, 7.0, 60.0] {
+            let s = skyloop_lti::c64::new(0.0, w);
+            let want =
+                skyloop_lti::freqresp::freqresp(&c, &[w]).unwrap()[0][(0, 0)] * f.eval(s, &Default::default()).unwrap();
+            let got = skyloop_lti::freqresp::freqresp(&g, &[w]).unwrap()[0][(0, 0)];
+            assert!(
+                (got - want).norm() <= 1e-9 * want.norm(),
+                "{text} at {w}: {got} vs {want}"
+            );
+            let ev = e.eval(s, &Default::default()).unwrap();
+            assert!((ev - want).norm() <= 1e-9 * want.norm(), "{text} eval at {w}");
+        }
+        assert_eq!(g.input_delay, vec![0.01], "{text}");
+    }
+    let mimo = dir.join("M.json");
+    std::fs::write(
+        &mimo,
+        skyloop_lti::json::to_json_string(
+            &skyloop_lti::StateSpace::gain(skyloop_lti::Mat::from_fn(2, 2, |i, j| (i + j) as f64), 0.0).unwrap(),
+        ),
+    )
+    .unwrap();
+    for (text, says) in [
+        (format!("@{}*2", mimo.display()), "SISO"),
+        ("2*@nope/missing.json".to_string(), "cannot read"),
+        ("@C.txt*2".to_string(), ".json"),
+        ("@\"open".to_string(), "closing"),
+    ] {
+        let e = skyloop_lti::expr::parse_model(&text).unwrap_err().to_string();
+        assert!(e.contains(says) && e.contains("column"), "{text}: {e}");
+    }
+}

@@ -6,7 +6,9 @@ use skyloop_lti::StateSpace;
 use std::path::Path;
 
 /// Loads MODEL: an LTI JSON file when `arg` names an existing file, else a transfer-function
-/// expression such as `"0.0887*exp(-0.032*s)/(0.0256*s+1)"`.
+/// expression such as `"0.0887*exp(-0.032*s)/(0.0256*s+1)"`, which may name model files as
+/// `@C.json` (paths relative to the working directory; see [`skyloop_lti::expr`]): the loop of a
+/// plant and a controller file is `"@P.json*@C.json"`, MATLAB's `P*C`.
 ///
 /// # Errors
 /// An unreadable file, invalid LTI JSON, a `.json` name that does not exist, or an expression that
@@ -25,8 +27,10 @@ pub fn load_model(arg: &str) -> Result<StateSpace> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::read(path, e))?;
         return skyloop_lti::json::from_json_str(&text).map_err(|e| Error::Input(format!("{arg}: {e}")));
     }
-    if arg.ends_with(".json") {
-        return Err(Error::Input(format!("no such file: {arg}")));
+    if arg.ends_with(".json") && !arg.contains('@') {
+        return Err(Error::Input(format!(
+            "no such file: {arg} (inside an expression, write a model file as @{arg})"
+        )));
     }
     skyloop_lti::expr::parse_model(arg)
         .map_err(|e| Error::Input(format!("'{}' is not a file; as an expression: {e}", abbreviate(arg))))
