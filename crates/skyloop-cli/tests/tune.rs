@@ -800,3 +800,70 @@ fn tune_from_a_log_whose_header_names_inav() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("INAV log"), "{err}");
 }
+
+/// `--tune-filters` on a Betaflight log: the D-term cutoff joins P, I, D. Each change is printed
+/// with its reason and its `set` line; the proposed cutoff is at least 1.5× the crossover; the
+/// predicted noise stays within the budget; the claimed margins recompute from the printed
+/// controller (which carries the new filter) by this test's own arithmetic; and without the flag
+/// the filters are left as flown.
+#[test]
+fn tune_filters_changes_the_dterm_cutoff_within_the_rules() {
+    let log = format!("{}/../../testdata/logs/LOG00037.BFL", env!("CARGO_MANIFEST_DIR"));
+    let base = [
+        "tune",
+        &log,
+        "--axis",
+        "pitch",
+        "--firmware",
+        "betaflight",
+        "--starts",
+        "2",
+        "--json",
+    ];
+    let plain = json(&base);
+    assert_eq!(plain["filter_changes"].as_array().map(Vec::len), Some(0));
+    let mut args = base.to_vec();
+    args.push("--tune-filters");
+    let v = json(&args);
+    assert_eq!(v["verdict"]["kind"], "propose", "{}", v["verdict"]);
+    let changes = v["filter_changes"].as_array().unwrap();
+    assert!(!changes.is_empty(), "{v}");
+    let cli: Vec<&str> = v["cli"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|l| l.as_str().unwrap())
+        .collect();
+    let xo = v["margins"]["crossover_hz"].as_f64().unwrap();
+    for c in changes {
+        let (name, was, now) = (
+            c["name"].as_str().unwrap(),
+            c["flown_hz"].as_f64().unwrap(),
+            c["proposed_hz"].as_f64().unwrap(),
+        );
+        assert_ne!(was, now);
+        assert!(cli.contains(&format!("set {name} = {now:.0}").as_str()), "{cli:?}");
+        assert!(c["reason"].as_str().unwrap().contains("crossover"), "{c}");
+        assert!(now >= 1.5 * xo, "{name} {now} Hz below 1.5 × {xo} Hz");
+    }
+    assert!(cli.last() == Some(&"save"), "{cli:?}");
+    let ratio = v["noise"]["ratio"].as_f64().unwrap_or_else(|| {
+        let bands = v["noise"]["bands"].as_array().unwrap();
+        let sum = |k: &str| bands.iter().map(|b| b[k].as_f64().unwrap()).sum::<f64>();
+        sum("proposed") / sum("flown")
+    });
+    assert!(ratio <= 1.25 + 1e-9, "noise ×{ratio}");
+    let id = &v["identification"]["params"];
+    let (k, tau, td) = (
+        id["K"].as_f64().unwrap(),
+        id["tau"].as_f64().unwrap(),
+        id["Td"].as_f64().unwrap(),
+    );
+    let (alpha, fc) = recompute_from_json(&v, rate_plant(k, tau, td));
+    let claimed = &v["margins"];
+    assert!(
+        (alpha / claimed["disk_alpha"].as_f64().unwrap() - 1.0).abs() < 0.01,
+        "α {alpha} vs {claimed}"
+    );
+    assert!((fc / xo - 1.0).abs() < 0.01, "crossover {fc} vs {xo}");
+}

@@ -54,6 +54,10 @@ pub struct Args {
     /// Keep the feedforward (Betaflight F, PX4 FF) as flown (from a log) or at the firmware's default, instead of fitting it to the tuned loop.
     #[arg(long)]
     pub keep_feedforward: bool,
+    /// With LOG (Betaflight): tune the D-term lowpass cutoffs beside P, I, D (scaled ×0.8–1.75,
+    /// never below 1.5× the crossover, no noise band over the budget), printing their `set` lines.
+    #[arg(long)]
+    pub tune_filters: bool,
     /// Optimizer starts (1..=64).
     #[arg(long, default_value_t = 8)]
     pub starts: usize,
@@ -74,6 +78,7 @@ pub fn run(a: Args) -> skyloop::Result<()> {
         ("--session", a.session.is_some()),
         ("--fmin-hz", a.fmin_hz.is_some()),
         ("--fmax-hz", a.fmax_hz.is_some()),
+        ("--tune-filters", a.tune_filters),
     ] {
         if given {
             return Err(skyloop::Error::Input(format!(
@@ -152,6 +157,7 @@ fn run_log(log: std::path::PathBuf, a: &Args) -> skyloop::Result<()> {
         req.starts = a.starts;
         req.tune_feedforward = !a.keep_feedforward;
         req.noise_budget = a.noise_budget;
+        req.tune_filters = a.tune_filters;
         req.progress = Some(show_stage);
         match tune_from_log(&req) {
             Ok(o) => outs.push(Ok(o)),
@@ -393,6 +399,12 @@ fn print_log_outcome(out: &LogTuneOutcome) {
         println!(
             "model check: predicted step of the current tune vs the causal FIR step from the log: RMS difference {r:.3}; the future setpoint explains {:.0} % of its residual",
             100.0 * m.acausal_fraction
+        );
+    }
+    for c in &out.filter_changes {
+        println!(
+            "filter change  {} {} → {} Hz: {}",
+            c.name, c.flown_hz, c.proposed_hz, c.reason
         );
     }
     for n in &out.notes {

@@ -285,9 +285,109 @@ pub fn cli_lines(g: &Gains, axis: Axis) -> Vec<String> {
     ]
 }
 
+/// True from Betaflight 4.3 on, which renamed the filter settings (`dterm_lpf1_static_hz` for
+/// 4.0–4.2's `dterm_lowpass_hz`) and changed the dynamic lowpass curve.
+fn names_4_3(b: &BetaflightTuning) -> bool {
+    let minor = b
+        .firmware_revision
+        .split_whitespace()
+        .find_map(|w| w.split('.').nth(1)?.parse::<u32>().ok())
+        .unwrap_or(0);
+    b.version_major.unwrap_or(4) > 4 || (b.version_major == Some(4) && minor >= 3)
+}
+
+/// One D-term lowpass stage as the header sets it, Hz.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DtermStage {
+    /// 1 or 2 (`dterm_lpf1`, `dterm_lpf2`).
+    pub index: usize,
+    /// The static cutoff.
+    pub static_hz: f64,
+    /// The throttle-following range (min, max), when dynamic.
+    pub dynamic_hz: Option<(f64, f64)>,
+}
+
+/// The D-term lowpass settings of a Betaflight header, with the CLI names of its version: what
+/// `tune --tune-filters` changes and the `set` lines that change it.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct DtermSettings {
+    /// The stages that are on.
+    pub stages: Vec<DtermStage>,
+    /// 4.3's names (`dterm_lpf1_static_hz`, `dterm_lpf1_dyn_min_hz`) instead of 4.0–4.2's and
+    /// 3.x's (`dterm_lowpass_hz`, `dyn_lpf_dterm_min_hz`).
+    pub names_4_3: bool,
+}
+
+impl DtermSettings {
+    /// Reads the D-term lowpass stages of a header.
+    pub fn from_header(b: &BetaflightTuning) -> DtermSettings {
+        let stages = [(1, &b.dterm_lowpass), (2, &b.dterm_lowpass2)]
+            .into_iter()
+            .filter_map(|(index, l)| {
+                let l = l.as_ref()?;
+                (l.cutoff_hz > 0.0 || l.dynamic_hz.is_some()).then_some(DtermStage {
+                    index,
+                    static_hz: l.cutoff_hz,
+                    dynamic_hz: l.dynamic_hz,
+                })
+            })
+            .collect();
+        DtermSettings {
+            stages,
+            names_4_3: names_4_3(b),
+        }
+    }
+
+    /// (setting, flown Hz, Hz scaled by `k`) of every stage's cutoffs, in whole Hz.
+    pub fn scaled(&self, k: f64) -> Vec<(String, f64, f64)> {
+        let mut out = Vec::new();
+        let s = |x: f64| (x * k).round().max(1.0);
+        for st in &self.stages {
+            let (stat, dmin, dmax) = match (st.index, self.names_4_3) {
+                (1, true) => ("dterm_lpf1_static_hz", "dterm_lpf1_dyn_min_hz", "dterm_lpf1_dyn_max_hz"),
+                (1, false) => ("dterm_lowpass_hz", "dyn_lpf_dterm_min_hz", "dyn_lpf_dterm_max_hz"),
+                (_, true) => ("dterm_lpf2_static_hz", "", ""),
+                (_, false) => ("dterm_lowpass2_hz", "", ""),
+            };
+            match st.dynamic_hz {
+                Some((lo, hi)) if !dmin.is_empty() => {
+                    out.push((dmin.to_string(), lo, s(lo)));
+                    out.push((dmax.to_string(), hi, s(hi)));
+                }
+                _ => out.push((stat.to_string(), st.static_hz, s(st.static_hz))),
+            }
+        }
+        out
+    }
+
+    /// The `set` lines that scale every D-term lowpass cutoff by `k`.
+    pub fn cli_lines(&self, k: f64) -> Vec<String> {
+        self.scaled(k)
+            .into_iter()
+            .map(|(name, _, v)| format!("set {name} = {v:.0}"))
+            .collect()
+    }
+}
+
+impl Filters {
+    /// The same filters with every D-term lowpass cutoff scaled by `k` (whole Hz; notches kept).
+    pub fn with_dterm_scale(&self, k: f64) -> Filters {
+        Filters {
+            dterm: self
+                .dterm
+                .iter()
+                .map(|l| if l.is_lowpass() { l.scaled(k) } else { *l })
+                .collect(),
+            ..self.clone()
+        }
+    }
+}
+
 /// The flown tune of one axis as a Betaflight header states it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FlownHeader {
+    /// The D-term lowpass settings, with the CLI names of the header's version.
+    pub dterm_settings: DtermSettings,
     /// The controller's filters (the D-term chain; the gyro chain is inside a plant identified from
     /// the logged gyro) and the PID loop rate.
     pub filters: Filters,
@@ -376,6 +476,7 @@ pub fn flown_from_header(b: &BetaflightTuning, axis: Axis, log: &Log) -> FlownHe
         ));
     }
     FlownHeader {
+        dterm_settings: DtermSettings::from_header(b),
         filters,
         gains,
         lines,
@@ -395,12 +496,7 @@ pub fn filter_chain(b: &BetaflightTuning, log: &Log) -> (FilterChain, Vec<String
         log.setting(k)
             .and_then(|v| v.split(',').next()?.trim().parse::<f64>().ok())
     };
-    let minor = b
-        .firmware_revision
-        .split_whitespace()
-        .find_map(|w| w.split('.').nth(1)?.parse::<u32>().ok())
-        .unwrap_or(0);
-    let v43 = b.version_major.unwrap_or(4) > 4 || (b.version_major == Some(4) && minor >= 3);
+    let v43 = names_4_3(b);
     let curve = if v43 {
         ThrottleCurve::Expo(one("dyn_lpf_curve_expo").unwrap_or(5.0) / 10.0)
     } else {

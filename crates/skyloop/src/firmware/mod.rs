@@ -242,6 +242,24 @@ impl Lowpass {
         }
     }
 
+    /// The same stage with its cutoff scaled by `k` and rounded to whole Hz (the firmware's
+    /// settings are integers); a notch is returned unchanged (it sits on a resonance).
+    pub fn scaled(self, k: f64) -> Lowpass {
+        let f = |x: f64| (x * k).round().max(1.0);
+        match self {
+            Lowpass::Pt1(x) => Lowpass::Pt1(f(x)),
+            Lowpass::Pt2(x) => Lowpass::Pt2(f(x)),
+            Lowpass::Pt3(x) => Lowpass::Pt3(f(x)),
+            Lowpass::Biquad(x) => Lowpass::Biquad(f(x)),
+            n @ Lowpass::Notch(..) => n,
+        }
+    }
+
+    /// True for a lowpass (not a notch).
+    pub fn is_lowpass(&self) -> bool {
+        !matches!(self, Lowpass::Notch(..))
+    }
+
     /// The continuous filter.
     ///
     /// # Errors

@@ -230,6 +230,33 @@ impl RateGains {
         }
     }
 
+    /// The same gains with every D-term lowpass cutoff scaled by `k` (whole Hz); None for a
+    /// firmware whose D-term filters `tune --tune-filters` does not change yet (INAV, PX4).
+    pub fn with_dterm_scale(&self, k: f64) -> Option<RateGains> {
+        match self {
+            RateGains::Betaflight { gains, axis, filters } => Some(RateGains::Betaflight {
+                gains: *gains,
+                axis: *axis,
+                filters: filters.with_dterm_scale(k),
+            }),
+            RateGains::Inav { .. } | RateGains::Px4 { .. } => None,
+        }
+    }
+
+    /// The lowest D-term lowpass cutoff, Hz (None without one).
+    pub fn lowest_dterm_cutoff_hz(&self) -> Option<f64> {
+        let chain = match self {
+            RateGains::Betaflight { filters, .. } => &filters.dterm,
+            RateGains::Inav { filters, .. } => &filters.dterm,
+            RateGains::Px4 { .. } => return None,
+        };
+        chain
+            .iter()
+            .filter(|l| l.is_lowpass())
+            .map(super::Lowpass::cutoff_hz)
+            .min_by(f64::total_cmp)
+    }
+
     /// The relative change of each of P, I, D from `flown`, e.g. [+0.2, 0, −0.1].
     pub fn change_from(&self, flown: &RateGains) -> Vec<(&'static str, f64)> {
         self.rows()

@@ -193,7 +193,22 @@ pub struct SearchLimits {
 /// Returns (ranked admissible candidates, every scored candidate, the flown tune's scores).
 pub fn search(screen: &Screen, flown: &RateGains, limits: &SearchLimits) -> (Vec<Candidate>, Vec<Candidate>, Scores) {
     let f = screen.score(flown.continuous());
-    let all: Vec<Candidate> = flown
+    let (mut ok, all) = search_against(screen, flown, &f, limits);
+    rank(&mut ok, &f, limits);
+    (ok, all, f)
+}
+
+/// The candidates within the bounded change of `base` (its gains, with the filters of `screen`),
+/// judged against the flown tune's scores `f` (which may come from another screen: the flown
+/// filters, when `base` carries candidate filters). Returns (admissible, unranked; every scored).
+pub fn search_against(
+    screen: &Screen,
+    base: &RateGains,
+    f: &Scores,
+    limits: &SearchLimits,
+) -> (Vec<Candidate>, Vec<Candidate>) {
+    let f = *f;
+    let all: Vec<Candidate> = base
         .neighbours(MAX_CHANGE, LEVELS)
         .into_iter()
         .map(|g| Candidate {
@@ -203,7 +218,7 @@ pub fn search(screen: &Screen, flown: &RateGains, limits: &SearchLimits) -> (Vec
         .collect();
     let eps = 1e-3;
     let below_floor = f.alpha_worst < limits.alpha_floor;
-    let mut ok: Vec<Candidate> = all
+    let ok: Vec<Candidate> = all
         .iter()
         .filter(|c| {
             let s = &c.scores;
@@ -223,6 +238,13 @@ pub fn search(screen: &Screen, flown: &RateGains, limits: &SearchLimits) -> (Vec
         })
         .cloned()
         .collect();
+    (ok, all)
+}
+
+/// Sorts admissible candidates best first against the flown tune's scores `f` (see [`search`]).
+pub fn rank(ok: &mut [Candidate], f: &Scores, limits: &SearchLimits) {
+    let eps = 1e-3;
+    let below_floor = f.alpha_worst < limits.alpha_floor;
     let key = |c: &Candidate| -> (bool, f64) {
         let s = &c.scores;
         let reaches = s.alpha_worst >= limits.alpha_floor - eps;
@@ -245,7 +267,6 @@ pub fn search(screen: &Screen, flown: &RateGains, limits: &SearchLimits) -> (Vec
             .then(vb.total_cmp(&va))
             .then(a.scores.noise.total_cmp(&b.scores.noise))
     });
-    (ok, all, f)
 }
 
 /// The trade-off front: of the candidates within the noise budget and the robust floor, those no

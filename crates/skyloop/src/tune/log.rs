@@ -21,6 +21,7 @@
 
 use super::candidates::{front, search, Scores, Screen, SearchLimits};
 use super::deconv::{step_from_log, DeconvOptions, MeasuredStep};
+use super::filter_tuning::{add_filter_candidates, describe, scale_of, FilterChange, MIN_CUTOFF_OVER_CROSSOVER};
 use super::flight::{fly, FlightCheck, FlightSetup};
 use super::live::LiveLoop;
 use super::noise::{self, NoiseReport};
@@ -71,6 +72,8 @@ pub struct LogTuneRequest {
     pub tune_feedforward: bool,
     /// Largest predicted motor-noise power of a proposal relative to the flown tune's.
     pub noise_budget: f64,
+    /// Tune the D-term lowpass cutoffs beside P, I, D ([`super::filter_tuning`]; Betaflight).
+    pub tune_filters: bool,
     /// Called with the axis and the name of each stage as it starts (no terminal I/O here: the CLI
     /// draws it).
     pub progress: Option<fn(Axis, &str)>,
@@ -95,6 +98,7 @@ impl LogTuneRequest {
             sigma: 2.0,
             tune_feedforward: true,
             noise_budget: 1.25,
+            tune_filters: false,
             progress: None,
         }
     }
@@ -172,6 +176,8 @@ pub struct LogTuneOutcome {
     pub noise: Option<NoiseReport>,
     /// The trade-off front within the bounded change: (gains, screened scores, noise ratio).
     pub front: Vec<(Value, Scores, f64)>,
+    /// The D-term filter changes of the proposal (`--tune-filters`), each with its reason.
+    pub filter_changes: Vec<FilterChange>,
     /// The axis.
     pub axis: Axis,
     /// The flown tune's closed loop setpoint → gyro, measured against predicted.
@@ -270,6 +276,7 @@ fn tune_from_read_log(req: &LogTuneRequest, log: Log, derived: Vec<String>) -> R
         verdict: pr.verdict,
         noise: pr.noise,
         front: pr.front,
+        filter_changes: pr.filter_changes,
         axis: req.axis,
         closed_loop: fl.closed_loop,
         live,
@@ -398,6 +405,8 @@ struct Header {
     treq: TuneRequest,
     filters: Vec<String>,
     current_gains: Option<CurrentGains>,
+    /// The D-term lowpass settings `--tune-filters` may change (Betaflight).
+    dterm_settings: Option<betaflight::DtermSettings>,
 }
 
 fn header_stage(req: &LogTuneRequest, idn: &Identified, notes: &mut Vec<String>) -> Result<Header> {
@@ -414,9 +423,11 @@ fn header_stage(req: &LogTuneRequest, idn: &Identified, notes: &mut Vec<String>)
     treq.starts = req.starts;
     treq.tune_feedforward = req.tune_feedforward;
     let mut current_gains: Option<CurrentGains> = None;
+    let mut dterm_settings = None;
     match (&header, req.firmware) {
         (Some(FirmwareTuning::Betaflight(b)), Firmware::Betaflight) => {
             let h = betaflight::flown_from_header(b, req.axis, log);
+            dterm_settings = Some(h.dterm_settings);
             filters = h.lines;
             notes.extend(h.notes);
             treq.betaflight = h.filters;
@@ -449,10 +460,16 @@ fn header_stage(req: &LogTuneRequest, idn: &Identified, notes: &mut Vec<String>)
         }
         _ => notes.push("the log header carries no rate-controller tuning: nothing to compare".into()),
     }
+    if req.tune_filters && dterm_settings.as_ref().is_none_or(|d| d.stages.is_empty()) {
+        notes.push(
+            "--tune-filters: the D-term filters are left as flown (tuned for Betaflight logs with a D-term lowpass only)".into(),
+        );
+    }
     Ok(Header {
         treq,
         filters,
         current_gains,
+        dterm_settings,
     })
 }
 
@@ -576,6 +593,7 @@ struct Proposal {
     front: Vec<(Value, Scores, f64)>,
     noise: Option<NoiseReport>,
     gyro_noise: Option<noise::GyroNoise>,
+    filter_changes: Vec<FilterChange>,
 }
 
 fn propose_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, fl: &Flown) -> Result<Proposal> {
@@ -586,6 +604,7 @@ fn propose_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, fl: &Flow
     let mut front_pts = Vec::new();
     let mut noise_report = None;
     let mut gyro_noise = None;
+    let mut filter_changes = Vec::new();
     let (proposed, proposed_analysis, verdict) = match (&fl.flown_rg, &fl.current) {
         (Some(g), Some(cur)) => {
             let spans: Vec<(f64, f64)> = id.segments.iter().map(|s| (s.from_s, s.to_s)).collect();
@@ -607,7 +626,12 @@ fn propose_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, fl: &Flow
                     },
                 )
             } else {
-                let r = grid_proposal(req, g, cur, held, &gn, wn, fl.flight_setup.as_ref())?;
+                let dterm = hdr
+                    .dterm_settings
+                    .as_ref()
+                    .filter(|d| req.tune_filters && !d.stages.is_empty());
+                let r = grid_proposal(req, g, cur, held, &gn, wn, fl.flight_setup.as_ref(), dterm)?;
+                filter_changes = r.filter_changes;
                 front_pts = r.front;
                 noise_report = Some(r.noise);
                 (r.outcome, r.analysis, r.verdict)
@@ -660,6 +684,7 @@ fn propose_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, fl: &Flow
         front: front_pts,
         noise: noise_report,
         gyro_noise,
+        filter_changes,
     })
 }
 
@@ -940,6 +965,11 @@ impl LogTuneOutcome {
                 "noise_ratio": r,
             }))
             .collect::<Vec<_>>());
+        v["filter_changes"] = json!(self
+            .filter_changes
+            .iter()
+            .map(|c| json!({"name": c.name, "flown_hz": c.flown_hz, "proposed_hz": c.proposed_hz, "reason": c.reason}))
+            .collect::<Vec<_>>());
         if let Some(n) = v["notes"].as_array_mut() {
             for x in &self.notes {
                 n.push(json!(x));
@@ -1124,6 +1154,7 @@ struct GridResult {
     verdict: Verdict,
     noise: NoiseReport,
     front: Vec<(Value, Scores, f64)>,
+    filter_changes: Vec<FilterChange>,
 }
 
 /// Most ranked candidates re-verified exactly (and flown in the 6-DOF check) before giving up.
@@ -1131,6 +1162,7 @@ const VERIFY_MAX: usize = 6;
 
 /// The bounded search around the flown tune ([`super::candidates`]), the exact verification of the
 /// best candidates (margins over the uncertainty set, 6-DOF tracking no worse), and the verdict.
+#[allow(clippy::too_many_arguments)]
 fn grid_proposal(
     req: &LogTuneRequest,
     flown: &RateGains,
@@ -1139,6 +1171,7 @@ fn grid_proposal(
     gn: &noise::GyroNoise,
     wn: f64,
     flight: Option<&FlightSetup>,
+    dterm: Option<&betaflight::DtermSettings>,
 ) -> Result<GridResult> {
     if !(req.noise_budget.is_finite() && (1.0..=10.0).contains(&req.noise_budget)) {
         return Err(Error::Input(format!(
@@ -1155,7 +1188,20 @@ fn grid_proposal(
         keep_robustness: req.maximize == Maximize::Tracking,
         rank_by_integral: req.maximize == Maximize::IntegralGain,
     };
-    let (ranked, all, fs) = search(&screen, flown, &limits);
+    let (mut ranked, mut all, fs) = search(&screen, flown, &limits);
+    if dterm.is_some() {
+        add_filter_candidates(
+            flown,
+            &screen,
+            held,
+            f_max,
+            (&nf, &nw),
+            &fs,
+            &limits,
+            &mut ranked,
+            &mut all,
+        )?;
+    }
     let floor = 0.5f64.min(cur.worst.disk_alpha);
     let flown_os = cur.flight.as_ref().map(FlightCheck::worst_overshoot_pct);
     let os_limit = flown_os.map(|o| (o + 5.0).max(20.0));
@@ -1167,7 +1213,8 @@ fn grid_proposal(
     let mut seen = Vec::new();
     let distinct = ranked.iter().filter(|c| c.gains != *flown).filter(|c| {
         let k = c.gains.continuous();
-        let key = ((k[0] * 1e6).round() as i64, (k[2] * 1e9).round() as i64);
+        let cut = c.gains.lowest_dterm_cutoff_hz().unwrap_or(0.0).round() as i64;
+        let key = ((k[0] * 1e6).round() as i64, (k[2] * 1e9).round() as i64, cut);
         let new = !seen.contains(&key);
         seen.push(key);
         new
@@ -1191,8 +1238,17 @@ fn grid_proposal(
             flight,
         )?;
         let os = a.flight.as_ref().map(FlightCheck::worst_overshoot_pct);
+        let cutoff = c
+            .gains
+            .lowest_dterm_cutoff_hz()
+            .filter(|_| scale_of(flown, &c.gains) != 1.0);
         let why = if !a.margins.stable || !a.worst.stable {
             Some("unstable in the exact check".to_string())
+        } else if let Some(fc) = cutoff.filter(|f| *f < MIN_CUTOFF_OVER_CROSSOVER * a.margins.crossover_hz) {
+            Some(format!(
+                "D-term cutoff {fc:.0} Hz below {MIN_CUTOFF_OVER_CROSSOVER}× the {:.1} Hz crossover",
+                a.margins.crossover_hz
+            ))
         } else if a.worst.disk_alpha < floor - 1e-3 {
             Some(format!(
                 "worst-case disk α {:.3} below the floor {floor:.3}",
@@ -1237,9 +1293,14 @@ fn grid_proposal(
         ranked.len()
     )];
     notes.extend(rejected.into_iter().map(|r| format!("candidate rejected: {r}")));
+    let mut filter_changes = Vec::new();
     let (gains, analysis, verdict) = match chosen {
         Some((c, a)) => {
             let nr = noise_of(gn, flown, &c.gains, held)?;
+            if let Some(ds) = dterm {
+                let k = scale_of(flown, &c.gains);
+                filter_changes = describe(ds, k, flown, &c.gains, a.margins.crossover_hz, nr.ratio(), req.noise_budget);
+            }
             let text = proposal_text(
                 axis,
                 (cur.margins.crossover_hz, a.margins.crossover_hz),
@@ -1262,12 +1323,29 @@ fn grid_proposal(
         ),
     };
     let noise = noise_of(gn, flown, &gains, held)?;
-    let outcome = outcome_for_gains(&gains, held, &req.goals, notes)?;
+    let mut outcome = outcome_for_gains(&gains, held, &req.goals, notes)?;
+    if let (Some(ds), false) = (dterm, filter_changes.is_empty()) {
+        // The firmware's lines for the filters, before its `save`.
+        let at = outcome
+            .cli
+            .iter()
+            .position(|l| l == "save")
+            .unwrap_or(outcome.cli.len());
+        let lines = ds.cli_lines(scale_of(flown, &gains));
+        outcome.cli.splice(at..at, lines);
+        for ch in &filter_changes {
+            outcome.notes.push(format!(
+                "{} {} → {} Hz: {}",
+                ch.name, ch.flown_hz, ch.proposed_hz, ch.reason
+            ));
+        }
+    }
     Ok(GridResult {
         outcome,
         analysis,
         verdict,
         noise,
         front: fr,
+        filter_changes,
     })
 }

@@ -26,6 +26,7 @@ use std::f64::consts::PI;
 pub mod candidates;
 pub mod deconv;
 pub mod feedforward;
+pub mod filter_tuning;
 pub mod fir_step;
 pub mod flight;
 pub mod live;
