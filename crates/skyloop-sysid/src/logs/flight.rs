@@ -56,7 +56,14 @@ pub enum FlightFirmware {
     Inav,
     /// PX4: ULog logs.
     Px4,
+    /// ArduPilot: DataFlash logs.
+    Ardupilot,
 }
+
+/// Lowest logging rate of ArduPilot's RATE/PID messages that supports a rate-loop identification,
+/// Hz: the loop's dynamics reach 20–50 Hz, and ArduCopter's 10 Hz ATTITUDE_MED logging (the
+/// default without ATTITUDE_FAST) or the 25–50 Hz of rate-capped logs cannot show them.
+pub const ARDUPILOT_MIN_RATE_HZ: f64 = 100.0;
 
 /// Whether a blackbox log's header names INAV.
 pub fn is_inav(log: &Log) -> bool {
@@ -72,10 +79,7 @@ impl FlightFirmware {
             LogFormat::Blackbox if is_inav(log) => Ok(FlightFirmware::Inav),
             LogFormat::Blackbox => Ok(FlightFirmware::Betaflight),
             LogFormat::Ulog => Ok(FlightFirmware::Px4),
-            LogFormat::Dataflash => Err(invalid(format!(
-                "{}: identify --axis does not know ArduPilot's channels yet; give --input, --output and --excitation (e.g. PIDR.Tar, RATE.R)",
-                log.source
-            ))),
+            LogFormat::Dataflash => Ok(FlightFirmware::Ardupilot),
             LogFormat::Csv => Err(invalid(format!(
                 "{}: a CSV log names no firmware, so --axis cannot choose its channels; give --input, --output and --excitation",
                 log.source
@@ -89,6 +93,7 @@ impl FlightFirmware {
             FlightFirmware::Betaflight => "Betaflight",
             FlightFirmware::Inav => "INAV",
             FlightFirmware::Px4 => "PX4",
+            FlightFirmware::Ardupilot => "ArduPilot",
         }
     }
 }
@@ -171,6 +176,7 @@ impl RateLoopChannels {
                     output_unit: "deg/s",
                 })
             }
+            FlightFirmware::Ardupilot => ardupilot_channels(log, axis),
             FlightFirmware::Px4 => Ok(RateLoopChannels {
                 firmware,
                 axis,
@@ -194,6 +200,68 @@ impl RateLoopChannels {
             }),
         }
     }
+}
+
+/// ArduPilot's rate loop of `axis`: the rate controller's output `RATE.ROut` (or the PID message's
+/// P+I+D+FF), the achieved rate `RATE.R` (deg/s) and the desired rate `RATE.RDes` (or `PIDR.Tar`);
+/// refused, with the logging settings to change, when they are logged too slowly to identify.
+fn ardupilot_channels(log: &Log, axis: Axis) -> Result<RateLoopChannels> {
+    let (x, pid) = match axis {
+        Axis::Roll => ("R", "PIDR"),
+        Axis::Pitch => ("P", "PIDP"),
+        Axis::Yaw => ("Y", "PIDY"),
+    };
+    let has = |n: &str| log.channel(n).is_ok();
+    let pid_sum: Vec<String> = ["P", "I", "D", "FF"]
+        .iter()
+        .map(|t| format!("{pid}.{t}"))
+        .filter(|n| has(n))
+        .collect();
+    let input = if has(&format!("RATE.{x}Out")) {
+        format!("RATE.{x}Out")
+    } else if !pid_sum.is_empty() {
+        pid_sum.join("+")
+    } else {
+        return Err(invalid(format!(
+            "{}: no rate-controller output for the {} axis (looked for RATE.{x}Out and {pid}.P/I/D/FF): log RATE or {pid} (LOG_BITMASK bits 0 ATTITUDE_FAST and 12 PID)",
+            log.source,
+            axis.name()
+        )));
+    };
+    let output = format!("RATE.{x}");
+    if !has(&output) {
+        return Err(invalid(format!(
+            "{}: no RATE message (the achieved rate {output}): set LOG_BITMASK bit 0 (ATTITUDE_FAST) so ArduCopter logs RATE at its loop rate",
+            log.source
+        )));
+    }
+    let instrument = [format!("RATE.{x}Des"), format!("{pid}.Tar")]
+        .into_iter()
+        .find(|n| has(n))
+        .ok_or_else(|| invalid(format!("{}: no desired rate RATE.{x}Des or {pid}.Tar", log.source)))?;
+    let group = |name: &str| name.split(['.', '+']).next().unwrap_or_default().to_string();
+    let slowest = [&input, &output, &instrument]
+        .into_iter()
+        .filter_map(|c| {
+            let g = group(c);
+            log.info().into_iter().find(|i| i.name == g).map(|i| (g, i.rate_hz))
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1));
+    if let Some((g, hz)) = slowest.filter(|(_, hz)| *hz < ARDUPILOT_MIN_RATE_HZ) {
+        return Err(invalid(format!(
+            "{}: {g} is logged at {hz:.0} Hz, too slow to identify the rate loop (at least {ARDUPILOT_MIN_RATE_HZ:.0} Hz): set LOG_BITMASK bits 0 (ATTITUDE_FAST) and 12 (PID) so RATE and PIDR/PIDP/PIDY are logged at the loop rate (SCHED_LOOP_RATE), and LOG_FILE_RATEMAX = 0 where the firmware has it, then fly again",
+            log.source
+        )));
+    }
+    Ok(RateLoopChannels {
+        firmware: FlightFirmware::Ardupilot,
+        axis,
+        input,
+        output,
+        instrument,
+        input_unit: "rate-controller output",
+        output_unit: "deg/s",
+    })
 }
 
 /// A stretch of a log, s (the log's own time axis).
@@ -307,6 +375,25 @@ impl AirborneCriteria {
                 let g = GYRO_SATURATED * GYRO_FULL_SCALE_DEG_S;
                 for i in 0..3 {
                     push(format!("gyroADC[{i}]"), -g, g, "gyro saturation");
+                }
+            }
+            FlightFirmware::Ardupilot => {
+                // CTUN.ThO: the throttle output, 0..1.
+                push("CTUN.ThO".into(), 0.05, f64::INFINITY, "idle throttle");
+                let pwm = |k: &str, d: f64| {
+                    log.setting(k)
+                        .and_then(|v| v.trim().parse::<f64>().ok())
+                        .filter(|v| *v > 0.0)
+                        .unwrap_or(d)
+                };
+                let (lo, hi) = (pwm("MOT_PWM_MIN", 1000.0), pwm("MOT_PWM_MAX", 2000.0));
+                let edge = MOTOR_EDGE * (hi - lo);
+                for k in 1..=8 {
+                    push(format!("RCOU.C{k}"), lo + edge, hi - edge, "motor saturation");
+                }
+                let g = GYRO_SATURATED * GYRO_FULL_SCALE_DEG_S;
+                for x in ["R", "P", "Y"] {
+                    push(format!("RATE.{x}"), -g, g, "gyro saturation");
                 }
             }
             FlightFirmware::Px4 => {

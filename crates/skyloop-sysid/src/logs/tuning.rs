@@ -10,7 +10,7 @@
 use serde::Serialize;
 
 use super::flight::FlightFirmware;
-use super::{median_rate_hz, Log, LogFormat};
+use super::{median_rate_hz, Log};
 
 /// One axis of Betaflight's PIDF controller, in Betaflight's integer gain units (the numbers of the
 /// configurator's PID tab; the firmware multiplies them by PTERM_SCALE, ITERM_SCALE, DTERM_SCALE and
@@ -288,13 +288,11 @@ fn numbers(v: &str) -> Vec<f64> {
 impl FirmwareTuning {
     /// Reads the tuning from a blackbox, ULog or DataFlash log; `None` for CSV.
     pub fn from_log(log: &Log) -> Option<FirmwareTuning> {
-        if log.format == LogFormat::Dataflash {
-            return Some(FirmwareTuning::ArduPilot(Box::new(ardupilot(log))));
-        }
         match FlightFirmware::of(log).ok()? {
             FlightFirmware::Betaflight => Some(FirmwareTuning::Betaflight(Box::new(betaflight(log)))),
             FlightFirmware::Inav => Some(FirmwareTuning::Inav(Box::new(inav(log)))),
             FlightFirmware::Px4 => Some(FirmwareTuning::Px4(px4(log))),
+            FlightFirmware::Ardupilot => Some(FirmwareTuning::ArduPilot(Box::new(ardupilot(log)))),
         }
     }
 }

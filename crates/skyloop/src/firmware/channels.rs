@@ -59,6 +59,19 @@ pub fn noise_channels(log: &Log) -> Option<NoiseChannels> {
                 rotation: (!erpm.is_empty()).then(|| (erpm, 100.0 / 60.0 / (poles / 2.0))),
             }
         }
+        FlightFirmware::Ardupilot => {
+            let motors: Vec<String> = (1..=8).map(|k| format!("RCOU.C{k}")).filter(|n| has(n)).collect();
+            NoiseChannels {
+                gyro,
+                gyro_unit: "deg/s",
+                dterm: [None, None, None],
+                dterm_unit: "",
+                throttle: has("CTUN.ThO").then(|| ("CTUN.ThO".to_string(), 0.0, 1.0)),
+                motors,
+                motor_unit: "PWM µs",
+                rotation: None,
+            }
+        }
         FlightFirmware::Px4 => {
             let motors = listed(&|k| format!("actuator_motors.control[{k}]"));
             let rpm = listed(&|k| format!("esc_status.esc[{k}].esc_rpm"));

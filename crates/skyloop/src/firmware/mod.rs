@@ -92,6 +92,7 @@ impl Firmware {
             FlightFirmware::Betaflight => Some(Firmware::Betaflight),
             FlightFirmware::Inav => Some(Firmware::Inav),
             FlightFirmware::Px4 => Some(Firmware::Px4),
+            FlightFirmware::Ardupilot => Some(Firmware::Ardupilot),
         }
     }
 

@@ -321,18 +321,20 @@ fn identify_stage(req: &LogTuneRequest, log: Log, derived: Vec<String>) -> Resul
             other => other,
         })?;
     let log_fw = Firmware::of_log(&log);
+    if req.firmware == Firmware::Ardupilot && log_fw == Some(Firmware::Ardupilot) {
+        // The identified plant's input is RATE.ROut and its output deg/s, while ATC_RAT_* act on
+        // rad/s: the flown gains and the loop's units are not wired through yet.
+        return Err(Error::Input(format!(
+            "ArduPilot DataFlash logs are identified (`skyloop identify LOG --axis {}`) but not tuned from yet: convert the identified K from deg/s to rad/s (× π/180) and give --plant 'K*exp(-Td*s)/(s*(tau*s+1))' --firmware ardupilot",
+            req.axis.name()
+        )));
+    }
     if req.firmware != Firmware::Generic && log_fw != Some(req.firmware) {
         let l = log_fw.map_or("CSV", |f| f.display_name());
-        return Err(Error::Input(if req.firmware == Firmware::Ardupilot {
-            format!(
-                "--firmware ardupilot does not match the log, which is a {l} log (ArduPilot DataFlash logs are not tuned from yet: identify the axis elsewhere and give --plant)"
-            )
-        } else {
-            format!(
-                "--firmware {} does not match the log, which is a {l} log",
-                req.firmware.name()
-            )
-        }));
+        return Err(Error::Input(format!(
+            "--firmware {} does not match the log, which is a {l} log",
+            req.firmware.name()
+        )));
     }
     let (_, fit) = id
         .fit
