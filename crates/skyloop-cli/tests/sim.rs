@@ -331,13 +331,16 @@ fn long_simulations_state_their_cost_and_progress() {
             .replacen("log_hz = 250.0", "log_hz = 50.0", 1),
     )
     .expect("write");
-    let o = skyloop()
-        .arg("simulate")
-        .arg(&scn)
-        .arg("--out")
-        .arg(dir.join("out"))
-        .output()
-        .expect("runs");
+    let run = || {
+        skyloop()
+            .arg("simulate")
+            .arg(&scn)
+            .arg("--out")
+            .arg(dir.join("out"))
+            .output()
+            .expect("runs")
+    };
+    let o = run();
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
     assert!(
@@ -345,13 +348,7 @@ fn long_simulations_state_their_cost_and_progress() {
         "{err}"
     );
     std::fs::write(&scn, text.replacen("duration_s = 8.0", "duration_s = 360000.0", 1)).expect("write");
-    let o = skyloop()
-        .arg("simulate")
-        .arg(&scn)
-        .arg("--out")
-        .arg(dir.join("out"))
-        .output()
-        .expect("runs");
+    let o = run();
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("sim.duration_s × sim.physics_hz"));
 }

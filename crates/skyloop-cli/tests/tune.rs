@@ -6,6 +6,16 @@ mod common;
 use common::skyloop;
 use serde_json::Value;
 
+/// The JSON's `cli` lines.
+fn cli_lines(v: &Value) -> Vec<&str> {
+    v["cli"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|l| l.as_str().unwrap())
+        .collect()
+}
+
 fn json(args: &[&str]) -> Value {
     let (code, out, err) = skyloop(args);
     assert_eq!(code, 0, "{args:?}: {err}");
@@ -101,12 +111,7 @@ fn betaflight_prints_integer_gains_and_cli_lines() {
     for k in ["p", "i", "d", "f"] {
         assert!(v["gains"][k].is_u64(), "{k}: {v}");
     }
-    let cli: Vec<&str> = v["cli"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|l| l.as_str().unwrap())
-        .collect();
+    let cli = cli_lines(&v);
     assert_eq!(cli[0], format!("set p_roll = {}", v["gains"]["p"]));
     let file = std::fs::read_to_string(dir.join("cli.txt")).unwrap();
     assert!(file.starts_with(cli[0]));
@@ -138,12 +143,7 @@ fn inav_prints_integer_gains_and_cli_lines() {
     for k in ["p", "i", "d", "cd"] {
         assert!(v["gains"][k].as_u64().is_some_and(|g| g <= 255), "{k}: {v}");
     }
-    let cli: Vec<&str> = v["cli"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|l| l.as_str().unwrap())
-        .collect();
+    let cli = cli_lines(&v);
     assert_eq!(cli[0], format!("set mc_p_roll = {}", v["gains"]["p"]));
     assert_eq!(cli[3], format!("set mc_cd_roll = {}", v["gains"]["cd"]));
     // The hold of the 1 kHz loop (half a period) is part of the checked loop.
@@ -828,12 +828,7 @@ fn tune_filters_changes_the_dterm_cutoff_within_the_rules() {
     assert_eq!(v["verdict"]["kind"], "propose", "{}", v["verdict"]);
     let changes = v["filter_changes"].as_array().unwrap();
     assert!(!changes.is_empty(), "{v}");
-    let cli: Vec<&str> = v["cli"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|l| l.as_str().unwrap())
-        .collect();
+    let cli = cli_lines(&v);
     let xo = v["margins"]["crossover_hz"].as_f64().unwrap();
     for c in changes {
         let (name, was, now) = (

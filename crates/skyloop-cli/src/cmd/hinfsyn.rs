@@ -46,7 +46,7 @@ pub fn run(a: Args) -> skyloop::Result<()> {
         gamma_range: (a.gamma_min, a.gamma_max.unwrap_or(f64::INFINITY)),
         rel_tol: a.tol,
     };
-    crate::output::bench(a.bench, || {
+    let synthesize = || {
         hinfsyn_with(&p, a.nmeas, a.ncon, &opts).map_err(|e| {
             explain(
                 "hinfsyn",
@@ -55,15 +55,9 @@ pub fn run(a: Args) -> skyloop::Result<()> {
                 Synthesis::Generalized,
             )
         })
-    })?;
-    let sol = hinfsyn_with(&p, a.nmeas, a.ncon, &opts).map_err(|e| {
-        explain(
-            "hinfsyn",
-            &e,
-            &[("the generalized plant P", &p)],
-            Synthesis::Generalized,
-        )
-    })?;
+    };
+    crate::output::bench(a.bench, synthesize)?;
+    let sol = synthesize()?;
     if let Some(path) = &a.out {
         std::fs::write(path, skyloop::lti::json::to_json_string(&sol.controller))
             .map_err(|e| skyloop::Error::write(path, e))?;
