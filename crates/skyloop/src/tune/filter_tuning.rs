@@ -93,8 +93,9 @@ pub fn bands_within_budget(freq_hz: &[f64], flown: &[f64], cand: &[f64], budget:
     None
 }
 
-/// The phase of a gain set's D-term lowpass chain at `f_hz`, degrees (0 without one).
-fn dterm_phase_deg(g: &RateGains, f_hz: f64) -> f64 {
+/// The response of a gain set's D-term chain (lowpasses and notch) at `f_hz`: (gain dB, phase
+/// degrees, summed stage by stage so the phase is not wrapped); (0, 0) without one.
+pub fn dterm_response(g: &RateGains, f_hz: f64) -> (f64, f64) {
     let chain = match g {
         RateGains::Betaflight { filters, .. } => filters.dterm.clone(),
         RateGains::Inav { filters, .. } => filters.dterm.clone(),
@@ -106,9 +107,27 @@ fn dterm_phase_deg(g: &RateGains, f_hz: f64) -> f64 {
         .filter_map(|l| {
             let m = l.model().ok()?;
             let ev = skyloop_lti::freqresp::FreqEvaluator::new(&m).ok()?;
-            Some(ev.eval(s).ok()?[(0, 0)].arg().to_degrees())
+            let v = ev.eval(s).ok()?[(0, 0)];
+            Some((20.0 * v.norm().log10(), v.arg().to_degrees()))
         })
-        .sum()
+        .fold((0.0, 0.0), |(a, b), (m, p)| (a + m, b + p))
+}
+
+/// The phase of a gain set's D-term chain at `f_hz`, degrees.
+fn dterm_phase_deg(g: &RateGains, f_hz: f64) -> f64 {
+    dterm_response(g, f_hz).1
+}
+
+/// The proposal's gain set rebuilt from the flown one and the reported changes (the factor the
+/// first change scales its setting by); None without changes.
+pub fn proposed_filters(flown: &RateGains, changes: &[FilterChange]) -> Option<RateGains> {
+    let c = changes.first()?;
+    let k = c.proposed_hz / c.flown_hz;
+    let k = SCALES
+        .iter()
+        .copied()
+        .min_by(|a, b| (a - k).abs().total_cmp(&(b - k).abs()))?;
+    flown.with_dterm_scale(k)
 }
 
 /// The factor a proposal's D-term chain is scaled by relative to the flown one (1 when unchanged).

@@ -258,6 +258,19 @@ pub fn write_log_outputs(out: &super::log::LogTuneOutcome, dir: &Path) -> Result
             ),
         );
     }
+    if let Some(fig) = filter_figure(out) {
+        let text = out
+            .filter_changes
+            .iter()
+            .map(|c| format!("{} {} → {} Hz", c.name, c.flown_hz, c.proposed_hz))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let why = out.filter_changes.first().map(|c| c.reason.clone()).unwrap_or_default();
+        rep.section("Filters").figure(
+            fig,
+            format!("The D-term filter chain flown and proposed (--tune-filters): {text}. Why: {why}."),
+        );
+    }
     let sec = rep.section("Identified plant");
     let mut rows: Vec<(&str, String)> = out
         .params
@@ -482,6 +495,27 @@ fn verdict_section(rep: &mut Report, out: &super::log::LogTuneOutcome) {
                 .collect(),
         );
     }
+}
+
+/// The D-term chain's gain and phase, flown against proposed (None without filter changes).
+fn filter_figure(out: &super::log::LogTuneOutcome) -> Option<skyloop_plot::figure::Figure> {
+    use super::filter_tuning::{dterm_response, proposed_filters};
+    use skyloop_plot::figure::{Figure, Panel, Series};
+    let flown = &out.live.as_ref()?.flown;
+    let proposed = proposed_filters(flown, &out.filter_changes)?;
+    let f: Vec<f64> = (0..300).map(|k| 10f64.powf(0.5 + 2.3 * f64::from(k) / 299.0)).collect();
+    let resp = |g| f.iter().map(|&x| dterm_response(g, x)).collect::<Vec<_>>();
+    let (a, b) = (resp(flown), resp(&proposed));
+    let mut gain = Panel::frequency("gain [dB]");
+    let mut phase = Panel::frequency("phase [deg]");
+    for (label, r, c) in [("flown", &a, 0), ("proposed", &b, 1)] {
+        gain.series
+            .push(Series::line(label, f.clone(), r.iter().map(|x| x.0).collect()).colored(c));
+        phase
+            .series
+            .push(Series::line(label, f.clone(), r.iter().map(|x| x.1).collect()).colored(c));
+    }
+    Some(Figure::new("D-term filter chain", vec![gain, phase]))
 }
 
 /// The noise spectra in dB: gyro, predicted PID output of both tunes, the logged D term.
