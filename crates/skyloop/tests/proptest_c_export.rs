@@ -102,7 +102,10 @@ fn run_c(case: &Case, header: &str, dir: &PathBuf) -> Option<Vec<f64>> {
     std::fs::create_dir_all(dir).unwrap();
     std::fs::write(dir.join("ctl.h"), header).unwrap();
     let ty = if case.double { "double" } else { "float" };
-    let data: Vec<String> = case.inputs.iter().map(|v| format!("{v:.17e}")).collect();
+    // In float, each input printed as its float value, so the compiler's decimal → float
+    // conversion and the library's f64 → f32 one give the same number.
+    let exact = |v: f64| if case.double { v } else { f64::from(v as f32) };
+    let data: Vec<String> = case.inputs.iter().map(|&v| format!("{:.17e}", exact(v))).collect();
     let main = format!(
         "#include <stdio.h>\n#include \"ctl.h\"\nstatic const {ty} in[] = {{{}}};\nint main(void) {{\n  {n}_state_t s; {n}_reset(&s);\n  for (unsigned i = 0; i < sizeof in / sizeof in[0]; ++i) {{ {ty} u[1]; {n}_step(&s, &in[i], u); printf(\"%.17e\\n\", (double)u[0]); }}\n  return 0;\n}}\n",
         data.join(","),
@@ -145,9 +148,12 @@ fn run_rust<T: skyloop::control::Real>(case: &Case, d: &skyloop::lti::StateSpace
         .unwrap()
         .with_limits(&[T::from_f64(case.limits.0)], &[T::from_f64(case.limits.1)])
         .unwrap();
-    // The header's rule: Hanus conditioning where D ≠ 0, none otherwise.
-    let mut c = if d.d[(0, 0)].abs() > 1e-12 {
-        c.clone().with_hanus_aw().unwrap_or(c)
+    // The header's rule: Hanus conditioning L = B/D where D ≠ 0 (the quotient taken in double and
+    // then rounded, as the header's literals are), none otherwise.
+    let dd = d.d[(0, 0)];
+    let mut c = if dd.abs() > 1e-12 {
+        let l: Vec<T> = (0..d.nx()).map(|i| T::from_f64(d.b[(i, 0)] / dd)).collect();
+        c.with_aw_gain(&l).unwrap()
     } else {
         c
     };

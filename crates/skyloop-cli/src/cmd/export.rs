@@ -34,6 +34,10 @@ pub fn run(a: Args) -> skyloop::Result<()> {
     let sys = skyloop::model::load_model(&a.controller)?;
     let ty = if a.double { "double" } else { "float" };
     let (text, d) = controller_header(&sys, a.dt, &a.name, ty, a.u_min, a.u_max, &a.controller)?;
+    let limited = a.u_min.is_finite() || a.u_max.is_finite();
+    if let Some(w) = skyloop::export::c_header::anti_windup_warning(&d).filter(|_| limited) {
+        eprintln!("warning: {w}");
+    }
     std::fs::write(&a.c_file, text).map_err(|e| skyloop::Error::write(&a.c_file, e))?;
     println!("wrote {} ({} states, dt = {} s)", a.c_file.display(), d.nx(), d.dt);
     Ok(())

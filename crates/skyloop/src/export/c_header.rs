@@ -36,6 +36,27 @@ fn comment_safe(t: &str) -> String {
     t.replace("*/", "* /").replace("/*", "/ *").replace(['\n', '\r'], " ")
 }
 
+/// Why the exported anti-windup may misbehave, or None: with Hanus conditioning (L = B/D) the
+/// states follow A − B·C/D while the output sits at a limit, whose eigenvalues are the controller's
+/// zeros. Zeros on or outside the unit circle (Tustin maps a strictly proper controller's zeros at
+/// infinity to z = −1) keep the states from settling while saturated.
+pub fn anti_windup_warning(d: &skyloop_lti::StateSpace) -> Option<String> {
+    if d.nu() != 1 || d.ny() != 1 || d.nx() == 0 || d.d[(0, 0)].abs() <= 1e-12 {
+        return None;
+    }
+    let dd = d.d[(0, 0)];
+    let a = skyloop_lti::Mat::from_fn(d.nx(), d.nx(), |i, j| d.a[(i, j)] - d.b[(i, 0)] * d.c[(0, j)] / dd);
+    let sat = skyloop_lti::StateSpace::new(a, d.b.clone(), d.c.clone(), d.d.clone(), d.dt).ok()?;
+    let z = skyloop_lti::poles_zeros::poles(&sat).ok()?;
+    let worst = z.iter().map(|p| p.norm()).fold(0.0f64, f64::max);
+    let n = z.iter().filter(|p| p.norm() >= 1.0 - 1e-9).count();
+    (n > 0).then(|| {
+        format!(
+            "with the output at a limit, the Hanus anti-windup makes the controller's states follow its zeros, and {n} of them lie on or outside the unit circle (largest |z| = {worst:.6}; Tustin puts a strictly proper controller's zeros at infinity at z = −1): the states oscillate or drift while saturated; keep the limits out of reach or export a controller whose zeros are inside"
+        )
+    })
+}
+
 /// Writes the C header text for a discrete model.
 pub fn header(d: &skyloop_lti::StateSpace, name: &str, ty: &str, u_min: f64, u_max: f64, source: &str) -> String {
     let (nx, nu, ny) = (d.nx(), d.nu(), d.ny());
@@ -63,6 +84,12 @@ pub fn header(d: &skyloop_lti::StateSpace, name: &str, ty: &str, u_min: f64, u_m
             "0 (no anti-windup: D = 0 or MIMO)"
         }
     );
+    // Without a finite limit the output never saturates and the conditioning never acts.
+    if hanus && (u_min.is_finite() || u_max.is_finite()) {
+        if let Some(w) = anti_windup_warning(d) {
+            let _ = writeln!(s, "/* WARNING: {} */", comment_safe(&w));
+        }
+    }
     let _ = writeln!(s, "#ifndef {up}_H\n#define {up}_H\n");
     if u_min.is_infinite() || u_max.is_infinite() {
         let _ = writeln!(s, "#include <math.h> /* INFINITY */\n");
@@ -245,6 +272,18 @@ mod tests {
             e.to_string().contains("--u-min") && e.to_string().contains("NaN"),
             "{e}"
         );
+    }
+
+    /// A strictly proper controller under Tustin has a zero at z = −1: its saturated states do not
+    /// settle, said in the header and by the warning; a biproper lead with a stable zero is quiet.
+    #[test]
+    fn marginal_saturated_dynamics_are_warned() {
+        let c = crate::model::load_model("40/(s*(s/375+1))").unwrap();
+        let (t, d) = controller_header(&c, 0.004, "roll", "double", -0.05, 0.05, "x").unwrap();
+        assert!(anti_windup_warning(&d).is_some_and(|w| w.contains("z = −1")));
+        assert!(t.contains("/* WARNING: with the output at a limit"), "{t}");
+        let (t, d) = controller_header(&lead(), 0.004, "roll", "double", -1.0, 1.0, "x").unwrap();
+        assert!(anti_windup_warning(&d).is_none() && !t.contains("WARNING"));
     }
 
     /// With a system C compiler on PATH, the header compiles under -std=c99 -Wall -Werror (skipped,
