@@ -197,13 +197,39 @@ fn every_figure() -> Vec<(&'static str, Layout)> {
             step_figure("Closed-loop step response", &[st], &[info]),
         );
     }
-    let mut other = second_order_step(0.45, 6.0, 1.0, 1.5 * ts);
-    other.label = "retuned".into();
-    let info2 = skyloop_lti::timeresp::stepinfo(&other.t, &other.y, Some(1.0));
+    // The design report's shape: a non-minimum-phase closed loop (undershoot) with a slow tail
+    // from a nearly cancelled pole, on 1.5× its settling time.
+    let t_nmp = skyloop_lti::expr::parse_model("(1-0.08*s)*(0.53*s+1)/((0.05*s+1)^2*(0.5*s+1))").unwrap();
+    let long = skyloop_lti::timeresp::step(&t_nmp, None).unwrap();
+    let ts = skyloop_lti::timeresp::stepinfo(&long.t_s, &long.y[0][0], Some(1.0))
+        .settling_time_s
+        .unwrap();
+    let grid: Vec<f64> = (0..=500).map(|k| 1.5 * ts * k as f64 / 500.0).collect();
+    let nmp = Trace {
+        label: "y for r = 1 (final controller)".into(),
+        y: skyloop_lti::timeresp::step(&t_nmp, Some(&grid)).unwrap().y[0][0].clone(),
+        t: grid,
+    };
+    let info = skyloop_lti::timeresp::stepinfo(&nmp.t, &nmp.y, Some(1.0));
     add(
-        "step, two traces",
-        step_figure("Step", &[step.clone(), other], &[info, info2]),
+        "design step, non-minimum phase",
+        step_figure("Closed-loop step response T = PC/(1+PC)", &[nmp], &[info]),
     );
+    // Two traces whose notes crowd the same upper region (either one the slower).
+    for (z1, z2) in [(0.7, 0.45), (0.45, 0.7)] {
+        let long = second_order_step(z1, 4.0, 1.0, 20.0);
+        let ts = skyloop_lti::timeresp::stepinfo(&long.t, &long.y, Some(1.0))
+            .settling_time_s
+            .unwrap();
+        let first = second_order_step(z1, 4.0, 1.0, 1.5 * ts);
+        let mut other = second_order_step(z2, 6.0, 1.0, 1.5 * ts);
+        other.label = "retuned".into();
+        let infos: Vec<_> = [&first, &other]
+            .iter()
+            .map(|t| skyloop_lti::timeresp::stepinfo(&t.t, &t.y, Some(1.0)))
+            .collect();
+        add("step, two traces", step_figure("Step", &[first, other], &infos));
+    }
     let tp = TracePanel {
         y_label: "rate [deg/s]".into(),
         traces: vec![step.clone()],
