@@ -89,6 +89,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         crossover_hz: Some(wc),
         gain_margin: Some((gm, w180)),
         phase_margin: Some((pm, wc)),
+        ..BodeMarks::default()
     };
     let mut report = Report::new("skyloop-plot conventions: a delayed loop");
     let bode_fig = bode_figure("Loop transfer L = P·C (delay 32 ms)", &[l.clone(), p.clone()], &marks);

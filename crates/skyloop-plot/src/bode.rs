@@ -20,7 +20,7 @@ pub struct BodeData {
 }
 
 /// Margins to mark on a Bode plot of a loop transfer; each is optional.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct BodeMarks {
     /// Gain crossover frequency, Hz.
     pub crossover_hz: Option<f64>,
@@ -28,6 +28,10 @@ pub struct BodeMarks {
     pub gain_margin: Option<(f64, f64)>,
     /// Phase margin (deg) and the gain-crossover frequency (Hz) where it is read.
     pub phase_margin: Option<(f64, f64)>,
+    /// The other gain crossovers (|L| = 1 again, e.g. over a resonance), each as its phase margin
+    /// (deg) and frequency (Hz): marked like the main one, since the delay margin may be set at
+    /// any of them.
+    pub other_crossovers: Vec<(f64, f64)>,
 }
 
 /// How the phase axis is chosen.
@@ -136,7 +140,8 @@ pub fn bode_figure_marked(title: &str, data: &[BodeData], marks: &[BodeMarks], o
         }
     };
     for (k, m) in marks.iter().enumerate() {
-        if let Some(wc) = m.crossover_hz {
+        let others = || m.other_crossovers.iter().copied();
+        for wc in m.crossover_hz.into_iter().chain(others().map(|(_, f)| f)) {
             mag.markers.push(Marker::Vertical {
                 x: wc,
                 label: named(k, format!("crossover {}", hz(wc))),
@@ -147,7 +152,8 @@ pub fn bode_figure_marked(title: &str, data: &[BodeData], marks: &[BodeMarks], o
         if let Some((gm, f)) = m.gain_margin.filter(|(g, f)| g.is_finite() && f.is_finite()) {
             mag.series.push(Series::line("", vec![f, f], vec![-gm, 0.0]).colored(k));
         }
-        if let Some((pm, f)) = m.phase_margin.filter(|(p, f)| p.is_finite() && f.is_finite()) {
+        let margins = || m.phase_margin.into_iter().chain(others());
+        for (pm, f) in margins().filter(|(p, f)| p.is_finite() && f.is_finite()) {
             // The −180° nearest the curve there (the phase may sit a turn lower).
             let at = data.get(k).and_then(|d| {
                 d.freq_hz
@@ -161,7 +167,7 @@ pub fn bode_figure_marked(title: &str, data: &[BodeData], marks: &[BodeMarks], o
                 .series
                 .push(Series::line("", vec![f, f], vec![base, base + pm]).colored(k));
         }
-        if let Some((pm, f)) = m.phase_margin {
+        for (pm, f) in margins() {
             phase.markers.push(Marker::Vertical {
                 x: f,
                 label: named(k, format!("PM {pm:.1}° at {}", hz(f))),
@@ -196,7 +202,7 @@ pub fn bode_figure_marked(title: &str, data: &[BodeData], marks: &[BodeMarks], o
 }
 
 /// A frequency with 3 significant digits and its unit ("1.47 Hz", "12.3 kHz").
-pub(crate) fn hz(f: f64) -> String {
+pub fn hz(f: f64) -> String {
     if f.abs() >= 1e3 {
         format!("{} kHz", sig3(f / 1e3))
     } else {

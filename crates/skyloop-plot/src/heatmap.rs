@@ -6,6 +6,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use crate::error::{PlotError, Result};
+use crate::layout::{BoxKind, Layout, PlacedBox, PxRect};
 use crate::render::{register_font, text_style};
 use crate::ticks::{format_tick, nice_step};
 
@@ -129,12 +130,12 @@ impl Heatmap {
                     crate::raster_text::PngBackend::new(BitMapBackend::new(path, (WIDTH, HEIGHT)), crate::render::FONT)
                         .map_err(err)?;
                 let root = backend.into_drawing_area();
-                self.draw(&root).map_err(err)?;
+                self.draw(&root, &mut Vec::new()).map_err(err)?;
                 root.present().map_err(|e| err(e.to_string()))
             }
             Some("svg") => {
                 let root = SVGBackend::new(path, (WIDTH, HEIGHT)).into_drawing_area();
-                self.draw(&root).map_err(err)?;
+                self.draw(&root, &mut Vec::new()).map_err(err)?;
                 root.present().map_err(|e| err(e.to_string()))
             }
             _ => Err(PlotError::Format(name)),
@@ -146,6 +147,20 @@ impl Heatmap {
     /// # Errors
     /// As [`save`](Self::save), without the file.
     pub fn to_svg_string(&self) -> Result<String> {
+        self.svg_recorded(&mut Vec::new())
+    }
+
+    /// Where rendering puts the overlay labels: their pixel boxes (panel 0, [`BoxKind::Label`]).
+    ///
+    /// # Errors
+    /// As [`to_svg_string`](Self::to_svg_string).
+    pub fn layout(&self) -> Result<Layout> {
+        let mut boxes = Vec::new();
+        self.svg_recorded(&mut boxes)?;
+        Ok(Layout { boxes })
+    }
+
+    fn svg_recorded(&self, rec: &mut Vec<PlacedBox>) -> Result<String> {
         self.check()?;
         let mut buf = String::new();
         {
@@ -154,13 +169,18 @@ impl Heatmap {
                 path: "<svg>".into(),
                 message: m,
             };
-            self.draw(&root).map_err(err)?;
+            self.draw(&root, rec).map_err(err)?;
             root.present().map_err(|e| err(e.to_string()))?;
         }
         Ok(buf)
     }
 
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> std::result::Result<(), String> {
+    /// Draws the heatmap, recording the boxes of the overlay labels in `rec`.
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        rec: &mut Vec<PlacedBox>,
+    ) -> std::result::Result<(), String> {
         register_font()?;
         let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
         root.fill(&WHITE).map_err(e)?;
@@ -243,6 +263,19 @@ impl Heatmap {
                 .map_err(|e| e.to_string())?;
             if let Some(&(x, y)) = pts.last() {
                 let style = text_style(12.0).color(&WHITE).pos(Pos::new(HPos::Right, VPos::Bottom));
+                let (w, h) = root.estimate_text_size(&o.label, &style).map_err(e)?;
+                let (u, v) = chart.backend_coord(&(x, y));
+                rec.push(PlacedBox {
+                    panel: 0,
+                    kind: BoxKind::Label,
+                    text: o.label.clone(),
+                    rect: PxRect {
+                        left: u - w as i32,
+                        top: v - h as i32,
+                        right: u,
+                        bottom: v,
+                    },
+                });
                 chart
                     .draw_series(std::iter::once(Text::new(o.label.clone(), (x, y), style)))
                     .map_err(|e| e.to_string())?;

@@ -26,8 +26,9 @@
 //! Tick labels in engineering notation without trailing zeros ([`ticks::format_tick`]: "10G",
 //! "0.5", "20"); log axes labelled at decades (and 2, 5 over at most two decades); the label area as
 //! wide as the widest label; curves cut where they leave the view ([`geometry::clip_polyline`]),
-//! never clamped onto the frame; the legend in the corner that hides no data, else outside on the
-//! right; the Okabe–Ito palette ([`PALETTE`]), a series keeping its colour across the panels of a
+//! never clamped onto the frame; value labels (margins, crossovers, step characteristics) placed
+//! where they hide no earlier label; the legend in the corner that hides no data and no label, else
+//! outside on the right (every placed box is in [`Figure::layout`]); the Okabe–Ito palette ([`PALETTE`]), a series keeping its colour across the panels of a
 //! figure (by label, or fixed with [`Series::colored`]); dashed for references and targets.
 
 pub mod bode;
@@ -38,6 +39,7 @@ pub mod geometry;
 pub mod heatmap;
 pub mod hsv;
 pub mod interactive;
+pub mod layout;
 pub mod mu;
 pub mod nichols;
 pub mod nyquist;

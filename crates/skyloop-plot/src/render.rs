@@ -15,6 +15,7 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 use crate::error::{PlotError, Result};
 use crate::figure::{usable, Figure, Marker, Panel, SeriesStyle, NEUTRAL, PALETTE};
 use crate::geometry::{clip_polygon, clip_polyline, ViewBox};
+use crate::layout::{BoxKind, Layout, PlacedBox, PxRect};
 use crate::ticks::{degree_ticks, linear_ticks, log_ticks, Tick};
 
 /// Palette colour `i` (wrapping).
@@ -65,6 +66,16 @@ impl Figure {
         self.check()?;
         svg_string(self)
     }
+
+    /// Where rendering puts every legend and text of the figure: pixel boxes in the image
+    /// [`Figure::save`] writes (the same layout for SVG and PNG; the text is measured with the
+    /// embedded font).
+    pub fn layout(&self) -> Result<Layout> {
+        self.check()?;
+        let mut boxes = Vec::new();
+        svg_string_recorded(self, &mut boxes)?;
+        Ok(Layout { boxes })
+    }
 }
 
 /// Writes `fig` to `path`, choosing the backend from the extension.
@@ -87,7 +98,7 @@ pub(crate) fn save(fig: &Figure, path: &Path) -> Result<()> {
     match ext.as_deref() {
         Some("svg") => {
             let root = SVGBackend::new(path, size).into_drawing_area();
-            draw_figure(fig, &root).map_err(draw_err)?;
+            draw_figure(fig, &root, &mut Vec::new()).map_err(draw_err)?;
             root.present().map_err(|e| draw_err(e.to_string()))
         }
         // No bitmap file backend on wasm32 (see `register_font`).
@@ -96,7 +107,7 @@ pub(crate) fn save(fig: &Figure, path: &Path) -> Result<()> {
             let backend =
                 crate::raster_text::PngBackend::new(BitMapBackend::new(path, size), FONT).map_err(draw_err)?;
             let root = backend.into_drawing_area();
-            draw_figure(fig, &root).map_err(draw_err)?;
+            draw_figure(fig, &root, &mut Vec::new()).map_err(draw_err)?;
             root.present().map_err(|e| draw_err(e.to_string()))
         }
         _ => Err(PlotError::Format(name)),
@@ -105,11 +116,16 @@ pub(crate) fn save(fig: &Figure, path: &Path) -> Result<()> {
 
 /// Renders `fig` to an SVG string.
 pub(crate) fn svg_string(fig: &Figure) -> Result<String> {
+    svg_string_recorded(fig, &mut Vec::new())
+}
+
+/// Renders `fig` to an SVG string, recording the boxes of its legends and texts in `rec`.
+fn svg_string_recorded(fig: &Figure, rec: &mut Vec<PlacedBox>) -> Result<String> {
     let size = fig.size();
     let mut buf = String::new();
     {
         let root = SVGBackend::with_string(&mut buf, size).into_drawing_area();
-        draw_figure(fig, &root).map_err(|e| PlotError::Draw {
+        draw_figure(fig, &root, rec).map_err(|e| PlotError::Draw {
             path: "<svg>".into(),
             message: e,
         })?;
@@ -333,6 +349,8 @@ struct Laid {
     legend_size: (i32, i32),
     /// Pixels of point-like markers and notes (the legend must not hide them either).
     marks: Vec<(f64, f64)>,
+    /// The markers' labels, placed ([`place_labels`]; empty until then).
+    labels: Vec<PlacedLabel>,
 }
 
 #[derive(Clone)]
@@ -539,6 +557,7 @@ fn lay_out(p: &Panel, colors_unused: &[usize], (w, h): (i32, i32), left: i32, bo
         legend: Vec::new(),
         legend_size: (0, 0),
         marks,
+        labels: Vec::new(),
     }
 }
 
@@ -586,7 +605,15 @@ fn best_corner(l: &Laid, (w, h): (i32, i32)) -> ((i32, i32), usize) {
         );
         // A marker or note counts as much as a stretch of curve: it carries a value.
         let inside = |q: &&(f64, f64)| q.0 >= r.0 - 40.0 && q.0 <= r.2 + 10.0 && q.1 >= r.1 - 10.0 && q.1 <= r.3 + 10.0;
-        let n = coverage(&l.runs, r) + 50 * l.marks.iter().filter(inside).count();
+        // A label under the legend would be lost: as bad as many marks.
+        let legend = PxRect {
+            left: c.0,
+            top: c.1,
+            right: c.0 + w,
+            bottom: c.1 + h,
+        };
+        let labels = l.labels.iter().filter(|n| n.rect.grown(2).overlaps(&legend)).count();
+        let n = coverage(&l.runs, r) + 50 * l.marks.iter().filter(inside).count() + 1000 * labels;
         if n < best.1 {
             best = (c, n);
         }
@@ -594,7 +621,12 @@ fn best_corner(l: &Laid, (w, h): (i32, i32)) -> ((i32, i32), usize) {
     best
 }
 
-fn draw_figure<DB: DrawingBackend>(fig: &Figure, root: &DrawingArea<DB, Shift>) -> std::result::Result<(), String> {
+/// Draws `fig` on `root`, recording the box of every legend and text it places in `rec`.
+fn draw_figure<DB: DrawingBackend>(
+    fig: &Figure,
+    root: &DrawingArea<DB, Shift>,
+    rec: &mut Vec<PlacedBox>,
+) -> std::result::Result<(), String> {
     register_font()?;
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     root.fill(&WHITE).map_err(e)?;
@@ -650,7 +682,7 @@ fn draw_figure<DB: DrawingBackend>(fig: &Figure, root: &DrawingArea<DB, Shift>) 
         if legends[i].is_empty() {
             continue;
         }
-        let l = lay_out(
+        let mut l = lay_out(
             p,
             &colors[i],
             dims[i],
@@ -658,6 +690,7 @@ fn draw_figure<DB: DrawingBackend>(fig: &Figure, root: &DrawingArea<DB, Shift>) 
             bottoms[i],
             col_min_right[i % cols],
         );
+        l.labels = place_labels(p, &l, &body);
         let (_, hidden) = best_corner(&l, sizes[i]);
         let fits = sizes[i].0 < (l.frame.right - l.frame.left) / 2 && sizes[i].1 < (l.frame.bottom - l.frame.top) / 2;
         if hidden > 0 || !fits {
@@ -677,9 +710,10 @@ fn draw_figure<DB: DrawingBackend>(fig: &Figure, root: &DrawingArea<DB, Shift>) 
     for (i, (p, area)) in fig.panels.iter().zip(areas.iter()).enumerate() {
         let c = i % cols;
         let mut l = lay_out(p, &colors[i], dims[i], col_left[c], bottoms[i], col_right[c]);
+        l.labels = place_labels(p, &l, area);
         l.legend = legends[i].clone();
         l.legend_size = sizes[i];
-        draw_panel(p, &colors[i], &l, area, outside_col[c])?;
+        draw_panel(p, &colors[i], &l, area, outside_col[c], (i, &mut *rec))?;
     }
     Ok(())
 }
@@ -737,11 +771,58 @@ fn draw_panel<DB: DrawingBackend>(
     l: &Laid,
     area: &DrawingArea<DB, Shift>,
     legend_outside: bool,
+    (panel, rec): (usize, &mut Vec<PlacedBox>),
+) -> std::result::Result<(), String> {
+    let f = l.frame;
+    let (w, _) = area.dim_in_pixel();
+    // Boxes are recorded in pixels of the whole image, where panels do not share coordinates.
+    let base = area.get_base_pixel();
+    let mut put = |kind: BoxKind, text: &str, rect: PxRect| {
+        rec.push(PlacedBox {
+            panel,
+            kind,
+            text: text.to_string(),
+            rect: rect.shifted(base),
+        });
+    };
+
+    draw_data(p, colors, l, area)?;
+    draw_markers(p, &f, area, &l.labels)?;
+    for n in &l.labels {
+        put(BoxKind::Label, &n.text, n.rect);
+    }
+
+    draw_axes_text(p, l, area, &mut put)?;
+
+    if !l.legend.is_empty() {
+        let (lw, lh) = l.legend_size;
+        let origin = if legend_outside {
+            ((f.right + 12).min(w as i32 - lw - 2), f.top)
+        } else {
+            best_corner(l, l.legend_size).0
+        };
+        draw_legend(area, &l.legend, origin, (lw, lh))?;
+        let text: Vec<&str> = l.legend.iter().map(|en| en.label.as_str()).collect();
+        let rect = PxRect {
+            left: origin.0,
+            top: origin.1,
+            right: origin.0 + lw,
+            bottom: origin.1 + lh,
+        };
+        put(BoxKind::Legend, &text.join(" | "), rect);
+    }
+    Ok(())
+}
+
+/// Draws a panel's grid, bands and curves (the data, under everything else).
+fn draw_data<DB: DrawingBackend>(
+    p: &Panel,
+    colors: &[usize],
+    l: &Laid,
+    area: &DrawingArea<DB, Shift>,
 ) -> std::result::Result<(), String> {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     let f = l.frame;
-    let (w, _) = area.dim_in_pixel();
-
     // Grid: minor lines fainter than labelled ones.
     for t in &l.xticks {
         let (u, _) = f.px(t.value, if f.y.log { f.y.lo } else { 0.0 });
@@ -847,9 +928,19 @@ fn draw_panel<DB: DrawingBackend>(
             }
         }
     }
+    Ok(())
+}
 
-    draw_markers(p, &f, area, &l.runs)?;
-
+/// Draws a panel's frame, ticks, tick labels, axis descriptions and title, recording each text's
+/// box with `put`.
+fn draw_axes_text<DB: DrawingBackend>(
+    p: &Panel,
+    l: &Laid,
+    area: &DrawingArea<DB, Shift>,
+    put: &mut dyn FnMut(BoxKind, &str, PxRect),
+) -> std::result::Result<(), String> {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    let f = l.frame;
     // Frame, ticks and their labels.
     area.draw(&Rectangle::new(
         [(f.left, f.top), (f.right, f.bottom)],
@@ -875,6 +966,12 @@ fn draw_panel<DB: DrawingBackend>(
                 tick_style.pos(Pos::new(HPos::Center, VPos::Top)),
             ))
             .map_err(e)?;
+            let size = measure(area, lab, TICK_FONT);
+            put(
+                BoxKind::Tick,
+                lab,
+                text_rect(size, (u, f.bottom + 5), HPos::Center, VPos::Top),
+            );
         }
     }
     for t in &l.yticks {
@@ -895,43 +992,57 @@ fn draw_panel<DB: DrawingBackend>(
                 tick_style.pos(Pos::new(HPos::Right, VPos::Center)),
             ))
             .map_err(e)?;
+            let size = measure(area, lab, TICK_FONT);
+            put(
+                BoxKind::Tick,
+                lab,
+                text_rect(size, (f.left - 6, v), HPos::Right, VPos::Center),
+            );
         }
     }
     if !p.x_label.is_empty() {
+        let at = ((f.left + f.right) / 2, f.bottom + 8 + TICK_FONT as i32 + 6);
         area.draw(&Text::new(
             p.x_label.clone(),
-            ((f.left + f.right) / 2, f.bottom + 8 + TICK_FONT as i32 + 6),
+            at,
             text_style(DESC_FONT).pos(Pos::new(HPos::Center, VPos::Top)),
         ))
         .map_err(e)?;
+        let size = measure(area, &p.x_label, DESC_FONT);
+        put(
+            BoxKind::Caption,
+            &p.x_label,
+            text_rect(size, at, HPos::Center, VPos::Top),
+        );
     }
     if !p.y_label.is_empty() {
+        let at = (6, (f.top + f.bottom) / 2);
         area.draw(&Text::new(
             p.y_label.clone(),
-            (6, (f.top + f.bottom) / 2),
+            at,
             text_style(DESC_FONT)
                 .transform(FontTransform::Rotate270)
                 .pos(Pos::new(HPos::Center, VPos::Top)),
         ))
         .map_err(e)?;
+        // Turned a quarter: the text's width runs up the side.
+        let (tw, th) = measure(area, &p.y_label, DESC_FONT);
+        put(
+            BoxKind::Caption,
+            &p.y_label,
+            text_rect((th, tw), at, HPos::Left, VPos::Center),
+        );
     }
     if !p.title.is_empty() {
+        let at = ((f.left + f.right) / 2, 4);
         area.draw(&Text::new(
             p.title.clone(),
-            ((f.left + f.right) / 2, 4),
+            at,
             text_style(TITLE_FONT).pos(Pos::new(HPos::Center, VPos::Top)),
         ))
         .map_err(e)?;
-    }
-
-    if !l.legend.is_empty() {
-        let (lw, lh) = l.legend_size;
-        let origin = if legend_outside {
-            ((f.right + 12).min(w as i32 - lw - 2), f.top)
-        } else {
-            best_corner(l, l.legend_size).0
-        };
-        draw_legend(area, &l.legend, origin, (lw, lh))?;
+        let size = measure(area, &p.title, TITLE_FONT);
+        put(BoxKind::Caption, &p.title, text_rect(size, at, HPos::Center, VPos::Top));
     }
     Ok(())
 }
@@ -1004,19 +1115,20 @@ fn draw_legend<DB: DrawingBackend>(
     Ok(())
 }
 
-/// Text with a white backdrop so it stays legible over grid lines and curves.
-fn note<DB: DrawingBackend>(
-    area: &DrawingArea<DB, Shift>,
-    s: &str,
-    (x, y): (i32, i32),
+/// A value label placed inside a panel: its text, anchor (px, area-relative) and alignment, the box
+/// of its white backdrop, and a leader line from the point it names when it sits away from it.
+#[derive(Clone)]
+struct PlacedLabel {
+    text: String,
+    anchor: (i32, i32),
     h: HPos,
     v: VPos,
-) -> std::result::Result<(), String> {
-    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
-    if s.is_empty() {
-        return Ok(());
-    }
-    let (tw, th) = measure(area, s, NOTE_FONT);
+    rect: PxRect,
+    leader: Option<((i32, i32), (i32, i32))>,
+}
+
+/// The box of text of size `(tw, th)` px anchored at `(x, y)` with alignment `h`, `v`.
+fn text_rect((tw, th): (i32, i32), (x, y): (i32, i32), h: HPos, v: VPos) -> PxRect {
     let x0 = match h {
         HPos::Left => x,
         HPos::Center => x - tw / 2,
@@ -1027,84 +1139,195 @@ fn note<DB: DrawingBackend>(
         VPos::Center => y - th / 2,
         VPos::Bottom => y - th,
     };
+    PxRect {
+        left: x0,
+        top: y0,
+        right: x0 + tw,
+        bottom: y0 + th,
+    }
+}
+
+impl PlacedLabel {
+    /// A note of measured size `size` at `anchor`; its box includes the backdrop's padding.
+    fn new(text: &str, size: (i32, i32), anchor: (i32, i32), h: HPos, v: VPos) -> Self {
+        let r = text_rect(size, anchor, h, v);
+        PlacedLabel {
+            text: text.to_string(),
+            anchor,
+            h,
+            v,
+            rect: PxRect {
+                left: r.left - 2,
+                top: r.top - 1,
+                right: r.right + 2,
+                bottom: r.bottom + 1,
+            },
+            leader: None,
+        }
+    }
+
+    fn clashes(&self, placed: &[PlacedLabel]) -> usize {
+        placed.iter().filter(|o| o.rect.grown(1).overlaps(&self.rect)).count()
+    }
+}
+
+/// Text with a white backdrop so it stays legible over grid lines and curves.
+fn note<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, n: &PlacedLabel) -> std::result::Result<(), String> {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    let r = n.rect;
     area.draw(&Rectangle::new(
-        [(x0 - 2, y0 - 1), (x0 + tw + 2, y0 + th + 1)],
+        [(r.left, r.top), (r.right, r.bottom)],
         WHITE.mix(0.85).filled(),
     ))
     .map_err(e)?;
     area.draw(&Text::new(
-        s.to_string(),
-        (x, y),
-        text_style(NOTE_FONT).color(&RGBColor(40, 40, 40)).pos(Pos::new(h, v)),
+        n.text.clone(),
+        n.anchor,
+        text_style(NOTE_FONT)
+            .color(&RGBColor(40, 40, 40))
+            .pos(Pos::new(n.h, n.v)),
     ))
     .map_err(e)?;
     Ok(())
 }
 
-/// A candidate place of a note: anchor (px), alignment, covered rectangle (left, top, right,
-/// bottom px) and score.
-type NotePlace = ((i32, i32), HPos, VPos, (i32, i32, i32, i32), usize);
-
-fn draw_markers<DB: DrawingBackend>(
-    p: &Panel,
-    f: &Frame,
-    area: &DrawingArea<DB, Shift>,
-    runs: &[Vec<Vec<(f64, f64)>>],
-) -> std::result::Result<(), String> {
-    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
-    let grey = neutral();
-    // Labels of vertical markers are stacked in rows so neighbours do not overwrite each other.
-    let mut rows: Vec<Vec<(i32, i32)>> = Vec::new();
-    // Rectangles (left, top, right, bottom in px) of the notes drawn so far.
-    let mut placed: Vec<(i32, i32, i32, i32)> = Vec::new();
+/// Places the labels of a panel's markers, each where it hides no earlier label if it can:
+/// vertical-line labels stacked in rows along the top, horizontal-line labels above their line at
+/// the left or right end, point notes in the freest place around their point.
+fn place_labels<DB: DrawingBackend>(p: &Panel, l: &Laid, area: &DrawingArea<DB, Shift>) -> Vec<PlacedLabel> {
+    let f = &l.frame;
+    let mut out: Vec<PlacedLabel> = Vec::new();
     for m in &p.markers {
-        match m {
-            Marker::Vertical { x, label } if usable(*x, p.x_log) => {
+        let placed = match m {
+            Marker::Vertical { x, label } if usable(*x, p.x_log) && !label.is_empty() => {
                 let (u, _) = f.px(*x, if f.y.log { f.y.lo } else { 0.0 });
                 if !f.inside_px((u, f.top as f64)) {
                     continue;
                 }
                 let u = u.round() as i32;
-                for d in dashes(&[(u as f64, f.top as f64), (u as f64, f.bottom as f64)], 4.0, 4.0) {
-                    area.draw(&PathElement::new(d, grey.stroke_width(1))).map_err(e)?;
-                }
-                if label.is_empty() {
-                    continue;
-                }
                 let (tw, th) = measure(area, label, NOTE_FONT);
                 // Right of the line, unless that would run past the frame.
-                let right_side = u + 4 + tw <= f.right;
-                let (x0, hpos) = if right_side {
+                let (x0, hpos) = if u + 4 + tw <= f.right {
                     (u + 4, HPos::Left)
                 } else {
                     (u - 4, HPos::Right)
                 };
-                let span = if right_side { (x0, x0 + tw) } else { (x0 - tw, x0) };
-                let row = (0..)
-                    .find(|r| {
-                        rows.get(*r).is_none_or(|used: &Vec<(i32, i32)>| {
-                            used.iter().all(|s| span.1 + 4 < s.0 || span.0 > s.1 + 4)
-                        })
-                    })
-                    .unwrap_or(0);
-                if rows.len() <= row {
-                    rows.resize(row + 1, Vec::new());
-                }
-                rows[row].push(span);
-                note(area, label, (x0, f.top + 3 + row as i32 * (th + 3)), hpos, VPos::Top)?;
+                let at_row =
+                    |r: i32| PlacedLabel::new(label, (tw, th), (x0, f.top + 3 + r * (th + 3)), hpos, VPos::Top);
+                // The first row where it hides no earlier label.
+                let row = (0..20).find(|r| at_row(*r).clashes(&out) == 0).unwrap_or(0);
+                Some(at_row(row))
             }
-            Marker::Horizontal { y, label } if usable(*y, p.y_log) => {
+            Marker::Horizontal { y, label } if usable(*y, p.y_log) && !label.is_empty() => {
                 let (_, v) = f.px(if f.x.log { f.x.lo } else { 0.0 }, *y);
                 if !f.inside_px((f.left as f64, v)) {
                     continue;
                 }
                 let v = v.round() as i32;
-                for d in dashes(&[(f.left as f64, v as f64), (f.right as f64, v as f64)], 4.0, 4.0) {
+                let size = measure(area, label, NOTE_FONT);
+                let places = [
+                    PlacedLabel::new(label, size, (f.left + 4, v - 2), HPos::Left, VPos::Bottom),
+                    PlacedLabel::new(label, size, (f.right - 4, v - 2), HPos::Right, VPos::Bottom),
+                    PlacedLabel::new(label, size, (f.left + 4, v + 2), HPos::Left, VPos::Top),
+                    PlacedLabel::new(label, size, (f.right - 4, v + 2), HPos::Right, VPos::Top),
+                ];
+                let free = places.iter().find(|c| c.clashes(&out) == 0);
+                Some(free.unwrap_or(&places[0]).clone())
+            }
+            Marker::Point { x, y, label } if usable(*x, p.x_log) && usable(*y, p.y_log) && !label.is_empty() => {
+                let q = f.px(*x, *y);
+                if !f.inside_px(q) {
+                    continue;
+                }
+                let q = ipt(q);
+                let size = measure(area, label, NOTE_FONT);
+                Some(PlacedLabel::new(
+                    label,
+                    size,
+                    (q.0 - 6, q.1 - 6),
+                    HPos::Right,
+                    VPos::Bottom,
+                ))
+            }
+            Marker::Note { x, y, label } if usable(*x, p.x_log) && usable(*y, p.y_log) && !label.is_empty() => {
+                let q = f.px(*x, *y);
+                if !f.inside_px(q) {
+                    continue;
+                }
+                Some(place_note(label, ipt(q), measure(area, label, NOTE_FONT), l, &out))
+            }
+            _ => None,
+        };
+        out.extend(placed);
+    }
+    out
+}
+
+/// Of the places around the point `q` (four quadrants, near then farther out), the one inside the
+/// frame that hides the least of the curves and no earlier label: a note must not cover the
+/// response it describes, nor another trace's note.
+fn place_note(label: &str, q: (i32, i32), (tw, th): (i32, i32), l: &Laid, placed: &[PlacedLabel]) -> PlacedLabel {
+    let f = &l.frame;
+    let mut best: Option<(PlacedLabel, usize)> = None;
+    for gap in [6, 22, 40] {
+        for (dx, dy) in [(1, -1), (1, 1), (-1, -1), (-1, 1)] {
+            let h = if dx > 0 { HPos::Left } else { HPos::Right };
+            let v = if dy < 0 { VPos::Bottom } else { VPos::Top };
+            let anchor = (q.0 + dx * gap, q.1 + dy * gap);
+            let mut c = PlacedLabel::new(label, (tw, th), anchor, h, v);
+            let r = c.rect;
+            if r.left + 2 < f.left || r.right - 2 > f.right || r.top + 1 < f.top || r.bottom - 1 > f.bottom {
+                continue;
+            }
+            let hidden = coverage(&l.runs, (r.left as f64, r.top as f64, r.right as f64, r.bottom as f64));
+            // Farther places cost a little, so a free near place wins.
+            let score = hidden + 10_000 * c.clashes(placed) + gap as usize;
+            if best.as_ref().is_none_or(|b| score < b.1) {
+                // A leader from the point to the note's near corner says which point it names.
+                c.leader = (gap > 6).then_some((q, anchor));
+                best = Some((c, score));
+            }
+        }
+    }
+    best.map_or_else(
+        || PlacedLabel::new(label, (tw, th), (q.0 + 6, q.1 - 6), HPos::Left, VPos::Bottom),
+        |b| b.0,
+    )
+}
+
+/// Draws the marker geometry (dashed lines, the critical point, arrows), then the placed labels
+/// with their leaders over it.
+fn draw_markers<DB: DrawingBackend>(
+    p: &Panel,
+    f: &Frame,
+    area: &DrawingArea<DB, Shift>,
+    labels: &[PlacedLabel],
+) -> std::result::Result<(), String> {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    let grey = neutral();
+    for m in &p.markers {
+        match m {
+            Marker::Vertical { x, .. } if usable(*x, p.x_log) => {
+                let (u, _) = f.px(*x, if f.y.log { f.y.lo } else { 0.0 });
+                if !f.inside_px((u, f.top as f64)) {
+                    continue;
+                }
+                let u = u.round();
+                for d in dashes(&[(u, f.top as f64), (u, f.bottom as f64)], 4.0, 4.0) {
                     area.draw(&PathElement::new(d, grey.stroke_width(1))).map_err(e)?;
                 }
-                note(area, label, (f.left + 4, v - 2), HPos::Left, VPos::Bottom)?;
             }
-            Marker::Point { x, y, label } if usable(*x, p.x_log) && usable(*y, p.y_log) => {
+            Marker::Horizontal { y, .. } if usable(*y, p.y_log) => {
+                let (_, v) = f.px(if f.x.log { f.x.lo } else { 0.0 }, *y);
+                if !f.inside_px((f.left as f64, v)) {
+                    continue;
+                }
+                let v = v.round();
+                for d in dashes(&[(f.left as f64, v), (f.right as f64, v)], 4.0, 4.0) {
+                    area.draw(&PathElement::new(d, grey.stroke_width(1))).map_err(e)?;
+                }
+            }
+            Marker::Point { x, y, .. } if usable(*x, p.x_log) && usable(*y, p.y_log) => {
                 let q = f.px(*x, *y);
                 if !f.inside_px(q) {
                     continue;
@@ -1112,100 +1335,63 @@ fn draw_markers<DB: DrawingBackend>(
                 let q = ipt(q);
                 // The critical point in red as MATLAB draws it: a plus sign.
                 let red = RGBColor(200, 0, 0);
-                area.draw(&PathElement::new(
-                    vec![(q.0 - 7, q.1), (q.0 + 7, q.1)],
-                    red.stroke_width(2),
-                ))
-                .map_err(e)?;
-                area.draw(&PathElement::new(
-                    vec![(q.0, q.1 - 7), (q.0, q.1 + 7)],
-                    red.stroke_width(2),
-                ))
-                .map_err(e)?;
-                note(area, label, (q.0 - 6, q.1 - 6), HPos::Right, VPos::Bottom)?;
-            }
-            Marker::Note { x, y, label } if usable(*x, p.x_log) && usable(*y, p.y_log) => {
-                let q = f.px(*x, *y);
-                if !f.inside_px(q) {
-                    continue;
-                }
-                let q = ipt(q);
-                let (tw, th) = measure(area, label, NOTE_FONT);
-                // Of the places around the point (four quadrants, near then farther out), the one
-                // inside the frame that hides the least of the curves and no earlier note: a note
-                // must not cover the response it describes, nor another trace's note.
-                let mut best: Option<NotePlace> = None;
-                for gap in [6, 22, 40] {
-                    for (dx, dy) in [(1, -1), (1, 1), (-1, -1), (-1, 1)] {
-                        let x0 = if dx > 0 { q.0 + gap } else { q.0 - gap - tw };
-                        let y0 = if dy < 0 { q.1 - gap - th } else { q.1 + gap };
-                        if x0 < f.left || x0 + tw > f.right || y0 < f.top || y0 + th > f.bottom {
-                            continue;
-                        }
-                        let rect = (x0 - 2, y0 - 1, x0 + tw + 2, y0 + th + 1);
-                        let hidden = coverage(runs, (rect.0 as f64, rect.1 as f64, rect.2 as f64, rect.3 as f64));
-                        let clashes = placed
-                            .iter()
-                            .filter(|r: &&(i32, i32, i32, i32)| {
-                                rect.0 < r.2 && r.0 < rect.2 && rect.1 < r.3 && r.1 < rect.3
-                            })
-                            .count();
-                        // Farther places cost a little, so a free near place wins.
-                        let score = hidden + 10_000 * clashes + gap as usize;
-                        if best.is_none_or(|b| score < b.4) {
-                            let h = if dx > 0 { HPos::Left } else { HPos::Right };
-                            let v = if dy < 0 { VPos::Bottom } else { VPos::Top };
-                            let anchor = (
-                                if dx > 0 { q.0 + gap } else { q.0 - gap },
-                                if dy < 0 { q.1 - gap } else { q.1 + gap },
-                            );
-                            best = Some((anchor, h, v, rect, score));
-                        }
-                    }
-                }
-                let Some((anchor, h, v, rect, _)) = best else {
-                    note(area, label, (q.0 + 6, q.1 - 6), HPos::Left, VPos::Bottom)?;
-                    continue;
-                };
-                if (anchor.0 - q.0).abs() > 6 {
-                    // A leader from the point to the note's near corner says which point it names.
-                    area.draw(&PathElement::new(vec![q, anchor], grey.stroke_width(1)))
+                for seg in [[(q.0 - 7, q.1), (q.0 + 7, q.1)], [(q.0, q.1 - 7), (q.0, q.1 + 7)]] {
+                    area.draw(&PathElement::new(seg.to_vec(), red.stroke_width(2)))
                         .map_err(e)?;
                 }
-                placed.push(rect);
-                note(area, label, anchor, h, v)?;
             }
             Marker::Arrow { x, y, dx, dy, color: c } if usable(*x, p.x_log) && usable(*y, p.y_log) => {
-                let q = f.px(*x, *y);
-                if !f.inside_px(q) {
-                    continue;
-                }
-                // Direction in pixels: a short step along (dx, dy) in axis coordinates.
-                let h = 1e-6 * ((f.x.hi - f.x.lo).abs() + (f.y.hi - f.y.lo).abs()).max(1e-300);
-                let norm = (dx * dx + dy * dy).sqrt();
-                if norm.is_nan() || norm <= 0.0 || p.x_log || p.y_log {
-                    continue;
-                }
-                let r = f.px(x + h * dx / norm, y + h * dy / norm);
-                let (ux, uy) = (r.0 - q.0, r.1 - q.1);
-                let n = (ux * ux + uy * uy).sqrt();
-                if n.is_nan() || n <= 0.0 {
-                    continue;
-                }
-                let (ux, uy) = (ux / n, uy / n);
-                let (len, half) = (13.0, 5.5);
-                let tip = (q.0 + 0.5 * len * ux, q.1 + 0.5 * len * uy);
-                let base = (q.0 - 0.5 * len * ux, q.1 - 0.5 * len * uy);
-                let tri = vec![
-                    ipt(tip),
-                    ipt((base.0 - half * uy, base.1 + half * ux)),
-                    ipt((base.0 + half * uy, base.1 - half * ux)),
-                ];
-                area.draw(&Polygon::new(tri, rgb(*c).filled())).map_err(e)?;
+                draw_arrow(p, f, area, (*x, *y), (*dx, *dy), *c)?;
             }
             _ => {}
         }
     }
+    for n in labels {
+        if let Some((a, b)) = n.leader {
+            area.draw(&PathElement::new(vec![a, b], grey.stroke_width(1)))
+                .map_err(e)?;
+        }
+        note(area, n)?;
+    }
+    Ok(())
+}
+
+/// A filled arrowhead at `(x, y)` pointing along `(dx, dy)` (axis coordinates; linear axes only).
+fn draw_arrow<DB: DrawingBackend>(
+    p: &Panel,
+    f: &Frame,
+    area: &DrawingArea<DB, Shift>,
+    (x, y): (f64, f64),
+    (dx, dy): (f64, f64),
+    c: usize,
+) -> std::result::Result<(), String> {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    let q = f.px(x, y);
+    if !f.inside_px(q) {
+        return Ok(());
+    }
+    // Direction in pixels: a short step along (dx, dy) in axis coordinates.
+    let h = 1e-6 * ((f.x.hi - f.x.lo).abs() + (f.y.hi - f.y.lo).abs()).max(1e-300);
+    let norm = (dx * dx + dy * dy).sqrt();
+    if norm.is_nan() || norm <= 0.0 || p.x_log || p.y_log {
+        return Ok(());
+    }
+    let r = f.px(x + h * dx / norm, y + h * dy / norm);
+    let (ux, uy) = (r.0 - q.0, r.1 - q.1);
+    let n = (ux * ux + uy * uy).sqrt();
+    if n.is_nan() || n <= 0.0 {
+        return Ok(());
+    }
+    let (ux, uy) = (ux / n, uy / n);
+    let (len, half) = (13.0, 5.5);
+    let tip = (q.0 + 0.5 * len * ux, q.1 + 0.5 * len * uy);
+    let base = (q.0 - 0.5 * len * ux, q.1 - 0.5 * len * uy);
+    let tri = vec![
+        ipt(tip),
+        ipt((base.0 - half * uy, base.1 + half * ux)),
+        ipt((base.0 + half * uy, base.1 - half * ux)),
+    ];
+    area.draw(&Polygon::new(tri, rgb(c).filled())).map_err(e)?;
     Ok(())
 }
 

@@ -73,6 +73,7 @@ fn delayed_bode_windows_the_phase_and_labels_decades() {
             crossover_hz: Some(2.9),
             gain_margin: None,
             phase_margin: Some((40.0, 2.9)),
+            ..BodeMarks::default()
         },
     );
     let (lo, hi) = fig.panels[1].y_range.expect("phase window");

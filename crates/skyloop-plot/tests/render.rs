@@ -44,6 +44,7 @@ fn bode_svg_has_legend_and_margin_labels() {
         crossover_hz: Some(1.47),
         gain_margin: Some((7.25, 4.0)),
         phase_margin: Some((65.8, 1.47)),
+        ..BodeMarks::default()
     };
     let mut second = lag();
     second.label = "second system".into();

@@ -2,6 +2,7 @@
 //! plots of the bicopter paper's Fig. 9–12 (C full vs reduced, L with margins, S and T, 1/|T|), a
 //! closed-loop step, and report.html.
 
+use super::loop_metrics::LoopMargins;
 use super::{DesignResult, StageSummary};
 use crate::error::{Error, Result};
 use skyloop_lti::freqresp::{logspace, unwrap_rad, FreqEvaluator};
@@ -45,13 +46,23 @@ pub(crate) fn bode_data(label: &str, f_hz: &[f64], v: &[c64]) -> BodeData {
     }
 }
 
-fn marks(st: &StageSummary) -> BodeMarks {
-    let m = &st.margins;
+/// What the loop plot marks: the crossover the phase margin is read at, the gain margin, and every
+/// further gain crossover with its phase margin (a later one can set the delay margin).
+fn marks(m: &LoopMargins) -> BodeMarks {
     let fin = |x: f64| x.is_finite().then_some(x);
+    let main = fin(m.crossover_hz);
+    let other_crossovers = m
+        .gain_crossovers_hz
+        .iter()
+        .zip(&m.phase_margins_deg)
+        .filter(|(f, _)| main.is_none_or(|c| (**f - c).abs() > 1e-9 * c.abs()))
+        .map(|(f, pm)| (*pm, *f))
+        .collect();
     BodeMarks {
-        crossover_hz: fin(m.crossover_hz),
+        crossover_hz: main,
         gain_margin: fin(m.gain_margin_db).zip(fin(m.gain_margin_freq_hz)),
-        phase_margin: fin(m.phase_margin_deg).zip(fin(m.crossover_hz)),
+        phase_margin: fin(m.phase_margin_deg).zip(main),
+        other_crossovers,
     }
 }
 
@@ -93,7 +104,7 @@ pub fn figures(r: &DesignResult) -> Result<Vec<(String, Figure, String)>> {
     }
     out.push((
         "loop".to_string(),
-        bode_figure("Loop transfer L = P·C", &ldata, &marks(final_stage)),
+        bode_figure("Loop transfer L = P·C", &ldata, &marks(&final_stage.margins)),
         format!(
             "Loop transfer with the exact plant delay (paper Fig. 10); margins marked for the final controller: PM {:.2}° at {:.3} Hz, GM {:.2} dB.",
             final_stage.margins.phase_margin_deg, final_stage.margins.crossover_hz, final_stage.margins.gain_margin_db
@@ -344,4 +355,39 @@ pub fn write_outputs(r: &DesignResult, dir: &Path) -> Result<()> {
     let path = dir.join("report.html");
     rep.save(&path)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+    use skyloop_plot::layout::BoxKind;
+
+    /// An integrator over a lightly damped resonance whose numerator is damped 25× more: |L| falls
+    /// through 1 near 1.6 Hz, rises over 1 again on the resonance near 9.5 Hz and falls back, three
+    /// gain crossovers. The loop plot marks every one with its phase margin, in boxes the renderer
+    /// actually placed.
+    #[test]
+    fn the_loop_plot_marks_every_gain_crossover() {
+        let p = skyloop_lti::expr::parse_model("10*(s^2+60*s+3600)/(s*(s^2+2.4*s+3600))").unwrap();
+        let c = StateSpace::gain(skyloop_lti::Mat::identity(1, 1), 0.0).unwrap();
+        let m = super::super::loop_metrics::loop_margins(&p, &c).unwrap();
+        assert_eq!(m.gain_crossovers_hz.len(), 3, "{:?}", m.gain_crossovers_hz);
+        let f_hz = logspace(-2.0, 2.3, 600);
+        let data = bode_data("L", &f_hz, &response(&p, &f_hz).unwrap());
+        let layout = bode_figure("L", &[data], &marks(&m)).layout().unwrap();
+        let labels: Vec<&str> = layout.of(BoxKind::Label).map(|b| b.text.as_str()).collect();
+        for (f, pm) in m.gain_crossovers_hz.iter().zip(&m.phase_margins_deg) {
+            let at = skyloop_plot::bode::hz(*f);
+            assert!(
+                labels.contains(&format!("crossover {at}").as_str()),
+                "{at} not in {labels:?}"
+            );
+            assert!(
+                labels.contains(&format!("PM {pm:.1}° at {at}").as_str()),
+                "PM at {at} not in {labels:?}"
+            );
+        }
+        assert_eq!(layout.collisions(), vec![], "{}", layout.describe_collisions());
+    }
 }

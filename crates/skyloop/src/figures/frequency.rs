@@ -112,16 +112,26 @@ pub fn bode(models: &[Labeled], w: &[f64], loop_margins: bool) -> Result<Figure>
     Ok(bode_figure("Bode", &data, &marks))
 }
 
-/// Crossover, gain margin and phase margin of a SISO loop, in the plot's units (Hz, dB, deg).
+/// Crossover, gain margin and phase margin of a SISO loop, in the plot's units (Hz, dB, deg), and
+/// every other gain crossover with its phase margin.
 fn margin_marks(l: &Labeled) -> Result<BodeMarks> {
     l.siso("--margins")?;
-    let m = skyloop_lti::margins::margin(&l.sys).map_err(|e| format!("{}: {e}", l.label))?;
+    let all = skyloop_lti::margins::allmargin(&l.sys).map_err(|e| format!("{}: {e}", l.label))?;
+    let m = skyloop_lti::margins::margin_from(&all);
     let hz = |w: f64| w / TWO_PI;
     let finite = |v: f64, w: f64| (v.is_finite() && w.is_finite()).then_some((v, hz(w)));
+    let mut other_crossovers: Vec<(f64, f64)> = all
+        .phase_margins
+        .iter()
+        .filter(|p| p.w_rad_s != m.pm_w_rad_s)
+        .filter_map(|p| finite(p.pm_deg, p.w_rad_s))
+        .collect();
+    other_crossovers.sort_by(|a, b| a.1.total_cmp(&b.1));
     Ok(BodeMarks {
         crossover_hz: m.pm_w_rad_s.is_finite().then(|| hz(m.pm_w_rad_s)),
         gain_margin: finite(m.gm_db, m.gm_w_rad_s),
         phase_margin: finite(m.pm_deg, m.pm_w_rad_s),
+        other_crossovers,
     })
 }
 

@@ -343,6 +343,7 @@ fn figures(plant: &StateSpace, hinf: &StateSpace, pid: &ComparisonPid, out: &Pat
         crossover_hz: fin(m.crossover_hz),
         gain_margin: fin(m.gain_margin_db).zip(fin(m.gain_margin_freq_hz)),
         phase_margin: fin(m.phase_margin_deg).zip(fin(m.crossover_hz)),
+        ..BodeMarks::default()
     };
     let loop_fig = bode_figure(
         "Loop transfer L = P·C: H∞ vs PID (paper Fig. 10; PID margins marked)",

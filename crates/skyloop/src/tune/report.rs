@@ -43,6 +43,7 @@ pub fn write_outputs(out: &TuneOutcome, dir: &Path) -> Result<()> {
             crossover_hz: fin(m.crossover_hz),
             gain_margin: None,
             phase_margin: fin(m.phase_margin_deg).zip(fin(m.crossover_hz)),
+            ..BodeMarks::default()
         },
     );
     let nyq = nyquist_figure(
@@ -179,6 +180,7 @@ pub fn write_log_outputs(out: &super::log::LogTuneOutcome, dir: &Path) -> Result
                 crossover_hz: fin(m.crossover_hz),
                 gain_margin: None,
                 phase_margin: fin(m.phase_margin_deg).zip(fin(m.crossover_hz)),
+                ..BodeMarks::default()
             }
         })
         .collect();
