@@ -877,12 +877,15 @@ fn realize_fact(f: &Fact) -> Result<StateSpace> {
     // sections are each scaled near unit gain, does not.
     let mut negative = f.k < 0.0;
     let mut log_k = f.k.abs().ln();
+    // The plain product too: exact where it stays in range (exp(ln 1000) is 999.9999999999998).
+    let mut k_lin = f.k;
     let mut z = Vec::new();
     let mut p = Vec::new();
     for (q, sign) in f.num.iter().map(|q| (q, 1.0)).chain(f.den.iter().map(|q| (q, -1.0))) {
         let lead = factor_roots(q, if sign > 0.0 { &mut z } else { &mut p })?;
         negative ^= lead < 0.0;
         log_k += sign * lead.abs().ln();
+        k_lin = if sign > 0.0 { k_lin * lead } else { k_lin / lead };
     }
     let out_of_range = |log_k: f64| {
         LtiError::InvalidArgument(format!(
@@ -977,7 +980,13 @@ fn realize_fact(f: &Fact) -> Result<StateSpace> {
         sections.push((Poly::one(), Den::Pair(s, w)));
     }
     if sections.is_empty() {
-        let k = if negative { -log_k.exp() } else { log_k.exp() };
+        let k = if k_lin.is_finite() && k_lin != 0.0 {
+            k_lin
+        } else if negative {
+            -log_k.exp()
+        } else {
+            log_k.exp()
+        };
         if !k.is_finite() || k == 0.0 {
             return Err(out_of_range(log_k));
         }
