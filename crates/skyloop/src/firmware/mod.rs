@@ -243,17 +243,22 @@ impl Lowpass {
         }
     }
 
-    /// The same stage with its cutoff scaled by `k` and rounded to whole Hz (the firmware's
-    /// settings are integers); a notch is returned unchanged (it sits on a resonance).
-    pub fn scaled(self, k: f64) -> Lowpass {
-        let f = |x: f64| (x * k).round().max(1.0);
+    /// The same kind of stage at cutoff `f_hz`; a notch is returned unchanged (it sits on a
+    /// resonance, not at a cutoff one moves).
+    pub fn with_cutoff(self, f_hz: f64) -> Lowpass {
         match self {
-            Lowpass::Pt1(x) => Lowpass::Pt1(f(x)),
-            Lowpass::Pt2(x) => Lowpass::Pt2(f(x)),
-            Lowpass::Pt3(x) => Lowpass::Pt3(f(x)),
-            Lowpass::Biquad(x) => Lowpass::Biquad(f(x)),
+            Lowpass::Pt1(_) => Lowpass::Pt1(f_hz),
+            Lowpass::Pt2(_) => Lowpass::Pt2(f_hz),
+            Lowpass::Pt3(_) => Lowpass::Pt3(f_hz),
+            Lowpass::Biquad(_) => Lowpass::Biquad(f_hz),
             n @ Lowpass::Notch(..) => n,
         }
+    }
+
+    /// The same stage with its cutoff scaled by `k` and rounded to whole Hz (the firmware's
+    /// settings are integers); a notch is returned unchanged.
+    pub fn scaled(self, k: f64) -> Lowpass {
+        self.with_cutoff((self.cutoff_hz() * k).round().max(1.0))
     }
 
     /// True for a lowpass (not a notch).

@@ -243,14 +243,19 @@ impl RateGains {
         }
     }
 
-    /// The lowest D-term lowpass cutoff, Hz (None without one).
-    pub fn lowest_dterm_cutoff_hz(&self) -> Option<f64> {
-        let chain = match self {
+    /// The D-term filter chain in the controller (empty for PX4, whose D-term lowpass is not a
+    /// stage list).
+    pub fn dterm_chain(&self) -> &[super::Lowpass] {
+        match self {
             RateGains::Betaflight { filters, .. } => &filters.dterm,
             RateGains::Inav { filters, .. } => &filters.dterm,
-            RateGains::Px4 { .. } => return None,
-        };
-        chain
+            RateGains::Px4 { .. } => &[],
+        }
+    }
+
+    /// The lowest D-term lowpass cutoff, Hz (None without one).
+    pub fn lowest_dterm_cutoff_hz(&self) -> Option<f64> {
+        self.dterm_chain()
             .iter()
             .filter(|l| l.is_lowpass())
             .map(super::Lowpass::cutoff_hz)

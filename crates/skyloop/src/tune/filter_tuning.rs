@@ -96,13 +96,8 @@ pub fn bands_within_budget(freq_hz: &[f64], flown: &[f64], cand: &[f64], budget:
 /// The response of a gain set's D-term chain (lowpasses and notch) at `f_hz`: (gain dB, phase
 /// degrees, summed stage by stage so the phase is not wrapped); (0, 0) without one.
 pub fn dterm_response(g: &RateGains, f_hz: f64) -> (f64, f64) {
-    let chain = match g {
-        RateGains::Betaflight { filters, .. } => filters.dterm.clone(),
-        RateGains::Inav { filters, .. } => filters.dterm.clone(),
-        RateGains::Px4 { .. } => Vec::new(),
-    };
     let s = c64::new(0.0, 2.0 * PI * f_hz);
-    chain
+    g.dterm_chain()
         .iter()
         .filter_map(|l| {
             let m = l.model().ok()?;

@@ -222,13 +222,7 @@ fn with_cutoffs(chain: &[Lowpass], cutoffs: &[f64]) -> Result<Vec<Lowpass>> {
     Ok(chain
         .iter()
         .enumerate()
-        .map(|(k, l)| match (cutoffs.get(k).copied(), *l) {
-            (Some(f), Lowpass::Pt1(_)) => Lowpass::Pt1(f),
-            (Some(f), Lowpass::Pt2(_)) => Lowpass::Pt2(f),
-            (Some(f), Lowpass::Pt3(_)) => Lowpass::Pt3(f),
-            (Some(f), Lowpass::Biquad(_)) => Lowpass::Biquad(f),
-            _ => *l,
-        })
+        .map(|(k, l)| cutoffs.get(k).map_or(*l, |&f| l.with_cutoff(f)))
         .collect())
 }
 
