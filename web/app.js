@@ -120,8 +120,10 @@ function renderModel(v) {
   const id = v.identification;
   const p = id.params, s = id.stderr;
   const row = (k, unit, scale, d) => `<tr><td>${k}</td><td>${fmt(p[k] * scale, d)} ± ${fmt(s[k] * scale, d)} ${unit}</td></tr>`;
-  // The plant's units are the firmware's: PID sum → deg/s (Betaflight, INAV), torque → rad/s (PX4).
-  const kUnit = v.firmware === "px4" ? "(rad/s² per unit normalized torque)" : "(deg/s² per PID-sum unit)";
+  // The plant's units are the firmware's: PID sum → deg/s (Betaflight, INAV), torque → rad/s (PX4),
+  // the rate controller's normalized output RATE.ROut → RATE.R in deg/s (ArduPilot).
+  const kUnit = { px4: "(rad/s² per unit normalized torque)", ardupilot: "(deg/s² per unit RATE.ROut)" }[v.firmware]
+    || "(deg/s² per PID-sum unit)";
   $("model").innerHTML = `<p class="formula">P(s) = K·e<sup>−Td·s</sup> / (s·(τ·s + 1))</p>
     <table class="kv">${row("K", kUnit, 1, 2)}${row("tau", "ms", 1e3, 2)}${row("Td", "ms", 1e3, 2)}
     <tr><td>fit</td><td>${fmt(id.fit_percent, 1)} % over ${id.segments.length} airborne segments; uncertainty set: ${id.plants} plants</td></tr></table>`;

@@ -137,7 +137,7 @@ fn firmware_of(bytes: &[u8], name: &str, session: Option<usize>) -> Result<Firmw
     let log = skyloop::sysid::logs::Log::from_bytes(bytes, name, &opts)?;
     Firmware::of_log(&log).ok_or_else(|| {
         Error::Input(format!(
-            "{name}: no firmware this tuner knows wrote this log (Betaflight, INAV or PX4); ArduPilot DataFlash and CSV logs are not tuned from yet"
+            "{name}: no firmware this tuner knows wrote this log (Betaflight, INAV, PX4 or ArduPilot); a CSV log names no firmware and is not tuned from here"
         ))
     })
 }

@@ -3,7 +3,9 @@
 //! as excitation) is written as RATE and CTUN messages with the DataFlash writer the reader's own
 //! tests use, and identified through the firmware's channels (RATE.ROut → RATE.R, RATE.RDes as
 //! instrument). The same flight logged at 10 Hz (ATTITUDE_MED) is refused with the logging
-//! settings to change.
+//! settings to change. `tune` on it reads the flown ATC_RAT_RLL_* from the PARM messages, rates the
+//! flown tune as the true loop rates it, and prints `param set` lines whose margins, recomputed
+//! here from the printed numbers on the true plant, are those it claims.
 #![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 #[path = "../../skyloop-sysid/tests/common/dataflash_writer.rs"]
@@ -11,11 +13,17 @@
 mod writer;
 
 use skyloop::identify::{identify_bytes, IdentifyRequest};
+use skyloop::tune::log::{tune_from_log_bytes, LogTuneRequest};
+use skyloop::tune::Firmware;
+use std::f64::consts::PI;
 use writer::{Writer, V};
 
-const K: f64 = 1500.0; // deg/s² per unit of RATE.ROut
+const K: f64 = 6000.0; // deg/s² per unit of RATE.ROut
 const TAU: f64 = 0.03; // s
 const TD: f64 = 0.01; // s
+
+/// The simulated controller's P, I, D per deg/s (ArduPilot's per rad/s are these × 180/π).
+const FLOWN_PER_DEG: (f64, f64, f64) = (0.004, 0.02, 0.00008);
 
 /// 40 s of a 400 Hz rate loop: (time µs, desired, rate, output) per control step.
 fn flight() -> Vec<(u64, f64, f64, f64)> {
@@ -23,7 +31,7 @@ fn flight() -> Vec<(u64, f64, f64, f64)> {
     let sub = 20;
     let h = dt / sub as f64;
     let delay_steps = (TD / h).round() as usize;
-    let (kp, ki, kd) = (0.004, 0.02, 0.00008);
+    let (kp, ki, kd) = FLOWN_PER_DEG;
     let mut buf = vec![0.0; delay_steps + 1];
     let (mut rate, mut acc, mut u, mut integ, mut prev_e) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
     let mut seed = 12345u64;
@@ -66,11 +74,28 @@ fn log_bytes(every: usize) -> Vec<u8> {
     w.define(133, "MSG", "QZ", "TimeUS,Message");
     w.define(135, "RATE", "Qfffffffff", "TimeUS,RDes,R,ROut,PDes,P,POut,YDes,Y,YOut");
     w.define(136, "CTUN", "Qf", "TimeUS,ThO");
+    w.define(137, "PARM", "QNf", "TimeUS,Name,Value");
     w.units(0, 135, "skkk-kk-kk", "F000000000");
     w.units(0, 136, "s-", "F0");
     w.msg("UNIT", &[V::I(0), V::N(f64::from(b's')), V::T("s".into())]);
     w.msg("MULT", &[V::I(0), V::N(f64::from(b'F')), V::N(1e-6)]);
     w.msg("MSG", &[V::I(100), V::T("ArduCopter V4.5.7 (2a3dc4b7)".into())]);
+    let (kp, ki, kd) = FLOWN_PER_DEG;
+    let per_rad = 180.0 / PI;
+    for (name, v) in [
+        ("ATC_RAT_RLL_P", kp * per_rad),
+        ("ATC_RAT_RLL_I", ki * per_rad),
+        ("ATC_RAT_RLL_D", kd * per_rad),
+        ("ATC_RAT_RLL_FF", 0.0),
+        // The simulated loop filters nothing: FLTT and FLTE off; FLTD off leaves the discrete
+        // derivative's own roll-off.
+        ("ATC_RAT_RLL_FLTT", 0.0),
+        ("ATC_RAT_RLL_FLTE", 0.0),
+        ("ATC_RAT_RLL_FLTD", 0.0),
+        ("SCHED_LOOP_RATE", 400.0),
+    ] {
+        w.msg("PARM", &[V::I(200), V::T(name.into()), V::N(v)]);
+    }
     for (k, (t, des, r, u)) in flight().into_iter().enumerate() {
         if k % every != 0 {
             continue;
@@ -130,4 +155,89 @@ fn a_10_hz_ardupilot_log_is_refused_with_the_settings_to_change() {
         e.contains("RATE is logged at 10 Hz") && e.contains("LOG_BITMASK"),
         "{e}"
     );
+}
+
+/// (crossover Hz, phase margin deg) of the loop the printed ATC_RAT_RLL_{P,I,D} (per rad/s) close
+/// around the true plant (deg/s), from the numbers alone and L(jω) in closed form, no state space:
+/// C(jω) = (π/180)·(P + I/(jω) + D·jω/(jω/ω_d + 1)) with the discrete derivative's roll-off ω_d at a
+/// quarter of the 400 Hz loop, and half a period of hold beside the plant's delay.
+fn true_margins(p: f64, i: f64, d: f64) -> (f64, f64) {
+    let l = |w: f64| {
+        let s = skyloop::lti::c64::new(0.0, w);
+        let wd = 2.0 * PI * 100.0;
+        let c = (PI / 180.0) * (p + i / s + d * s / (s / wd + 1.0));
+        let g = K * (-s * (TD + 0.5 / 400.0)).exp() / (s * (TAU * s + 1.0));
+        c * g
+    };
+    // |L| falls through 1 once on this loop: bisect on a log scale between 1 and 5000 rad/s.
+    let (mut lo, mut hi) = (1.0f64, 5000.0f64);
+    assert!(l(lo).norm() > 1.0 && l(hi).norm() < 1.0);
+    for _ in 0..200 {
+        let mid = (lo * hi).sqrt();
+        if l(mid).norm() > 1.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let pm = 180.0 + l(lo).arg().to_degrees();
+    (lo / (2.0 * PI), pm)
+}
+
+#[test]
+fn tune_from_an_ardupilot_log_rates_the_flown_tune_and_prints_param_set_lines() {
+    let mut req = LogTuneRequest::new(
+        "sim-copter.bin".into(),
+        skyloop::firmware::betaflight::Axis::Roll,
+        Firmware::Ardupilot,
+    );
+    req.starts = 2;
+    let out = tune_from_log_bytes(&req, &log_bytes(1)).unwrap();
+    let cur = out.current.as_ref().expect("the flown ATC_RAT_RLL_* are read");
+    let (kp, ki, kd) = FLOWN_PER_DEG;
+    let truth = true_margins(kp * 180.0 / PI, ki * 180.0 / PI, kd * 180.0 / PI);
+    eprintln!(
+        "flown: model crossover {:.2} Hz PM {:.1} deg; true {:.2} Hz PM {:.1} deg; verdict {}",
+        cur.margins.crossover_hz, cur.margins.phase_margin_deg, truth.0, truth.1, out.verdict.text
+    );
+    assert!((cur.margins.crossover_hz / truth.0 - 1.0).abs() < 0.15);
+    assert!((cur.margins.phase_margin_deg - truth.1).abs() < 8.0);
+    // PARM holds a float32.
+    let p_read = cur.gains["ATC_RAT_RLL_P"].as_f64().unwrap();
+    assert!((p_read / (kp * 180.0 / PI) - 1.0).abs() < 1e-7, "{p_read}");
+    // The lines load ATC_RAT_RLL_P, _I, _D, _FF, and their numbers are the analysed gains.
+    let lines = &out.proposed.cli;
+    let value = |n: &str| -> f64 {
+        let l = lines
+            .iter()
+            .find(|l| l.starts_with(&format!("param set {n} ")))
+            .unwrap();
+        l.rsplit(' ').next().unwrap().parse().unwrap()
+    };
+    let (p, i, d) = (value("ATC_RAT_RLL_P"), value("ATC_RAT_RLL_I"), value("ATC_RAT_RLL_D"));
+    assert!(
+        lines.iter().any(|l| l.starts_with("param set ATC_RAT_RLL_FF ")),
+        "{lines:?}"
+    );
+    let pa = &out.proposed_analysis;
+    let t = true_margins(p, i, d);
+    eprintln!(
+        "proposed P {p} I {i} D {d}: claimed {:.2} Hz PM {:.1} deg; true plant {:.2} Hz PM {:.1} deg",
+        pa.margins.crossover_hz, pa.margins.phase_margin_deg, t.0, t.1
+    );
+    assert!(t.1 > 30.0, "the printed gains on the true plant: PM {}", t.1);
+    assert!((pa.margins.crossover_hz / t.0 - 1.0).abs() < 0.15);
+    assert!((pa.margins.phase_margin_deg - t.1).abs() < 8.0);
+    // The page's sliders: ArduPilot's keys, FLTD off leaves no cutoff to move, and a second
+    // cutoff is refused by name.
+    let live = out.live.as_ref().unwrap();
+    let knobs = skyloop::tune::live::LiveLoop::knobs(&live.flown);
+    assert_eq!(knobs["dterm"].as_array().unwrap().len(), 0, "{knobs}");
+    let g = live.gains(&serde_json::json!({"ATC_RAT_RLL_P": 0.3})).unwrap();
+    assert!(g.cli()[0] == "param set ATC_RAT_RLL_P 0.3", "{:?}", g.cli());
+    let e = live
+        .gains(&serde_json::json!({"dterm_hz": [20, 30]}))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("ATC_RAT_RLL_FLTD"), "{e}");
 }

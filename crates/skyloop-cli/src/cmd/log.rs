@@ -325,8 +325,8 @@ fn print_ardupilot(a: &ArduPilotTuning) {
     if !a.firmware_revision.is_empty() {
         println!("  firmware: {}", a.firmware_revision);
     }
-    for (axis, g) in ["RLL", "PIT", "YAW"].iter().zip(&a.rate) {
-        let items: Vec<String> = [("P", g.p, ""), ("I", g.i, ""), ("D", g.d, ""), ("FF", g.ff, "")]
+    for ((axis, x), g) in [("RLL", 'R'), ("PIT", 'P'), ("YAW", 'Y')].iter().zip(&a.rate) {
+        let mut items: Vec<String> = [("P", g.p, ""), ("I", g.i, ""), ("D", g.d, ""), ("FF", g.ff, "")]
             .into_iter()
             .chain([
                 ("FLTT", g.fltt_hz, " Hz"),
@@ -335,6 +335,7 @@ fn print_ardupilot(a: &ArduPilotTuning) {
             ])
             .map(|(k, v, unit)| named(format!("ATC_RAT_{axis}_{k}"), v, unit))
             .collect();
+        items.push(named(format!("ATC_ACCEL_{x}_MAX"), g.accel_max_cdeg_s2, " cdeg/s²"));
         println!("  {}", items.join(", "));
     }
     println!(

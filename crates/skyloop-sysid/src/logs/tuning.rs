@@ -177,6 +177,9 @@ pub struct ArduPilotRatePid {
     pub flte_hz: Option<f64>,
     /// `_FLTD`: D-term lowpass, Hz.
     pub fltd_hz: Option<f64>,
+    /// `ATC_ACCEL_{R,P,Y}_MAX`: the attitude controller's limit on the rate target's
+    /// acceleration, centidegrees/s² (0 disables).
+    pub accel_max_cdeg_s2: Option<f64>,
 }
 
 /// A named number (a parameter, or a message's logging rate in Hz).
@@ -529,9 +532,9 @@ fn vehicle_version(banner: &str) -> (Option<String>, Option<String>) {
 
 fn ardupilot(log: &Log) -> ArduPilotTuning {
     let p = |k: &str| log.setting(k).and_then(|v| v.trim().parse::<f64>().ok());
-    let rate = ["RLL", "PIT", "YAW"]
+    let rate = [("RLL", 'R'), ("PIT", 'P'), ("YAW", 'Y')]
         .iter()
-        .map(|a| {
+        .map(|(a, x)| {
             let g = |k: &str| p(&format!("ATC_RAT_{a}_{k}"));
             ArduPilotRatePid {
                 p: g("P"),
@@ -541,6 +544,7 @@ fn ardupilot(log: &Log) -> ArduPilotTuning {
                 fltt_hz: g("FLTT"),
                 flte_hz: g("FLTE"),
                 fltd_hz: g("FLTD"),
+                accel_max_cdeg_s2: p(&format!("ATC_ACCEL_{x}_MAX")),
             }
         })
         .collect();

@@ -22,6 +22,11 @@ use serde::Serialize;
 use skyloop_lti::interconnect::series;
 use skyloop_lti::StateSpace;
 use skyloop_robust::structured::blocks::Block;
+use skyloop_sysid::logs::tuning::ArduPilotTuning;
+
+/// rad/s per unit of the rates a DataFlash log records (`RATE.R`, `RATE.RDes`: deg/s), which is
+/// the unit of a plant identified from a log; the gains act on rad/s.
+pub const LOG_RATE_UNIT_RAD_S: f64 = std::f64::consts::PI / 180.0;
 
 /// `ATC_RAT_<AXIS>_{P,I,D,FF}`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -34,6 +39,20 @@ pub struct Gains {
     pub d: f64,
     /// Feedforward on the rate target, command per rad/s.
     pub ff: f64,
+}
+
+impl Gains {
+    /// The same controller acting on the log's deg/s rates: every gain × [`LOG_RATE_UNIT_RAD_S`]
+    /// (command per deg/s, per deg, per deg/s², per deg/s).
+    pub fn per_log_unit(&self) -> Gains {
+        let u = LOG_RATE_UNIT_RAD_S;
+        Gains {
+            p: self.p * u,
+            i: self.i * u,
+            d: self.d * u,
+            ff: self.ff * u,
+        }
+    }
 }
 
 /// Filters and loop rate.
@@ -156,6 +175,64 @@ pub fn cli_lines(g: &Gains, axis: Axis) -> Vec<String> {
         .zip([g.p, g.i, g.d, g.ff])
         .map(|(n, v)| format!("param set {n} {v}"))
         .collect()
+}
+
+/// ArduCopter's default `ATC_ACCEL_{R,P,Y}_MAX`, centidegrees/s² (roll, pitch, yaw).
+pub const ACCEL_MAX_DEFAULT_CDEG_S2: [f64; 3] = [110_000.0, 110_000.0, 27_000.0];
+
+/// The attitude controller's limit on the rate target's acceleration for `axis`, deg/s²
+/// (`ATC_ACCEL_<R|P|Y>_MAX` / 100, ArduCopter's default where the log lacks it); None when the
+/// parameter is 0 (no limit).
+pub fn setpoint_accel_deg_s2(t: &ArduPilotTuning, axis: Axis) -> Option<f64> {
+    let v = t
+        .rate
+        .get(axis.index())
+        .and_then(|r| r.accel_max_cdeg_s2)
+        .unwrap_or(ACCEL_MAX_DEFAULT_CDEG_S2[axis.index()]);
+    (v.is_finite() && v > 0.0).then_some(v / 100.0)
+}
+
+/// Reads the flown tune of `axis` from a DataFlash log's parameters: the controller's filters
+/// (FLTT, FLTE, FLTD; ArduCopter's defaults where a parameter is missing) and loop rate
+/// (`SCHED_LOOP_RATE`), the gains (None when P, I or D is missing) and the filter lines for a
+/// report. `INS_GYRO_FILTER` and the harmonic notches act before `RATE.R` is logged, so they are
+/// inside a plant identified from the log.
+pub fn flown_from_header(t: &ArduPilotTuning, axis: Axis) -> (Filters, Option<Gains>, Vec<String>) {
+    let d = Filters::default();
+    let r = t.rate.get(axis.index());
+    let pick = |v: Option<f64>, default: f64| v.filter(|x| x.is_finite() && *x >= 0.0).unwrap_or(default);
+    let filters = Filters {
+        fltt_hz: pick(r.and_then(|r| r.fltt_hz), d.fltt_hz),
+        flte_hz: pick(r.and_then(|r| r.flte_hz), d.flte_hz),
+        fltd_hz: pick(r.and_then(|r| r.fltd_hz), d.fltd_hz),
+        loop_hz: t
+            .loop_rate_hz
+            .filter(|x| x.is_finite() && *x > 0.0)
+            .unwrap_or(d.loop_hz),
+    };
+    let a = param_names(axis)[0].trim_end_matches("_P").to_string();
+    let hz = |v: f64| if v > 0.0 { format!("{v} Hz") } else { "off".into() };
+    let mut lines = vec![
+        format!("{a}_FLTT {} (target lowpass, in the controller)", hz(filters.fltt_hz)),
+        format!("{a}_FLTE {} (error lowpass, in the controller)", hz(filters.flte_hz)),
+        format!("{a}_FLTD {} (D-term lowpass, in the controller)", hz(filters.fltd_hz)),
+    ];
+    if let Some(g) = t.gyro_filter_hz {
+        lines.push(format!(
+            "INS_GYRO_FILTER {g} Hz (inside the identified plant: RATE.R is logged after it)"
+        ));
+    }
+    lines.push(format!("rate loop {} Hz (SCHED_LOOP_RATE)", filters.loop_hz));
+    let gains = r.and_then(|r| match (r.p, r.i, r.d) {
+        (Some(p), Some(i), Some(d)) => Some(Gains {
+            p,
+            i,
+            d,
+            ff: r.ff.unwrap_or(0.0),
+        }),
+        _ => None,
+    });
+    (filters, gains, lines)
 }
 
 #[cfg(test)]

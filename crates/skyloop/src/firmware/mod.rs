@@ -104,7 +104,9 @@ impl Firmware {
             Firmware::Betaflight | Firmware::Inav => Some((PI / 180.0, 500.0)),
             // rad/s; normalized torque in [−1, 1].
             Firmware::Px4 => Some((1.0, 1.0)),
-            Firmware::Ardupilot | Firmware::Generic => None,
+            // RATE.R in deg/s; RATE.ROut, the mixer's command, in [−1, 1].
+            Firmware::Ardupilot => Some((ardupilot::LOG_RATE_UNIT_RAD_S, 1.0)),
+            Firmware::Generic => None,
         }
     }
 }

@@ -3,6 +3,7 @@
 //! bounded change may reach (in the firmware's own resolution), the reference path, the JSON gains
 //! and the lines the pilot pastes. One value per firmware whose gains a log carries.
 
+use super::ardupilot;
 use super::betaflight::{self, Axis};
 use super::inav;
 use super::px4;
@@ -41,6 +42,16 @@ pub enum RateGains {
         /// Filters and loop rate.
         filters: px4::Filters,
     },
+    /// ArduPilot ATC_RAT_<AXIS>_{P,I,D,FF} (per rad/s), flown on a plant identified in the log's
+    /// deg/s: the loop uses the gains × [`ardupilot::LOG_RATE_UNIT_RAD_S`].
+    Ardupilot {
+        /// The gains, as the parameters hold them.
+        gains: ardupilot::Gains,
+        /// The axis.
+        axis: Axis,
+        /// Filters and loop rate.
+        filters: ardupilot::Filters,
+    },
 }
 
 impl RateGains {
@@ -53,6 +64,7 @@ impl RateGains {
             RateGains::Betaflight { filters, .. } => betaflight::block(filters),
             RateGains::Inav { filters, .. } => inav::block(filters),
             RateGains::Px4 { filters, .. } => px4::block(filters),
+            RateGains::Ardupilot { filters, .. } => ardupilot::block(filters),
         }
     }
 
@@ -71,6 +83,10 @@ impl RateGains {
                 let (p, i, d) = px4::continuous(gains);
                 [p, i, d]
             }
+            RateGains::Ardupilot { gains, .. } => {
+                let g = gains.per_log_unit();
+                [g.p, g.i, g.d]
+            }
         }
     }
 
@@ -80,6 +96,7 @@ impl RateGains {
             RateGains::Betaflight { filters, .. } => filters.loop_hz,
             RateGains::Inav { filters, .. } => filters.loop_hz,
             RateGains::Px4 { filters, .. } => filters.loop_hz,
+            RateGains::Ardupilot { filters, .. } => filters.loop_hz,
         }
     }
 
@@ -100,6 +117,7 @@ impl RateGains {
             RateGains::Betaflight { gains, axis, filters } => betaflight::reference_path(gains, *axis, filters.loop_hz),
             RateGains::Inav { gains, filters, .. } => inav::reference_path(gains, filters),
             RateGains::Px4 { gains, .. } => px4::reference_path(gains),
+            RateGains::Ardupilot { gains, filters, .. } => ardupilot::reference_path(&gains.per_log_unit(), filters),
         }
     }
 
@@ -116,6 +134,14 @@ impl RateGains {
                 }
                 Value::Object(m)
             }
+            RateGains::Ardupilot { gains, axis, .. } => {
+                let n = ardupilot::param_names(*axis);
+                let mut m = serde_json::Map::new();
+                for (k, v) in n.iter().zip([gains.p, gains.i, gains.d, gains.ff]) {
+                    m.insert(k.clone(), json!(v));
+                }
+                Value::Object(m)
+            }
         }
     }
 
@@ -125,6 +151,7 @@ impl RateGains {
             RateGains::Betaflight { gains, axis, .. } => betaflight::cli_lines(gains, *axis),
             RateGains::Inav { gains, axis, .. } => inav::cli_lines(gains, *axis),
             RateGains::Px4 { gains, axis, .. } => px4::cli_lines(gains, *axis),
+            RateGains::Ardupilot { gains, axis, .. } => ardupilot::cli_lines(gains, *axis),
         }
     }
 
@@ -146,12 +173,13 @@ impl RateGains {
             RateGains::Px4 { gains: g, .. } => {
                 vec![("K", g.k), ("P", g.p), ("I", g.i), ("D", g.d), ("FF", g.ff)]
             }
+            RateGains::Ardupilot { gains: g, .. } => vec![("P", g.p), ("I", g.i), ("D", g.d), ("FF", g.ff)],
         }
     }
 
     /// Every gain set whose P, I and D each lie within ±`span` (e.g. 0.4) of these, at most
-    /// `levels` values per gain in the firmware's resolution (Betaflight, INAV: whole units; PX4: six
-    /// significant digits); the feedforward and PX4's K are kept. A gain at 0 stays 0.
+    /// `levels` values per gain in the firmware's resolution (Betaflight, INAV: whole units; PX4,
+    /// ArduPilot: six significant digits); the feedforward and PX4's K are kept. A gain at 0 stays 0.
     pub fn neighbours(&self, span: f64, levels: usize) -> Vec<RateGains> {
         let steps = |x: f64, integer: bool| -> Vec<f64> {
             if x <= 0.0 {
@@ -227,6 +255,15 @@ impl RateGains {
                     }
                 })
             }
+            RateGains::Ardupilot { gains, axis, filters } => {
+                grid([gains.p, gains.i, gains.d], false, f64::INFINITY, &|p, i, d| {
+                    RateGains::Ardupilot {
+                        gains: ardupilot::Gains { p, i, d, ..*gains },
+                        axis: *axis,
+                        filters: *filters,
+                    }
+                })
+            }
         }
     }
 
@@ -239,17 +276,17 @@ impl RateGains {
                 axis: *axis,
                 filters: filters.with_dterm_scale(k),
             }),
-            RateGains::Inav { .. } | RateGains::Px4 { .. } => None,
+            RateGains::Inav { .. } | RateGains::Px4 { .. } | RateGains::Ardupilot { .. } => None,
         }
     }
 
-    /// The D-term filter chain in the controller (empty for PX4, whose D-term lowpass is not a
-    /// stage list).
+    /// The D-term filter chain in the controller (empty for PX4 and ArduPilot, whose D-term
+    /// lowpass is one cutoff, not a stage list).
     pub fn dterm_chain(&self) -> &[super::Lowpass] {
         match self {
             RateGains::Betaflight { filters, .. } => &filters.dterm,
             RateGains::Inav { filters, .. } => &filters.dterm,
-            RateGains::Px4 { .. } => &[],
+            RateGains::Px4 { .. } | RateGains::Ardupilot { .. } => &[],
         }
     }
 

@@ -46,6 +46,10 @@ pub struct FlightSetup {
     pub gyro_unit_rad_s: f64,
     /// The controller output's limit (Betaflight 500, PX4 1).
     pub output_limit: f64,
+    /// The firmware's limit on the rate target's acceleration, deg/s² (ArduPilot's
+    /// `ATC_ACCEL_R_MAX`); None: a stick move arrives over [`RAMP_S`], as after Betaflight's RC
+    /// smoothing.
+    pub setpoint_accel_deg_s2: Option<f64>,
 }
 
 /// One doublet: +r, −r, then 0, each held for `hold_s`.
@@ -88,9 +92,51 @@ const T_FIRST_S: f64 = 0.3;
 const GAP_S: f64 = 0.35;
 const NOISE_DEG_S: f64 = 1.0;
 /// Setpoint ramp time of each move, s (Betaflight's RC smoothing delivers a fast stick move over
-/// a few tens of milliseconds).
-const RAMP_S: f64 = 0.025;
+/// a few tens of milliseconds); the shortest ramp when the setpoint's acceleration is limited.
+pub const RAMP_S: f64 = 0.025;
 const RAMP_STEPS: usize = 25;
+
+/// One setpoint move of a doublet: from → to (deg/s), starting at `t_s` and ramping over `ramp_s`;
+/// the next move starts `ramp_s − RAMP_S + HOLD_S` later (a slower ramp holds its target as long).
+#[derive(Debug, Clone, Copy)]
+struct Move {
+    t_s: f64,
+    ramp_s: f64,
+    from: f64,
+    to: f64,
+}
+
+impl Move {
+    /// The end of the move's window (the next move's start).
+    fn end_s(&self) -> f64 {
+        self.t_s + self.ramp_s - RAMP_S + HOLD_S
+    }
+}
+
+/// The doublets' moves, three per rate of [`RATES_DEG_S`], with `accel` (deg/s²) limiting each
+/// ramp; the trace's end.
+fn schedule(accel: Option<f64>) -> (Vec<[Move; 3]>, f64) {
+    let mut t = T_FIRST_S;
+    let mut out = Vec::new();
+    for r in RATES_DEG_S {
+        let mut prev = 0.0;
+        let moves = [r, -r, 0.0].map(|to| {
+            let ramp_s = accel.map_or(RAMP_S, |a| ((to - prev) as f64).abs() / a).max(RAMP_S);
+            let m = Move {
+                t_s: t,
+                ramp_s,
+                from: prev,
+                to,
+            };
+            t = m.end_s();
+            prev = to;
+            m
+        });
+        out.push(moves);
+        t += GAP_S - HOLD_S;
+    }
+    (out, t)
+}
 
 /// Flies C_fb (gyro → output) and C_r (setpoint → output), continuous and in the plant's units.
 ///
@@ -105,6 +151,7 @@ pub fn fly(setup: &FlightSetup, c_fb: &StateSpace, c_r: &StateSpace) -> Result<F
         ("loop rate", s.loop_hz),
         ("gyro unit", s.gyro_unit_rad_s),
         ("output limit", s.output_limit),
+        ("setpoint acceleration limit", s.setpoint_accel_deg_s2.unwrap_or(1.0)),
     ] {
         if !(v.is_finite() && v > 0.0) {
             return Err(Error::Input(format!(
@@ -148,37 +195,34 @@ pub fn fly(setup: &FlightSetup, c_fb: &StateSpace, c_r: &StateSpace) -> Result<F
         position_m: None,
         rate_rad_s: Some([0.0; 3]),
     }];
-    let mut t = T_FIRST_S;
-    let mut prev = 0.0;
-    for r in RATES_DEG_S {
-        let r = r.to_radians();
-        for v in [r, -r, 0.0] {
-            // A stair of 1 ms steps over RAMP_S: the setpoint of a fast stick move after RC
-            // smoothing (an ideal step would send the feedforward's derivative to its limit).
-            for i in 0..RAMP_STEPS {
-                let f = (i + 1) as f64 / RAMP_STEPS as f64;
-                refs.push(RefStep {
-                    t_s: t + RAMP_S * i as f64 / RAMP_STEPS as f64,
-                    attitude_rad: None,
-                    position_m: None,
-                    rate_rad_s: Some([prev + f * (v - prev), 0.0, 0.0]),
-                });
-            }
-            prev = v;
-            t += HOLD_S;
+    let (moves, duration) = schedule(s.setpoint_accel_deg_s2);
+    // Acceleration-limited moves last long enough to roll the craft through inverted (500 deg/s
+    // reached after 0.45 s is a flip) and to sink while it is: neither is a crash of the rate
+    // loop, so only a diverging state or the ground far below counts.
+    let shaped = s.setpoint_accel_deg_s2.is_some();
+    for m in moves.iter().flatten() {
+        // A stair of RAMP_STEPS steps over the ramp: the setpoint of a fast stick move after RC
+        // smoothing or the firmware's acceleration limit (an ideal step would send the
+        // feedforward's derivative to its limit).
+        for i in 0..RAMP_STEPS {
+            let f = (i + 1) as f64 / RAMP_STEPS as f64;
+            refs.push(RefStep {
+                t_s: m.t_s + m.ramp_s * i as f64 / RAMP_STEPS as f64,
+                attitude_rad: None,
+                position_m: None,
+                rate_rad_s: Some([(m.from + f * (m.to - m.from)).to_radians(), 0.0, 0.0]),
+            });
         }
-        t += GAP_S - HOLD_S;
     }
-    let duration = t;
     let scn = Scenario {
         name: "tune: nonlinear check".into(),
         vehicle: VehicleEntry::Full(VehicleSpec::Quadrotor(quad)),
         sim: SimSpec {
             duration_s: duration,
             physics_hz: s.loop_hz,
-            altitude_m: 20.0,
+            altitude_m: if shaped { 500.0 } else { 20.0 },
             log_hz: 0.0,
-            crash_tilt_rad: 3.0,
+            crash_tilt_rad: if shaped { PI } else { 3.0 },
             settle_band: 0.01,
             actuator_rate_limit: Vec::new(),
             seed: 1,
@@ -228,10 +272,15 @@ pub fn fly(setup: &FlightSetup, c_fb: &StateSpace, c_r: &StateSpace) -> Result<F
     };
     let (trace, metrics) = skyloop_sim::simulate(&scn)?;
     // Torque per firmware output unit: J·K·unit (the controller ran on rad/s).
-    Ok(summarize(&trace, metrics.crashed, out_scale * s.gyro_unit_rad_s))
+    Ok(summarize(
+        &trace,
+        metrics.crashed,
+        out_scale * s.gyro_unit_rad_s,
+        &moves,
+    ))
 }
 
-fn summarize(trace: &[Sample], crashed: bool, torque_per_unit: f64) -> FlightCheck {
+fn summarize(trace: &[Sample], crashed: bool, torque_per_unit: f64, moves: &[[Move; 3]]) -> FlightCheck {
     let deg = 180.0 / PI;
     let t: Vec<f64> = trace.iter().map(|x| x.t).collect();
     let sp: Vec<f64> = trace.iter().map(|x| x.reference[0] * deg).collect();
@@ -244,12 +293,12 @@ fn summarize(trace: &[Sample], crashed: bool, torque_per_unit: f64) -> FlightChe
     let mean = hover.iter().sum::<f64>() / hover.len().max(1) as f64;
     let hover_output_rms = (hover.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / hover.len().max(1) as f64).sqrt();
     let mut doublets = Vec::new();
-    let mut t0 = T_FIRST_S;
-    for r in RATES_DEG_S {
+    for (r, ms) in RATES_DEG_S.into_iter().zip(moves) {
+        let t0 = ms[0].t_s;
         // Overshoot of each move (0 → r, r → −r, −r → 0) past its target, relative to its size.
         let mut overshoot: f64 = 0.0;
-        for (k, (from, to)) in [(0.0, r), (r, -r), (-r, 0.0)].into_iter().enumerate() {
-            let (a, b) = (t0 + k as f64 * HOLD_S, t0 + (k + 1) as f64 * HOLD_S);
+        for m in ms {
+            let (a, b, from, to) = (m.t_s, m.end_s(), m.from, m.to);
             let dir = (to - from).signum();
             let past = t
                 .iter()
@@ -260,9 +309,13 @@ fn summarize(trace: &[Sample], crashed: bool, torque_per_unit: f64) -> FlightChe
             overshoot = overshoot.max(past / (to - from).abs());
         }
         // Rise time 10–90 % of the first move, as `stepinfo` reads it.
-        let (tf, yf): (Vec<f64>, Vec<f64>) = t.iter().zip(&y).filter(|(x, _)| **x >= t0 && **x < t0 + HOLD_S).unzip();
+        let (tf, yf): (Vec<f64>, Vec<f64>) = t
+            .iter()
+            .zip(&y)
+            .filter(|(x, _)| **x >= t0 && **x < ms[0].end_s())
+            .unzip();
         let rise_time_s = skyloop_lti::timeresp::stepinfo(&tf, &yf, Some(r)).rise_time_s;
-        let win = |x: &Sample| x.t >= t0 && x.t < t0 + 3.0 * HOLD_S;
+        let win = |x: &Sample| x.t >= t0 && x.t < ms[2].end_s();
         let w: Vec<&Sample> = trace.iter().filter(|x| win(x)).collect();
         let n = w.len().max(1) as f64;
         let rms = (w
@@ -279,7 +332,6 @@ fn summarize(trace: &[Sample], crashed: bool, torque_per_unit: f64) -> FlightChe
             rms_error_deg_s: rms,
             saturated_fraction: sat,
         });
-        t0 += 2.0 * HOLD_S + GAP_S;
     }
     // The trace for plots and JSON: at most about 2000 points (the metrics used every sample).
     let every = t.len().div_ceil(2000).max(1);
@@ -334,6 +386,7 @@ mod tests {
             loop_hz: 8000.0,
             gyro_unit_rad_s: PI / 180.0,
             output_limit: 500.0,
+            setpoint_accel_deg_s2: None,
         }
     }
 
@@ -363,6 +416,42 @@ mod tests {
             "an unstable loop must fail the check: {:?}",
             f.doublets
         );
+    }
+
+    /// ArduPilot's ATC_ACCEL_R_MAX shapes the rate target: with 1100 deg/s² the 200 deg/s move
+    /// takes 0.18 s, the 1000 deg/s reversal 0.91 s, and each move is held as long again; the
+    /// metrics follow the moves (an overshoot measured in a window that ends mid-ramp would be
+    /// the ramp, not the loop).
+    #[test]
+    fn an_acceleration_limit_slows_the_moves_and_the_windows_follow() {
+        let (moves, end) = schedule(Some(1100.0));
+        assert!((moves[0][0].ramp_s - 200.0 / 1100.0).abs() < 1e-12);
+        assert!((moves[1][1].ramp_s - 1000.0 / 1100.0).abs() < 1e-12);
+        assert!((moves[1][1].t_s - moves[1][0].end_s()).abs() < 1e-12);
+        let (fast, fast_end) = schedule(None);
+        assert!(fast.iter().flatten().all(|m| m.ramp_s == RAMP_S));
+        assert!(end > fast_end + 2.0, "{end} vs {fast_end}");
+        let c = parse_model("0.5 + 2/s").unwrap();
+        let quick = fly(&setup(), &c, &c).unwrap();
+        let shaped = fly(
+            &FlightSetup {
+                setpoint_accel_deg_s2: Some(1100.0),
+                ..setup()
+            },
+            &c,
+            &c,
+        )
+        .unwrap();
+        // The setpoint reaches 200 deg/s only after 0.18 s.
+        let at = |f: &FlightCheck, t: f64| {
+            let k = f.t_s.iter().position(|x| *x >= t).unwrap();
+            f.setpoint_deg_s[k]
+        };
+        assert!((at(&shaped, T_FIRST_S + 0.09) - 100.0).abs() < 10.0);
+        assert!((at(&quick, T_FIRST_S + 0.09) - 200.0).abs() < 1e-9);
+        let (q, sh) = (&quick.doublets[1], &shaped.doublets[1]);
+        assert!(sh.rms_error_deg_s < q.rms_error_deg_s, "{sh:?} vs {q:?}");
+        assert!(sh.overshoot_pct < q.overshoot_pct, "{sh:?} vs {q:?}");
     }
 
     #[test]

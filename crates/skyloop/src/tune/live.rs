@@ -8,12 +8,14 @@
 //! for Betaflight; `p`, `i`, `d`, `cd` for INAV; `MC_ROLLRATE_K` .. `MC_ROLLRATE_FF` for PX4),
 //! optionally with `dterm_hz`: the cutoffs of the D-term filter chain, in the chain's order
 //! (Betaflight and INAV: one per lowpass stage, a notch stage keeps its own; PX4: one value,
-//! `IMU_DGYRO_CUTOFF`).
+//! `IMU_DGYRO_CUTOFF`; ArduPilot: one value, `ATC_RAT_<AXIS>_FLTD`, with `ATC_RAT_RLL_P` ..
+//! `ATC_RAT_RLL_FF` as its gain keys).
 
 use super::candidates::Screen;
 use super::log::{analyse, noise_of};
 use super::noise::GyroNoise;
 use crate::error::{Error, Result};
+use crate::firmware::ardupilot;
 use crate::firmware::betaflight;
 use crate::firmware::inav;
 use crate::firmware::px4;
@@ -117,6 +119,28 @@ impl LiveLoop {
                     },
                 }
             }
+            RateGains::Ardupilot { gains, axis, filters } => {
+                let n = ardupilot::param_names(*axis);
+                if cutoffs.len() > 1 {
+                    return Err(Error::Input(format!(
+                        "dterm_hz: ArduPilot has one D-term cutoff ({})",
+                        n[0].replace("_P", "_FLTD")
+                    )));
+                }
+                RateGains::Ardupilot {
+                    gains: ardupilot::Gains {
+                        p: real(&n[0], gains.p)?,
+                        i: real(&n[1], gains.i)?,
+                        d: real(&n[2], gains.d)?,
+                        ff: real(&n[3], gains.ff)?,
+                    },
+                    axis: *axis,
+                    filters: ardupilot::Filters {
+                        fltd_hz: cutoffs.first().copied().unwrap_or(filters.fltd_hz),
+                        ..*filters
+                    },
+                }
+            }
         })
     }
 
@@ -131,6 +155,11 @@ impl LiveLoop {
             RateGains::Px4 { filters, .. } => {
                 vec![json!({"kind": "biquad", "cutoff_hz": filters.dgyro_cutoff_hz, "movable": true})]
             }
+            // FLTD at 0 is off: no cutoff to move.
+            RateGains::Ardupilot { filters, .. } if filters.fltd_hz > 0.0 => {
+                vec![json!({"kind": "pt1", "cutoff_hz": filters.fltd_hz, "movable": true})]
+            }
+            RateGains::Ardupilot { .. } => Vec::new(),
         };
         json!({"gains": g.to_json(), "dterm": dterm, "loop_hz": g.loop_hz()})
     }

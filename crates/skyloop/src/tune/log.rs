@@ -30,7 +30,7 @@ use super::{outcome_for_gains, tune, with_hold, Firmware, GenericStructure, Maxi
 use crate::error::{Error, Result};
 use crate::firmware::betaflight::{self, Axis};
 use crate::firmware::rate_gains::RateGains;
-use crate::firmware::{inav, px4};
+use crate::firmware::{ardupilot, inav, px4};
 use crate::identify::{identify_log, Identification, IdentifyRequest};
 use serde_json::{json, Value};
 use skyloop_lti::interconnect::{feedback, series};
@@ -321,14 +321,6 @@ fn identify_stage(req: &LogTuneRequest, log: Log, derived: Vec<String>) -> Resul
             other => other,
         })?;
     let log_fw = Firmware::of_log(&log);
-    if req.firmware == Firmware::Ardupilot && log_fw == Some(Firmware::Ardupilot) {
-        // The identified plant's input is RATE.ROut and its output deg/s, while ATC_RAT_* act on
-        // rad/s: the flown gains and the loop's units are not wired through yet.
-        return Err(Error::Input(format!(
-            "ArduPilot DataFlash logs are identified (`skyloop identify LOG --axis {}`) but not tuned from yet: convert the identified K from deg/s to rad/s (× π/180) and give --plant 'K*exp(-Td*s)/(s*(tau*s+1))' --firmware ardupilot",
-            req.axis.name()
-        )));
-    }
     if req.firmware != Firmware::Generic && log_fw != Some(req.firmware) {
         let l = log_fw.map_or("CSV", |f| f.display_name());
         return Err(Error::Input(format!(
@@ -409,6 +401,8 @@ struct Header {
     current_gains: Option<CurrentGains>,
     /// The D-term lowpass settings `--tune-filters` may change (Betaflight).
     dterm_settings: Option<betaflight::DtermSettings>,
+    /// The firmware's limit on the rate target's acceleration, deg/s², for the 6-DOF check.
+    setpoint_accel_deg_s2: Option<f64>,
 }
 
 fn header_stage(req: &LogTuneRequest, idn: &Identified, notes: &mut Vec<String>) -> Result<Header> {
@@ -426,6 +420,7 @@ fn header_stage(req: &LogTuneRequest, idn: &Identified, notes: &mut Vec<String>)
     treq.tune_feedforward = req.tune_feedforward;
     let mut current_gains: Option<CurrentGains> = None;
     let mut dterm_settings = None;
+    let mut setpoint_accel_deg_s2 = None;
     match (&header, req.firmware) {
         (Some(FirmwareTuning::Betaflight(b)), Firmware::Betaflight) => {
             let h = betaflight::flown_from_header(b, req.axis, log);
@@ -457,6 +452,30 @@ fn header_stage(req: &LogTuneRequest, idn: &Identified, notes: &mut Vec<String>)
                 current_gains = Some(CurrentGains::Px4(g));
             }
         }
+        (Some(FirmwareTuning::ArduPilot(t)), Firmware::Ardupilot) => {
+            let (f, g, lines) = ardupilot::flown_from_header(t, req.axis);
+            filters = lines;
+            treq.ardupilot = f;
+            let g = g.ok_or_else(|| {
+                let n = ardupilot::param_names(req.axis);
+                Error::Input(format!(
+                    "{}: the log's parameters lack {}, {} or {}: the flown gains are needed to tune around (the plant is identified in deg/s, the gains act on rad/s); use a log with its PARM messages, or --firmware generic",
+                    req.log.display(),
+                    n[0],
+                    n[1],
+                    n[2]
+                ))
+            })?;
+            treq.ardupilot_ff = Some(g.ff);
+            setpoint_accel_deg_s2 = ardupilot::setpoint_accel_deg_s2(t, req.axis);
+            if let Some(a) = setpoint_accel_deg_s2 {
+                notes.push(format!(
+                    "6-DOF check: the rate target's acceleration is limited to {a:.0} deg/s² (ATC_ACCEL_{}_MAX), as the attitude controller shapes it",
+                    ["R", "P", "Y"][req.axis.index()]
+                ));
+            }
+            current_gains = Some(CurrentGains::Ardupilot(g));
+        }
         (_, Firmware::Generic) => {
             notes.push("generic: the current gains are not compared (their units are the firmware's)".into());
         }
@@ -472,6 +491,7 @@ fn header_stage(req: &LogTuneRequest, idn: &Identified, notes: &mut Vec<String>)
         filters,
         current_gains,
         dterm_settings,
+        setpoint_accel_deg_s2,
     })
 }
 
@@ -517,6 +537,7 @@ fn flown_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, notes: &mut
         loop_hz,
         gyro_unit_rad_s,
         output_limit,
+        setpoint_accel_deg_s2: hdr.setpoint_accel_deg_s2,
     });
     let wn = 3.0 * skyloop_robust::structured::systune::ultimate_point(&held[0])?.0;
     let flown_rg = flown_rate_gains(current_gains.as_ref(), treq);
@@ -773,6 +794,7 @@ enum CurrentGains {
     Betaflight(betaflight::Gains, u32),
     Inav(inav::Gains),
     Px4(px4::Gains),
+    Ardupilot(ardupilot::Gains),
 }
 
 fn gains_bf(v: &Value) -> Result<betaflight::Gains> {
@@ -1005,6 +1027,11 @@ fn flown_rate_gains(cur: Option<&CurrentGains>, treq: &TuneRequest) -> Option<Ra
             gains: *g,
             axis: treq.axis,
             filters: treq.px4,
+        }),
+        CurrentGains::Ardupilot(g) => Some(RateGains::Ardupilot {
+            gains: *g,
+            axis: treq.axis,
+            filters: treq.ardupilot,
         }),
     }
 }
