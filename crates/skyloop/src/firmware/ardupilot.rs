@@ -42,10 +42,11 @@ pub struct Gains {
 }
 
 impl Gains {
-    /// The same controller acting on the log's deg/s rates: every gain × [`LOG_RATE_UNIT_RAD_S`]
-    /// (command per deg/s, per deg, per deg/s², per deg/s).
-    pub fn per_log_unit(&self) -> Gains {
-        let u = LOG_RATE_UNIT_RAD_S;
+    /// The same controller acting on a rate measured in units of `unit_rad_s` rad/s (e.g. a log's
+    /// deg/s: [`LOG_RATE_UNIT_RAD_S`]): every gain × `unit_rad_s` (command per unit, per unit·s,
+    /// per unit/s, per unit).
+    pub fn in_plant_units(&self, unit_rad_s: f64) -> Gains {
+        let u = unit_rad_s;
         Gains {
             p: self.p * u,
             i: self.i * u,

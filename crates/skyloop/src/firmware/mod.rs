@@ -21,6 +21,7 @@ pub mod betaflight;
 pub mod channels;
 pub mod filters;
 pub mod inav;
+mod knobs;
 pub mod px4;
 pub mod rate_gains;
 

@@ -42,8 +42,8 @@ pub enum RateGains {
         /// Filters and loop rate.
         filters: px4::Filters,
     },
-    /// ArduPilot ATC_RAT_<AXIS>_{P,I,D,FF} (per rad/s), flown on a plant identified in the log's
-    /// deg/s: the loop uses the gains × [`ardupilot::LOG_RATE_UNIT_RAD_S`].
+    /// ArduPilot ATC_RAT_<AXIS>_{P,I,D,FF} (per rad/s); the loop uses the gains × the plant's
+    /// unit.
     Ardupilot {
         /// The gains, as the parameters hold them.
         gains: ardupilot::Gains,
@@ -51,6 +51,9 @@ pub enum RateGains {
         axis: Axis,
         /// Filters and loop rate.
         filters: ardupilot::Filters,
+        /// rad/s per unit of the plant's output: 1 for a plant in rad/s (`--plant`),
+        /// [`ardupilot::LOG_RATE_UNIT_RAD_S`] for one identified from a log's deg/s.
+        plant_unit_rad_s: f64,
     },
 }
 
@@ -83,8 +86,10 @@ impl RateGains {
                 let (p, i, d) = px4::continuous(gains);
                 [p, i, d]
             }
-            RateGains::Ardupilot { gains, .. } => {
-                let g = gains.per_log_unit();
+            RateGains::Ardupilot {
+                gains, plant_unit_rad_s, ..
+            } => {
+                let g = gains.in_plant_units(*plant_unit_rad_s);
                 [g.p, g.i, g.d]
             }
         }
@@ -117,7 +122,12 @@ impl RateGains {
             RateGains::Betaflight { gains, axis, filters } => betaflight::reference_path(gains, *axis, filters.loop_hz),
             RateGains::Inav { gains, filters, .. } => inav::reference_path(gains, filters),
             RateGains::Px4 { gains, .. } => px4::reference_path(gains),
-            RateGains::Ardupilot { gains, filters, .. } => ardupilot::reference_path(&gains.per_log_unit(), filters),
+            RateGains::Ardupilot {
+                gains,
+                filters,
+                plant_unit_rad_s,
+                ..
+            } => ardupilot::reference_path(&gains.in_plant_units(*plant_unit_rad_s), filters),
         }
     }
 
@@ -255,15 +265,19 @@ impl RateGains {
                     }
                 })
             }
-            RateGains::Ardupilot { gains, axis, filters } => {
-                grid([gains.p, gains.i, gains.d], false, f64::INFINITY, &|p, i, d| {
-                    RateGains::Ardupilot {
-                        gains: ardupilot::Gains { p, i, d, ..*gains },
-                        axis: *axis,
-                        filters: *filters,
-                    }
-                })
-            }
+            RateGains::Ardupilot {
+                gains,
+                axis,
+                filters,
+                plant_unit_rad_s,
+            } => grid([gains.p, gains.i, gains.d], false, f64::INFINITY, &|p, i, d| {
+                RateGains::Ardupilot {
+                    gains: ardupilot::Gains { p, i, d, ..*gains },
+                    axis: *axis,
+                    filters: *filters,
+                    plant_unit_rad_s: *plant_unit_rad_s,
+                }
+            }),
         }
     }
 

@@ -4,23 +4,14 @@
 //! L's frequency response, the disk the Nyquist curve must avoid, and the predicted motor noise
 //! against the flown tune's from the log's gyro spectrum.
 //!
-//! Gains are given with the firmware's own keys, as `tune --json` prints them (`p`, `i`, `d`, `f`
-//! for Betaflight; `p`, `i`, `d`, `cd` for INAV; `MC_ROLLRATE_K` .. `MC_ROLLRATE_FF` for PX4),
-//! optionally with `dterm_hz`: the cutoffs of the D-term filter chain, in the chain's order
-//! (Betaflight and INAV: one per lowpass stage, a notch stage keeps its own; PX4: one value,
-//! `IMU_DGYRO_CUTOFF`; ArduPilot: one value, `ATC_RAT_<AXIS>_FLTD`, with `ATC_RAT_RLL_P` ..
-//! `ATC_RAT_RLL_FF` as its gain keys).
+//! Gains are given with the firmware's own keys, as `tune --json` prints them, optionally with
+//! `dterm_hz`, the D-term chain's cutoffs ([`RateGains::with_knobs`] says which).
 
 use super::candidates::Screen;
 use super::log::{analyse, noise_of};
 use super::noise::GyroNoise;
-use crate::error::{Error, Result};
-use crate::firmware::ardupilot;
-use crate::firmware::betaflight;
-use crate::firmware::inav;
-use crate::firmware::px4;
+use crate::error::Result;
 use crate::firmware::rate_gains::RateGains;
-use crate::firmware::Lowpass;
 use serde_json::{json, Value};
 use skyloop_lti::freqresp::freqresp_flat;
 use skyloop_lti::StateSpace;
@@ -50,118 +41,14 @@ impl LiveLoop {
     /// A gain that is negative, not a number, or not an integer where the firmware's are; a cutoff
     /// that is not positive; more cutoffs than the chain has stages.
     pub fn gains(&self, v: &Value) -> Result<RateGains> {
-        let int = |k: &str, flown: u32| -> Result<u32> {
-            match v.get(k) {
-                None | Some(Value::Null) => Ok(flown),
-                Some(x) => x
-                    .as_f64()
-                    .filter(|f| *f >= 0.0 && f.fract() == 0.0 && *f <= f64::from(u32::MAX))
-                    .map(|f| f as u32)
-                    .ok_or_else(|| Error::Input(format!("gain {k} must be a non-negative integer, got {x}"))),
-            }
-        };
-        let real = |k: &str, flown: f64| -> Result<f64> {
-            match v.get(k) {
-                None | Some(Value::Null) => Ok(flown),
-                Some(x) => x
-                    .as_f64()
-                    .filter(|f| f.is_finite() && *f >= 0.0)
-                    .ok_or_else(|| Error::Input(format!("gain {k} must be a non-negative number, got {x}"))),
-            }
-        };
-        let cutoffs = cutoffs_of(v)?;
-        Ok(match &self.flown {
-            RateGains::Betaflight { gains, axis, filters } => RateGains::Betaflight {
-                gains: betaflight::Gains {
-                    p: int("p", gains.p)?,
-                    i: int("i", gains.i)?,
-                    d: int("d", gains.d)?,
-                    f: int("f", gains.f)?,
-                },
-                axis: *axis,
-                filters: betaflight::Filters {
-                    dterm: with_cutoffs(&filters.dterm, &cutoffs)?,
-                    ..filters.clone()
-                },
-            },
-            RateGains::Inav { gains, axis, filters } => RateGains::Inav {
-                gains: inav::Gains {
-                    p: int("p", gains.p)?,
-                    i: int("i", gains.i)?,
-                    d: int("d", gains.d)?,
-                    cd: int("cd", gains.cd)?,
-                },
-                axis: *axis,
-                filters: inav::Filters {
-                    dterm: with_cutoffs(&filters.dterm, &cutoffs)?,
-                    ..filters.clone()
-                },
-            },
-            RateGains::Px4 { gains, axis, filters } => {
-                let n = px4::param_names(*axis);
-                if cutoffs.len() > 1 {
-                    return Err(Error::Input(
-                        "dterm_hz: PX4 has one D-term cutoff (IMU_DGYRO_CUTOFF)".into(),
-                    ));
-                }
-                RateGains::Px4 {
-                    gains: px4::Gains {
-                        k: real(&n[0], gains.k)?,
-                        p: real(&n[1], gains.p)?,
-                        i: real(&n[2], gains.i)?,
-                        d: real(&n[3], gains.d)?,
-                        ff: real(&n[4], gains.ff)?,
-                    },
-                    axis: *axis,
-                    filters: px4::Filters {
-                        dgyro_cutoff_hz: cutoffs.first().copied().unwrap_or(filters.dgyro_cutoff_hz),
-                        ..*filters
-                    },
-                }
-            }
-            RateGains::Ardupilot { gains, axis, filters } => {
-                let n = ardupilot::param_names(*axis);
-                if cutoffs.len() > 1 {
-                    return Err(Error::Input(format!(
-                        "dterm_hz: ArduPilot has one D-term cutoff ({})",
-                        n[0].replace("_P", "_FLTD")
-                    )));
-                }
-                RateGains::Ardupilot {
-                    gains: ardupilot::Gains {
-                        p: real(&n[0], gains.p)?,
-                        i: real(&n[1], gains.i)?,
-                        d: real(&n[2], gains.d)?,
-                        ff: real(&n[3], gains.ff)?,
-                    },
-                    axis: *axis,
-                    filters: ardupilot::Filters {
-                        fltd_hz: cutoffs.first().copied().unwrap_or(filters.fltd_hz),
-                        ..*filters
-                    },
-                }
-            }
-        })
+        self.flown.with_knobs(v)
     }
 
     /// The knobs of a gain set as the page shows them: `{gains: {key: value}, dterm: [{kind,
     /// cutoff_hz}]}` (the D-term chain's stages; a notch is listed with its centre and cannot be
     /// moved).
     pub fn knobs(g: &RateGains) -> Value {
-        let stages = |d: &[Lowpass]| -> Vec<Value> { d.iter().map(stage_json).collect() };
-        let dterm = match g {
-            RateGains::Betaflight { filters, .. } => stages(&filters.dterm),
-            RateGains::Inav { filters, .. } => stages(&filters.dterm),
-            RateGains::Px4 { filters, .. } => {
-                vec![json!({"kind": "biquad", "cutoff_hz": filters.dgyro_cutoff_hz, "movable": true})]
-            }
-            // FLTD at 0 is off: no cutoff to move.
-            RateGains::Ardupilot { filters, .. } if filters.fltd_hz > 0.0 => {
-                vec![json!({"kind": "pt1", "cutoff_hz": filters.fltd_hz, "movable": true})]
-            }
-            RateGains::Ardupilot { .. } => Vec::new(),
-        };
-        json!({"gains": g.to_json(), "dterm": dterm, "loop_hz": g.loop_hz()})
+        json!({"gains": g.to_json(), "dterm": g.dterm_knobs(), "loop_hz": g.loop_hz()})
     }
 
     /// One gain set analysed as `tune LOG` analyses the flown and proposed tunes (the `proposed`
@@ -219,51 +106,6 @@ impl LiveLoop {
             "spectra": Value::Null,
         }))
     }
-}
-
-/// `dterm_hz` of a knob object (empty when absent).
-fn cutoffs_of(v: &Value) -> Result<Vec<f64>> {
-    match v.get("dterm_hz") {
-        None | Some(Value::Null) => Ok(Vec::new()),
-        Some(Value::Array(a)) => a
-            .iter()
-            .map(|x| {
-                x.as_f64()
-                    .filter(|f| f.is_finite() && *f > 0.0)
-                    .ok_or_else(|| Error::Input(format!("dterm_hz: a cutoff must be a positive number of Hz, got {x}")))
-            })
-            .collect(),
-        Some(x) => Err(Error::Input(format!(
-            "dterm_hz must be a list of cutoffs in Hz, got {x}"
-        ))),
-    }
-}
-
-/// The chain with its lowpass stages moved to `cutoffs` (in order; a notch keeps its own).
-fn with_cutoffs(chain: &[Lowpass], cutoffs: &[f64]) -> Result<Vec<Lowpass>> {
-    if cutoffs.len() > chain.len() {
-        return Err(Error::Input(format!(
-            "dterm_hz: {} cutoffs for a D-term chain of {} stages",
-            cutoffs.len(),
-            chain.len()
-        )));
-    }
-    Ok(chain
-        .iter()
-        .enumerate()
-        .map(|(k, l)| cutoffs.get(k).map_or(*l, |&f| l.with_cutoff(f)))
-        .collect())
-}
-
-fn stage_json(l: &Lowpass) -> Value {
-    let (kind, hz, movable) = match *l {
-        Lowpass::Pt1(f) => ("pt1", f, true),
-        Lowpass::Pt2(f) => ("pt2", f, true),
-        Lowpass::Pt3(f) => ("pt3", f, true),
-        Lowpass::Biquad(f) => ("biquad", f, true),
-        Lowpass::Notch(f0, _) => ("notch", f0, false),
-    };
-    json!({"kind": kind, "cutoff_hz": hz, "movable": movable})
 }
 
 /// L = P·C at `freq_hz` (exact delays): `{freq_hz, mag_db, phase_deg (unwrapped along the grid),

@@ -1032,6 +1032,7 @@ fn flown_rate_gains(cur: Option<&CurrentGains>, treq: &TuneRequest) -> Option<Ra
             gains: *g,
             axis: treq.axis,
             filters: treq.ardupilot,
+            plant_unit_rad_s: ardupilot::LOG_RATE_UNIT_RAD_S,
         }),
     }
 }
