@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use skyloop::flightlog::{export_csv, info_json, plot_fields};
-use skyloop::sysid::logs::tuning::{ArduPilotTuning, FirmwareTuning};
+use skyloop::sysid::logs::tuning::FirmwareTuning;
 use skyloop::sysid::logs::{blackbox, detect, Log, LogFormat, OpenOptions};
 
 use crate::output::print_json;
@@ -159,7 +159,9 @@ fn info(file: &Path, session: Option<usize>, json: bool) -> skyloop::Result<()> 
         }
     }
     if let Some(t) = &tuning {
-        print_tuning(t);
+        for line in skyloop::firmware::header_lines(t) {
+            println!("{line}");
+        }
     }
     for g in &groups {
         println!(
@@ -171,10 +173,6 @@ fn info(file: &Path, session: Option<usize>, json: bool) -> skyloop::Result<()> 
         }
     }
     Ok(())
-}
-
-fn opt(x: Option<f64>) -> String {
-    x.map_or("-".to_string(), |v| format!("{v}"))
 }
 
 /// Session numbers as ranges: "2, 3, 5–11, 13" → "2–3, 5–11, 13".
@@ -194,173 +192,4 @@ fn ranges(ix: &[usize]) -> String {
         k = j + 1;
     }
     out.join(", ")
-}
-
-fn print_tuning(t: &FirmwareTuning) {
-    match t {
-        FirmwareTuning::ArduPilot(a) => print_ardupilot(a),
-        FirmwareTuning::Betaflight(b) => {
-            println!("tuning ({}):", b.firmware_revision);
-            for (axis, g) in ["roll", "pitch", "yaw"].iter().zip(&b.pidf) {
-                println!(
-                    "  {axis:<5} P {} I {} D {} F {} d_min {}",
-                    g.p,
-                    g.i,
-                    g.d,
-                    opt(g.f),
-                    opt(g.d_min)
-                );
-            }
-            let lp = |name: &str, l: &Option<skyloop::sysid::logs::tuning::Lowpass>| match l {
-                Some(l) => println!(
-                    "  {name}: {} {} Hz{}",
-                    l.kind,
-                    l.cutoff_hz,
-                    l.dynamic_hz
-                        .map(|(a, b)| format!(" (dynamic {a}..{b} Hz)"))
-                        .unwrap_or_default()
-                ),
-                None => println!("  {name}: off"),
-            };
-            lp("gyro lowpass", &b.gyro_lowpass);
-            lp("gyro lowpass 2", &b.gyro_lowpass2);
-            lp("D-term lowpass", &b.dterm_lowpass);
-            lp("D-term lowpass 2", &b.dterm_lowpass2);
-            match &b.dynamic_notch {
-                Some(n) => println!("  dynamic notch: {}..{} Hz, Q {}", n.min_hz, n.max_hz, opt(n.q)),
-                None => println!("  dynamic notch: off"),
-            }
-            match &b.rpm_filter {
-                Some(r) => println!(
-                    "  RPM filter: {} harmonics, Q {}, min {} Hz",
-                    r.harmonics,
-                    opt(r.q),
-                    opt(r.min_hz)
-                ),
-                None => println!("  RPM filter: off"),
-            }
-            println!(
-                "  loop: gyro {} Hz, PID {} Hz; TPA {} % from {} us; d_min gain {}, advance {}",
-                opt(b.gyro_rate_hz),
-                opt(b.pid_rate_hz),
-                opt(b.tpa_rate_percent),
-                opt(b.tpa_breakpoint_us),
-                opt(b.d_min_gain),
-                opt(b.d_min_advance)
-            );
-        }
-        FirmwareTuning::Inav(t) => {
-            println!("tuning (INAV: {}):", t.firmware_revision);
-            for (axis, g) in ["roll", "pitch", "yaw"].iter().zip(&t.pid) {
-                println!("  {axis:<5} mc_p {} mc_i {} mc_d {} mc_cd {}", g.p, g.i, g.d, opt(g.cd));
-            }
-            let lp = |name: &str, l: &Option<skyloop::sysid::logs::tuning::Lowpass>| match l {
-                Some(l) => println!("  {name}: {} {} Hz", l.kind, l.cutoff_hz),
-                None => println!("  {name}: off"),
-            };
-            lp("gyro main lowpass", &t.gyro_lowpass);
-            lp("D-term lowpass (dterm_lpf)", &t.dterm_lowpass);
-            if t.dterm_lowpass2.is_some() {
-                lp("D-term lowpass 2 (dterm_lpf2)", &t.dterm_lowpass2);
-            }
-            if let Some(n) = &t.dterm_notch {
-                println!("  D-term notch: {} Hz, cutoff {} Hz", n.center_hz, n.cutoff_hz);
-            }
-            for n in &t.gyro_notches {
-                println!("  gyro notch: {} Hz, cutoff {} Hz", n.center_hz, n.cutoff_hz);
-            }
-            println!(
-                "  yaw_lpf_hz {}, mc_cd_lpf_hz {}; loop: PID {} Hz; TPA {} % from {} us",
-                opt(t.yaw_lpf_hz),
-                opt(t.cd_lpf_hz),
-                opt(t.pid_rate_hz.map(|h| (h * 10.0).round() / 10.0)),
-                opt(t.tpa_rate_percent),
-                opt(t.tpa_breakpoint_us)
-            );
-            println!(
-                "  motorOutput {}, minthrottle {}, maxthrottle {}",
-                t.motor_output.map_or("-".into(), |(a, b)| format!("{a}..{b}")),
-                opt(t.min_throttle),
-                opt(t.max_throttle)
-            );
-        }
-        FirmwareTuning::Px4(p) => {
-            // Each parameter under its own name; "not in the log" where the firmware version has
-            // none (older PX4 has no MC_*RATE_K, i.e. K = 1).
-            let named = |name: String, v: Option<f64>, unit: &str| match v {
-                Some(x) => format!("{name} = {x}{unit}"),
-                None => format!("{name} not in the log"),
-            };
-            println!("tuning (PX4 parameters):");
-            for (axis, g) in ["ROLL", "PITCH", "YAW"].iter().zip(&p.rate) {
-                let items: Vec<String> = [("K", g.k), ("P", g.p), ("I", g.i), ("D", g.d), ("FF", g.ff)]
-                    .into_iter()
-                    .map(|(k, v)| named(format!("MC_{axis}RATE_{k}"), v, ""))
-                    .collect();
-                println!("  {}", items.join(", "));
-            }
-            println!(
-                "  {}, {}, {}",
-                named("IMU_GYRO_CUTOFF".into(), p.gyro_cutoff_hz, " Hz"),
-                named("IMU_DGYRO_CUTOFF".into(), p.dgyro_cutoff_hz, " Hz"),
-                named("IMU_GYRO_RATEMAX".into(), p.gyro_rate_max_hz, " Hz")
-            );
-        }
-    }
-}
-
-/// ArduPilot: every parameter under its own name, as PX4's (DataFlash PARM messages).
-fn print_ardupilot(a: &ArduPilotTuning) {
-    let named = |name: String, v: Option<f64>, unit: &str| match v {
-        Some(x) => format!("{name} = {x}{unit}"),
-        None => format!("{name} not in the log"),
-    };
-    let firmware = match (&a.vehicle, &a.version) {
-        (Some(v), Some(n)) => format!("{v} {n}"),
-        _ if a.firmware_revision.is_empty() => "ArduPilot, version not in the log".to_string(),
-        _ => a.firmware_revision.clone(),
-    };
-    let frame = a.frame.as_ref().map(|f| format!(", frame {f}")).unwrap_or_default();
-    println!("tuning ({firmware}{frame}; ArduPilot parameters):");
-    if !a.firmware_revision.is_empty() {
-        println!("  firmware: {}", a.firmware_revision);
-    }
-    for ((axis, x), g) in [("RLL", 'R'), ("PIT", 'P'), ("YAW", 'Y')].iter().zip(&a.rate) {
-        let mut items: Vec<String> = [("P", g.p, ""), ("I", g.i, ""), ("D", g.d, ""), ("FF", g.ff, "")]
-            .into_iter()
-            .chain([
-                ("FLTT", g.fltt_hz, " Hz"),
-                ("FLTE", g.flte_hz, " Hz"),
-                ("FLTD", g.fltd_hz, " Hz"),
-            ])
-            .map(|(k, v, unit)| named(format!("ATC_RAT_{axis}_{k}"), v, unit))
-            .collect();
-        items.push(named(format!("ATC_ACCEL_{x}_MAX"), g.accel_max_cdeg_s2, " cdeg/s²"));
-        println!("  {}", items.join(", "));
-    }
-    println!(
-        "  {}, {}",
-        named("INS_GYRO_FILTER".into(), a.gyro_filter_hz, " Hz"),
-        named("SCHED_LOOP_RATE".into(), a.loop_rate_hz, " Hz")
-    );
-    if a.harmonic_notch.is_empty() {
-        println!("  harmonic notch: no INS_HNTCH_* parameters in the log");
-    } else {
-        let items: Vec<String> = a
-            .harmonic_notch
-            .iter()
-            .map(|n| format!("{} = {}", n.name, n.value))
-            .collect();
-        println!("  harmonic notch: {}", items.join(", "));
-    }
-    if a.log_rates_hz.is_empty() {
-        println!("  logging rates: no RATE, PIDR/PIDP/PIDY, IMU, GYR or RCOU messages");
-    } else {
-        let items: Vec<String> = a
-            .log_rates_hz
-            .iter()
-            .map(|n| format!("{} {:.1} Hz", n.name, n.value))
-            .collect();
-        println!("  logging rates: {}", items.join(", "));
-    }
 }

@@ -236,6 +236,64 @@ pub fn flown_from_header(t: &ArduPilotTuning, axis: Axis) -> (Filters, Option<Ga
     (filters, gains, lines)
 }
 
+/// The parameters as `log info` lists them, each under its own name (DataFlash PARM messages): the rate PIDs and filters, the gyro filter and loop rate, the harmonic notches and the rate-loop messages' logging rates.
+pub fn header_lines(a: &ArduPilotTuning) -> Vec<String> {
+    let mut out = Vec::new();
+    let named = |name: String, v: Option<f64>, unit: &str| match v {
+        Some(x) => format!("{name} = {x}{unit}"),
+        None => format!("{name} not in the log"),
+    };
+    let firmware = match (&a.vehicle, &a.version) {
+        (Some(v), Some(n)) => format!("{v} {n}"),
+        _ if a.firmware_revision.is_empty() => "ArduPilot, version not in the log".to_string(),
+        _ => a.firmware_revision.clone(),
+    };
+    let frame = a.frame.as_ref().map(|f| format!(", frame {f}")).unwrap_or_default();
+    out.push(format!("tuning ({firmware}{frame}; ArduPilot parameters):"));
+    if !a.firmware_revision.is_empty() {
+        out.push(format!("  firmware: {}", a.firmware_revision));
+    }
+    for ((axis, x), g) in [("RLL", 'R'), ("PIT", 'P'), ("YAW", 'Y')].iter().zip(&a.rate) {
+        let mut items: Vec<String> = [("P", g.p, ""), ("I", g.i, ""), ("D", g.d, ""), ("FF", g.ff, "")]
+            .into_iter()
+            .chain([
+                ("FLTT", g.fltt_hz, " Hz"),
+                ("FLTE", g.flte_hz, " Hz"),
+                ("FLTD", g.fltd_hz, " Hz"),
+            ])
+            .map(|(k, v, unit)| named(format!("ATC_RAT_{axis}_{k}"), v, unit))
+            .collect();
+        items.push(named(format!("ATC_ACCEL_{x}_MAX"), g.accel_max_cdeg_s2, " cdeg/s²"));
+        out.push(format!("  {}", items.join(", ")));
+    }
+    out.push(format!(
+        "  {}, {}",
+        named("INS_GYRO_FILTER".into(), a.gyro_filter_hz, " Hz"),
+        named("SCHED_LOOP_RATE".into(), a.loop_rate_hz, " Hz")
+    ));
+    if a.harmonic_notch.is_empty() {
+        out.push("  harmonic notch: no INS_HNTCH_* parameters in the log".into());
+    } else {
+        let items: Vec<String> = a
+            .harmonic_notch
+            .iter()
+            .map(|n| format!("{} = {}", n.name, n.value))
+            .collect();
+        out.push(format!("  harmonic notch: {}", items.join(", ")));
+    }
+    if a.log_rates_hz.is_empty() {
+        out.push("  logging rates: no RATE, PIDR/PIDP/PIDY, IMU, GYR or RCOU messages".into());
+    } else {
+        let items: Vec<String> = a
+            .log_rates_hz
+            .iter()
+            .map(|n| format!("{} {:.1} Hz", n.name, n.value))
+            .collect();
+        out.push(format!("  logging rates: {}", items.join(", ")));
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)]

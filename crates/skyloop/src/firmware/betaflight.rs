@@ -614,6 +614,65 @@ pub fn raw_gyro_tap(b: &BetaflightTuning, log: &Log) -> Option<RawGyroTap> {
     })
 }
 
+/// The header's tuning as `log info` lists it: the PIDF of each axis, the filters, the loop rates, TPA and d_min.
+pub fn header_lines(b: &BetaflightTuning) -> Vec<String> {
+    let mut out = Vec::new();
+    out.push(format!("tuning ({}):", b.firmware_revision));
+    for (axis, g) in ["roll", "pitch", "yaw"].iter().zip(&b.pidf) {
+        out.push(format!(
+            "  {axis:<5} P {} I {} D {} F {} d_min {}",
+            g.p,
+            g.i,
+            g.d,
+            super::opt(g.f),
+            super::opt(g.d_min)
+        ));
+    }
+    let lp = |name: &str, l: &Option<skyloop_sysid::logs::tuning::Lowpass>| match l {
+        Some(l) => format!(
+            "  {name}: {} {} Hz{}",
+            l.kind,
+            l.cutoff_hz,
+            l.dynamic_hz
+                .map(|(a, b)| format!(" (dynamic {a}..{b} Hz)"))
+                .unwrap_or_default()
+        ),
+        None => format!("  {name}: off"),
+    };
+    out.push(lp("gyro lowpass", &b.gyro_lowpass));
+    out.push(lp("gyro lowpass 2", &b.gyro_lowpass2));
+    out.push(lp("D-term lowpass", &b.dterm_lowpass));
+    out.push(lp("D-term lowpass 2", &b.dterm_lowpass2));
+    match &b.dynamic_notch {
+        Some(n) => out.push(format!(
+            "  dynamic notch: {}..{} Hz, Q {}",
+            n.min_hz,
+            n.max_hz,
+            super::opt(n.q)
+        )),
+        None => out.push("  dynamic notch: off".into()),
+    }
+    match &b.rpm_filter {
+        Some(r) => out.push(format!(
+            "  RPM filter: {} harmonics, Q {}, min {} Hz",
+            r.harmonics,
+            super::opt(r.q),
+            super::opt(r.min_hz)
+        )),
+        None => out.push("  RPM filter: off".into()),
+    }
+    out.push(format!(
+        "  loop: gyro {} Hz, PID {} Hz; TPA {} % from {} us; d_min gain {}, advance {}",
+        super::opt(b.gyro_rate_hz),
+        super::opt(b.pid_rate_hz),
+        super::opt(b.tpa_rate_percent),
+        super::opt(b.tpa_breakpoint_us),
+        super::opt(b.d_min_gain),
+        super::opt(b.d_min_advance)
+    ));
+    out
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)]

@@ -282,6 +282,51 @@ pub fn filter_chain(t: &InavTuning) -> (FilterChain, Vec<String>) {
     (FilterChain { loop_hz, stages }, notes)
 }
 
+/// The header's tuning as `log info` lists it, in INAV's names: the PID of each axis, the filters, the loop rate, TPA and the motor range.
+pub fn header_lines(t: &InavTuning) -> Vec<String> {
+    let mut out = Vec::new();
+    out.push(format!("tuning (INAV: {}):", t.firmware_revision));
+    for (axis, g) in ["roll", "pitch", "yaw"].iter().zip(&t.pid) {
+        out.push(format!(
+            "  {axis:<5} mc_p {} mc_i {} mc_d {} mc_cd {}",
+            g.p,
+            g.i,
+            g.d,
+            super::opt(g.cd)
+        ));
+    }
+    let lp = |name: &str, l: &Option<skyloop_sysid::logs::tuning::Lowpass>| match l {
+        Some(l) => format!("  {name}: {} {} Hz", l.kind, l.cutoff_hz),
+        None => format!("  {name}: off"),
+    };
+    out.push(lp("gyro main lowpass", &t.gyro_lowpass));
+    out.push(lp("D-term lowpass (dterm_lpf)", &t.dterm_lowpass));
+    if t.dterm_lowpass2.is_some() {
+        out.push(lp("D-term lowpass 2 (dterm_lpf2)", &t.dterm_lowpass2));
+    }
+    if let Some(n) = &t.dterm_notch {
+        out.push(format!("  D-term notch: {} Hz, cutoff {} Hz", n.center_hz, n.cutoff_hz));
+    }
+    for n in &t.gyro_notches {
+        out.push(format!("  gyro notch: {} Hz, cutoff {} Hz", n.center_hz, n.cutoff_hz));
+    }
+    out.push(format!(
+        "  yaw_lpf_hz {}, mc_cd_lpf_hz {}; loop: PID {} Hz; TPA {} % from {} us",
+        super::opt(t.yaw_lpf_hz),
+        super::opt(t.cd_lpf_hz),
+        super::opt(t.pid_rate_hz.map(|h| (h * 10.0).round() / 10.0)),
+        super::opt(t.tpa_rate_percent),
+        super::opt(t.tpa_breakpoint_us)
+    ));
+    out.push(format!(
+        "  motorOutput {}, minthrottle {}, maxthrottle {}",
+        t.motor_output.map_or("-".into(), |(a, b)| format!("{a}..{b}")),
+        super::opt(t.min_throttle),
+        super::opt(t.max_throttle)
+    ));
+    out
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)]

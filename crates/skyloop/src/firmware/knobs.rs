@@ -181,4 +181,3 @@ fn stage_json(l: &Lowpass) -> Value {
     };
     json!({"kind": kind, "cutoff_hz": hz, "movable": movable})
 }
-

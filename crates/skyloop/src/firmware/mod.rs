@@ -20,8 +20,10 @@ pub mod ardupilot;
 pub mod betaflight;
 pub mod channels;
 pub mod filters;
+pub mod flown;
 pub mod inav;
 mod knobs;
+mod optimum;
 pub mod px4;
 pub mod rate_gains;
 
@@ -405,6 +407,22 @@ pub fn discrete(c_fb: &StateSpace, loop_hz: f64) -> Result<StateSpace> {
 /// rate stands in for the discrete derivative's own roll-off (a continuous kd·s is improper).
 pub(crate) fn derivative_rolloff(loop_hz: f64) -> Lowpass {
     Lowpass::Pt1(loop_hz / 4.0)
+}
+
+/// An optional header number as text ("-" when the log has none).
+pub(crate) fn opt(x: Option<f64>) -> String {
+    x.map_or("-".to_string(), |v| format!("{v}"))
+}
+
+/// The tuning a log's header states, as `log info` lists it, in the firmware's own names.
+pub fn header_lines(t: &skyloop_sysid::logs::tuning::FirmwareTuning) -> Vec<String> {
+    use skyloop_sysid::logs::tuning::FirmwareTuning;
+    match t {
+        FirmwareTuning::Betaflight(b) => betaflight::header_lines(b),
+        FirmwareTuning::Inav(t) => inav::header_lines(t),
+        FirmwareTuning::Px4(p) => px4::header_lines(p),
+        FirmwareTuning::ArduPilot(a) => ardupilot::header_lines(a),
+    }
 }
 
 #[cfg(test)]

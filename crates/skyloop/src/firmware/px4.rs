@@ -194,6 +194,32 @@ pub fn filter_chain(p: &Px4Tuning) -> (FilterChain, Vec<String>) {
     (FilterChain { loop_hz, stages }, notes)
 }
 
+/// The parameters as `log info` lists them, each under its own name ("not in the log" where the version has none: older PX4 has no MC_*RATE_K, i.e. K = 1).
+pub fn header_lines(p: &Px4Tuning) -> Vec<String> {
+    let mut out = Vec::new();
+    // Each parameter under its own name; "not in the log" where the firmware version has
+    // none (older PX4 has no MC_*RATE_K, i.e. K = 1).
+    let named = |name: String, v: Option<f64>, unit: &str| match v {
+        Some(x) => format!("{name} = {x}{unit}"),
+        None => format!("{name} not in the log"),
+    };
+    out.push("tuning (PX4 parameters):".into());
+    for (axis, g) in ["ROLL", "PITCH", "YAW"].iter().zip(&p.rate) {
+        let items: Vec<String> = [("K", g.k), ("P", g.p), ("I", g.i), ("D", g.d), ("FF", g.ff)]
+            .into_iter()
+            .map(|(k, v)| named(format!("MC_{axis}RATE_{k}"), v, ""))
+            .collect();
+        out.push(format!("  {}", items.join(", ")));
+    }
+    out.push(format!(
+        "  {}, {}, {}",
+        named("IMU_GYRO_CUTOFF".into(), p.gyro_cutoff_hz, " Hz"),
+        named("IMU_DGYRO_CUTOFF".into(), p.dgyro_cutoff_hz, " Hz"),
+        named("IMU_GYRO_RATEMAX".into(), p.gyro_rate_max_hz, " Hz")
+    ));
+    out
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)]

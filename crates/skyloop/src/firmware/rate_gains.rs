@@ -58,6 +58,16 @@ pub enum RateGains {
 }
 
 impl RateGains {
+    /// The firmware these gains are for.
+    pub fn firmware(&self) -> super::Firmware {
+        match self {
+            RateGains::Betaflight { .. } => super::Firmware::Betaflight,
+            RateGains::Inav { .. } => super::Firmware::Inav,
+            RateGains::Px4 { .. } => super::Firmware::Px4,
+            RateGains::Ardupilot { .. } => super::Firmware::Ardupilot,
+        }
+    }
+
     /// The feedback path's tunable structure (filters included): C_fb = block.realize(continuous()).
     ///
     /// # Errors
@@ -87,7 +97,9 @@ impl RateGains {
                 [p, i, d]
             }
             RateGains::Ardupilot {
-                gains, plant_unit_rad_s, ..
+                gains,
+                plant_unit_rad_s,
+                ..
             } => {
                 let g = gains.in_plant_units(*plant_unit_rad_s);
                 [g.p, g.i, g.d]

@@ -29,14 +29,13 @@ use super::verdict::{proposal_text, Verdict, VerdictKind};
 use super::{outcome_for_gains, tune, with_hold, Firmware, GenericStructure, Maximize, TuneOutcome, TuneRequest};
 use crate::error::{Error, Result};
 use crate::firmware::betaflight::{self, Axis};
+use crate::firmware::flown::{flown_tune, FlownTune};
 use crate::firmware::rate_gains::RateGains;
-use crate::firmware::{ardupilot, inav, px4};
 use crate::identify::{identify_log, Identification, IdentifyRequest};
 use serde_json::{json, Value};
 use skyloop_lti::interconnect::{feedback, series};
 use skyloop_lti::{c64, StateSpace};
 use skyloop_robust::structured::verify::{check_loop, sampled_peak, LoopCheck};
-use skyloop_sysid::logs::tuning::FirmwareTuning;
 use skyloop_sysid::logs::Log;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -393,24 +392,18 @@ fn identify_stage(req: &LogTuneRequest, log: Log, derived: Vec<String>) -> Resul
     })
 }
 
-/// Stage 2: the flown tune from the header: the tuning request with the firmware's filters and
-/// loop rate, the filter lines for the report, and the flown gains.
+/// Stage 2: the flown tune from the header: the tuning request with the firmware's controller
+/// (filters, loop rate, feedforward, plant units), the filter lines for the report, and the flown
+/// tune as the firmware model reads it.
 struct Header {
     treq: TuneRequest,
     filters: Vec<String>,
-    current_gains: Option<CurrentGains>,
-    /// The D-term lowpass settings `--tune-filters` may change (Betaflight).
-    dterm_settings: Option<betaflight::DtermSettings>,
-    /// The firmware's limit on the rate target's acceleration, deg/s², for the 6-DOF check.
-    setpoint_accel_deg_s2: Option<f64>,
+    flown: Option<FlownTune>,
 }
 
 fn header_stage(req: &LogTuneRequest, idn: &Identified, notes: &mut Vec<String>) -> Result<Header> {
-    let (log, plant, plants) = (&idn.log, &idn.plant, &idn.plants);
-    let header = FirmwareTuning::from_log(log);
-    let mut filters = Vec::new();
-    let mut treq = TuneRequest::new(plant.clone(), req.firmware);
-    treq.extra_plants = plants[1..].to_vec();
+    let mut treq = TuneRequest::new(idn.plant.clone(), req.firmware);
+    treq.extra_plants = idn.plants[1..].to_vec();
     treq.axis = req.axis;
     treq.structure = req.structure;
     treq.d_filter_tau_s = req.d_filter_tau_s;
@@ -418,81 +411,27 @@ fn header_stage(req: &LogTuneRequest, idn: &Identified, notes: &mut Vec<String>)
     treq.maximize = req.maximize;
     treq.starts = req.starts;
     treq.tune_feedforward = req.tune_feedforward;
-    let mut current_gains: Option<CurrentGains> = None;
-    let mut dterm_settings = None;
-    let mut setpoint_accel_deg_s2 = None;
-    match (&header, req.firmware) {
-        (Some(FirmwareTuning::Betaflight(b)), Firmware::Betaflight) => {
-            let h = betaflight::flown_from_header(b, req.axis, log);
-            dterm_settings = Some(h.dterm_settings);
-            filters = h.lines;
-            notes.extend(h.notes);
-            treq.betaflight = h.filters;
-            if let Some((g, d_applied)) = h.gains {
-                treq.betaflight_f = Some(g.f);
-                current_gains = Some(CurrentGains::Betaflight(g, d_applied));
-            }
+    let flown = flown_tune(&idn.log, req.firmware, req.axis)?;
+    let mut filters = Vec::new();
+    match &flown {
+        Some(f) => {
+            filters.clone_from(&f.lines);
+            notes.extend(f.notes.iter().cloned());
+            treq.controller = Some(f.controller.clone());
+            treq.feedforward_flown = f.gains_flown;
         }
-        (Some(FirmwareTuning::Inav(t)), Firmware::Inav) => {
-            let h = inav::flown_from_header(t, req.axis);
-            filters = h.lines;
-            notes.extend(h.notes);
-            treq.inav = h.filters;
-            if let Some(g) = h.gains {
-                treq.inav_cd = Some(g.cd);
-                current_gains = Some(CurrentGains::Inav(g));
-            }
-        }
-        (Some(FirmwareTuning::Px4(p)), Firmware::Px4) => {
-            let (f, g, lines) = px4::flown_from_header(p, req.axis);
-            filters = lines;
-            treq.px4 = f;
-            if let Some(g) = g {
-                treq.px4_ff = Some(g.ff);
-                current_gains = Some(CurrentGains::Px4(g));
-            }
-        }
-        (Some(FirmwareTuning::ArduPilot(t)), Firmware::Ardupilot) => {
-            let (f, g, lines) = ardupilot::flown_from_header(t, req.axis);
-            filters = lines;
-            treq.ardupilot = f;
-            let g = g.ok_or_else(|| {
-                let n = ardupilot::param_names(req.axis);
-                Error::Input(format!(
-                    "{}: the log's parameters lack {}, {} or {}: the flown gains are needed to tune around (the plant is identified in deg/s, the gains act on rad/s); use a log with its PARM messages, or --firmware generic",
-                    req.log.display(),
-                    n[0],
-                    n[1],
-                    n[2]
-                ))
-            })?;
-            treq.ardupilot_ff = Some(g.ff);
-            setpoint_accel_deg_s2 = ardupilot::setpoint_accel_deg_s2(t, req.axis);
-            if let Some(a) = setpoint_accel_deg_s2 {
-                notes.push(format!(
-                    "6-DOF check: the rate target's acceleration is limited to {a:.0} deg/s² (ATC_ACCEL_{}_MAX), as the attitude controller shapes it",
-                    ["R", "P", "Y"][req.axis.index()]
-                ));
-            }
-            current_gains = Some(CurrentGains::Ardupilot(g));
-        }
-        (_, Firmware::Generic) => {
+        None if req.firmware == Firmware::Generic => {
             notes.push("generic: the current gains are not compared (their units are the firmware's)".into());
         }
-        _ => notes.push("the log header carries no rate-controller tuning: nothing to compare".into()),
+        None => notes.push("the log header carries no rate-controller tuning: nothing to compare".into()),
     }
-    if req.tune_filters && dterm_settings.as_ref().is_none_or(|d| d.stages.is_empty()) {
+    let dterm = flown.as_ref().and_then(|f| f.dterm_settings.as_ref());
+    if req.tune_filters && dterm.is_none_or(|d| d.stages.is_empty()) {
         notes.push(
             "--tune-filters: the D-term filters are left as flown (tuned for Betaflight logs with a D-term lowpass only)".into(),
         );
     }
-    Ok(Header {
-        treq,
-        filters,
-        current_gains,
-        dterm_settings,
-        setpoint_accel_deg_s2,
-    })
+    Ok(Header { treq, filters, flown })
 }
 
 /// Stage 3: the flown tune analysed on the identified plant (exact margins over the uncertainty
@@ -515,14 +454,7 @@ struct Flown {
 fn flown_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, notes: &mut Vec<String>) -> Result<Flown> {
     let (log, id, plants, log_fw) = (&idn.log, &idn.id, &idn.plants, idn.log_fw);
     let (k, tau, td) = (idn.k.0, idn.tau.0, idn.td.0);
-    let (treq, current_gains) = (&hdr.treq, &hdr.current_gains);
-    let loop_hz = match req.firmware {
-        Firmware::Betaflight => Some(treq.betaflight.loop_hz),
-        Firmware::Inav => Some(treq.inav.loop_hz),
-        Firmware::Px4 => Some(treq.px4.loop_hz),
-        Firmware::Ardupilot => Some(treq.ardupilot.loop_hz),
-        Firmware::Generic => None,
-    };
+    let loop_hz = hdr.treq.controller.as_ref().map(RateGains::loop_hz);
     let held: Vec<StateSpace> = plants.iter().map(|p| with_hold(p, loop_hz)).collect::<Result<_>>()?;
     // The nonlinear check flies the identified axis with the log's own units and limits:
     // (loop rate, gyro unit in rad/s, output limit).
@@ -537,27 +469,25 @@ fn flown_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, notes: &mut
         loop_hz,
         gyro_unit_rad_s,
         output_limit,
-        setpoint_accel_deg_s2: hdr.setpoint_accel_deg_s2,
+        setpoint_accel_deg_s2: hdr.flown.as_ref().and_then(|f| f.setpoint_accel_deg_s2),
     });
     let wn = 3.0 * skyloop_robust::structured::systune::ultimate_point(&held[0])?.0;
-    let flown_rg = flown_rate_gains(current_gains.as_ref(), treq);
+    let flown_rg = hdr.flown.as_ref().and_then(FlownTune::gains).cloned();
+    let at_d_max = hdr.flown.as_ref().and_then(FlownTune::at_d_max);
     let current = match &flown_rg {
         Some(g) => {
-            if let Some(CurrentGains::Betaflight(full, d_applied)) = &current_gains {
-                if *d_applied != full.d {
-                    // The same tune at its D maximum, for comparison.
-                    let cmax = betaflight::feedback_controller(full, req.axis, &treq.betaflight)?;
-                    let m = check_loop(&held[0], &cmax)?;
-                    notes.push(format!(
-                        "the flown tune with D at its maximum d = {}: disk alpha {:.3}, PM {:.1} deg at {:.2} Hz, GM {:.2} dB, Ms {:.3}",
-                        full.d, m.disk_alpha, m.phase_margin_deg, m.crossover_hz, m.gain_margin_db, m.ms
-                    ));
-                }
+            if let Some((full, d_max)) = &at_d_max {
+                // The same tune at its D maximum, for comparison.
+                let m = check_loop(&held[0], &full.feedback_controller()?)?;
+                notes.push(format!(
+                    "the flown tune with D at its maximum d = {d_max}: disk alpha {:.3}, PM {:.1} deg at {:.2} Hz, GM {:.2} dB, Ms {:.3}",
+                    m.disk_alpha, m.phase_margin_deg, m.crossover_hz, m.gain_margin_db, m.ms
+                ));
             }
-            let gains_json = match &current_gains {
-                Some(CurrentGains::Betaflight(full, _)) => serde_json::to_value(full)?,
-                _ => g.to_json(),
-            };
+            // The header's gains as the pilot reads them (Betaflight with d_min: D at its maximum).
+            let gains_json = at_d_max
+                .as_ref()
+                .map_or_else(|| g.to_json(), |(full, _)| full.to_json());
             Some(analyse(
                 gains_json,
                 &g.feedback_controller()?,
@@ -621,7 +551,7 @@ struct Proposal {
 
 fn propose_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, fl: &Flown) -> Result<Proposal> {
     let (log, id) = (&idn.log, &idn.id);
-    let (treq, current_gains) = (&hdr.treq, &hdr.current_gains);
+    let treq = &hdr.treq;
     let (held, wn, refusal) = (&fl.held, fl.wn, &fl.refusal);
     let ax = req.axis.index();
     let mut front_pts = Vec::new();
@@ -650,8 +580,9 @@ fn propose_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, fl: &Flow
                 )
             } else {
                 let dterm = hdr
-                    .dterm_settings
+                    .flown
                     .as_ref()
+                    .and_then(|f| f.dterm_settings.as_ref())
                     .filter(|d| req.tune_filters && !d.stages.is_empty());
                 let r = grid_proposal(req, g, cur, held, &gn, wn, fl.flight_setup.as_ref(), dterm)?;
                 filter_changes = r.filter_changes;
@@ -662,7 +593,7 @@ fn propose_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, fl: &Flow
         }
         _ => {
             let mut proposed = tune(treq)?;
-            let c_r_proposed = proposed_reference_path(req, treq, &proposed)?;
+            let c_r_proposed = proposed_reference_path(req, &proposed)?;
             let pa = analyse(
                 proposed.gains.clone(),
                 &proposed.feedback_controller,
@@ -688,17 +619,12 @@ fn propose_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, fl: &Flow
         }
     };
     let mut proposed = proposed;
-    if verdict.kind == VerdictKind::Propose
-        && matches!(current_gains, Some(CurrentGains::Betaflight(g, d)) if *d != g.d)
-    {
-        // The proposal is analysed with a constant D; with d_min left active the firmware would
-        // fly d_min instead whenever d_min < d.
-        let line = format!("set d_min_{} = 0", req.axis.name());
-        let at = proposed.cli.len().saturating_sub(1);
-        proposed.cli.insert(at, line.clone());
-        proposed.notes.push(format!(
-            "`{line}`: the proposed D is meant constant (d_min would otherwise replace it away from fast moves)"
-        ));
+    if let Some((line, why)) = hdr.flown.as_ref().and_then(FlownTune::constant_d_line) {
+        if verdict.kind == VerdictKind::Propose {
+            let at = proposed.cli.len().saturating_sub(1);
+            proposed.cli.insert(at, line.clone());
+            proposed.notes.push(format!("`{line}`: {why}"));
+        }
     }
     Ok(Proposal {
         proposed,
@@ -787,28 +713,6 @@ fn warnings_of(req: &LogTuneRequest, fl: &Flown, proposed_analysis: &TuneAnalysi
         }
     }
     warnings
-}
-
-enum CurrentGains {
-    /// The header's gains and the D the firmware applies (d_min when active).
-    Betaflight(betaflight::Gains, u32),
-    Inav(inav::Gains),
-    Px4(px4::Gains),
-    Ardupilot(ardupilot::Gains),
-}
-
-fn gains_bf(v: &Value) -> Result<betaflight::Gains> {
-    let g = |k: &str| {
-        v[k].as_u64()
-            .map(|x| x as u32)
-            .ok_or_else(|| Error::Failed(format!("proposed gains lack {k}")))
-    };
-    Ok(betaflight::Gains {
-        p: g("p")?,
-        i: g("i")?,
-        d: g("d")?,
-        f: g("f")?,
-    })
 }
 
 /// The setpoint → gyro step of the airborne segments, two ways: PID-Analyzer's deconvolution
@@ -1010,33 +914,6 @@ fn progress(req: &LogTuneRequest, stage: &str) {
     }
 }
 
-/// The flown gains as the firmware model's gain set (D = d_min where d_min is active).
-fn flown_rate_gains(cur: Option<&CurrentGains>, treq: &TuneRequest) -> Option<RateGains> {
-    match cur? {
-        CurrentGains::Betaflight(g, d_applied) => Some(RateGains::Betaflight {
-            gains: betaflight::Gains { d: *d_applied, ..*g },
-            axis: treq.axis,
-            filters: treq.betaflight.clone(),
-        }),
-        CurrentGains::Inav(g) => Some(RateGains::Inav {
-            gains: *g,
-            axis: treq.axis,
-            filters: treq.inav.clone(),
-        }),
-        CurrentGains::Px4(g) => Some(RateGains::Px4 {
-            gains: *g,
-            axis: treq.axis,
-            filters: treq.px4,
-        }),
-        CurrentGains::Ardupilot(g) => Some(RateGains::Ardupilot {
-            gains: *g,
-            axis: treq.axis,
-            filters: treq.ardupilot,
-            plant_unit_rad_s: ardupilot::LOG_RATE_UNIT_RAD_S,
-        }),
-    }
-}
-
 /// Why the model cannot carry a proposal, with what to fly; None when it explains the flight.
 fn refusal(req: &LogTuneRequest, current: Option<&TuneAnalysis>, causal_rms: Option<f64>) -> Option<String> {
     let c = current?;
@@ -1055,55 +932,13 @@ fn refusal(req: &LogTuneRequest, current: Option<&TuneAnalysis>, causal_rms: Opt
 }
 
 /// The proposal's reference path (setpoint → PID output) of an optimizer outcome.
-fn proposed_reference_path(req: &LogTuneRequest, treq: &TuneRequest, proposed: &TuneOutcome) -> Result<StateSpace> {
-    Ok(match req.firmware {
-        Firmware::Betaflight => {
-            let g: betaflight::Gains = gains_bf(&proposed.gains)?;
-            betaflight::reference_path(&g, req.axis, treq.betaflight.loop_hz)?
+fn proposed_reference_path(req: &LogTuneRequest, proposed: &TuneOutcome) -> Result<StateSpace> {
+    Ok(match &proposed.firmware_gains {
+        Some(g) => g.reference_path()?,
+        None if req.structure == GenericStructure::Pid2 && proposed.setpoint_weights.is_some() => {
+            super::generic_reference_path(&proposed.gains)?
         }
-        Firmware::Inav => {
-            let v = &proposed.gains;
-            let g = |k: &str| {
-                v[k].as_u64()
-                    .map(|x| x as u32)
-                    .ok_or_else(|| Error::Failed(format!("proposed gains lack {k}")))
-            };
-            inav::reference_path(
-                &inav::Gains {
-                    p: g("p")?,
-                    i: g("i")?,
-                    d: g("d")?,
-                    cd: g("cd")?,
-                },
-                &treq.inav,
-            )?
-        }
-        Firmware::Px4 => {
-            let names = px4::param_names(req.axis);
-            let v = |i: usize| proposed.gains[&names[i]].as_f64().unwrap_or(0.0);
-            px4::reference_path(&px4::Gains {
-                k: v(0),
-                p: v(1),
-                i: v(2),
-                d: v(3),
-                ff: v(4),
-            })?
-        }
-        Firmware::Ardupilot => {
-            let names = crate::firmware::ardupilot::param_names(req.axis);
-            let v = |i: usize| proposed.gains[&names[i]].as_f64().unwrap_or(0.0);
-            crate::firmware::ardupilot::reference_path(
-                &crate::firmware::ardupilot::Gains {
-                    p: v(0),
-                    i: v(1),
-                    d: v(2),
-                    ff: v(3),
-                },
-                &treq.ardupilot,
-            )?
-        }
-        Firmware::Generic if proposed.setpoint_weights.is_some() => super::generic_reference_path(&proposed.gains)?,
-        Firmware::Generic => proposed.feedback_controller.clone(),
+        None => proposed.feedback_controller.clone(),
     })
 }
 

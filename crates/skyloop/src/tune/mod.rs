@@ -9,9 +9,9 @@
 //! bandwidth is amplified at most ten times the gain that would make the loop oscillate).
 
 use crate::error::{Error, Result};
-use crate::firmware::betaflight::{self, Axis};
+use crate::firmware;
+use crate::firmware::betaflight::Axis;
 use crate::firmware::rate_gains::RateGains;
-use crate::firmware::{self, ardupilot, inav, px4};
 use serde_json::{json, Value};
 use skyloop_lti::json::LtiJson;
 use skyloop_lti::StateSpace;
@@ -118,25 +118,15 @@ pub struct TuneRequest {
     pub goals: Vec<String>,
     /// What to maximize.
     pub maximize: Maximize,
-    /// Betaflight filters and loop rate.
-    pub betaflight: betaflight::Filters,
-    /// INAV filters and loop rate.
-    pub inav: inav::Filters,
-    /// PX4 filters and loop rate.
-    pub px4: px4::Filters,
-    /// ArduPilot filters and loop rate.
-    pub ardupilot: ardupilot::Filters,
+    /// The firmware's controller as a log states it: filters, loop rate, feedforward and, for a
+    /// plant identified from a log, the plant's units (its P, I, D are what the tuner replaces).
+    /// None: the firmware's defaults ([`RateGains::template`]). Must be of `firmware`.
+    pub controller: Option<RateGains>,
+    /// Whether `controller`'s feedforward is the flown one (kept as flown when not tuned) rather
+    /// than the firmware's default.
+    pub feedforward_flown: bool,
     /// Optimizer starts.
     pub starts: usize,
-    /// Betaflight: the flown F gain, kept when `tune_feedforward` is false (None: 120,
-    /// Betaflight 4.4's default).
-    pub betaflight_f: Option<u32>,
-    /// INAV: the flown `mc_cd_<axis>`, kept when `tune_feedforward` is false (None: 0).
-    pub inav_cd: Option<u32>,
-    /// PX4: the flown MC_*RATE_FF, kept when `tune_feedforward` is false (None: 0).
-    pub px4_ff: Option<f64>,
-    /// ArduPilot: the ATC_RAT_*_FF to keep when `tune_feedforward` is false (None: 0).
-    pub ardupilot_ff: Option<f64>,
     /// Fit the feedforward (Betaflight F, PX4 FF) to the tuned loop ([`feedforward`]); false
     /// keeps the flown value.
     pub tune_feedforward: bool,
@@ -154,16 +144,27 @@ impl TuneRequest {
             d_filter_tau_s: None,
             goals: Vec::new(),
             maximize: Maximize::IntegralGain,
-            betaflight: betaflight::Filters::default(),
-            inav: inav::Filters::default(),
-            px4: px4::Filters::default(),
-            ardupilot: ardupilot::Filters::default(),
+            controller: None,
+            feedforward_flown: false,
             starts: 8,
-            betaflight_f: None,
-            inav_cd: None,
-            px4_ff: None,
-            ardupilot_ff: None,
             tune_feedforward: true,
+        }
+    }
+
+    /// The firmware's controller the optimizer fills in: `controller`, or the firmware's
+    /// defaults; None for the generic structure.
+    ///
+    /// # Errors
+    /// A `controller` of another firmware than `firmware`.
+    pub fn template(&self) -> Result<Option<RateGains>> {
+        match &self.controller {
+            Some(c) if self.firmware == c.firmware() => Ok(Some(c.clone())),
+            Some(c) => Err(Error::Input(format!(
+                "the controller given is {}'s, the request's firmware {}",
+                c.firmware().name(),
+                self.firmware.name()
+            ))),
+            None => Ok(RateGains::template(self.firmware, self.axis)),
         }
     }
 }
@@ -195,6 +196,8 @@ pub struct TuneOutcome {
     pub feedforward: Option<feedforward::FeedforwardFit>,
     /// The generic `pid2` structure's setpoint weights.
     pub setpoint_weights: Option<feedforward::SetpointWeights>,
+    /// The firmware's gains as printed (None for the generic structure).
+    pub firmware_gains: Option<RateGains>,
     /// The delay the analysis adds to the plant's input besides its own (the loop's sample and
     /// hold: half a loop period), s: the margins are those of
     /// L = plant·e^(−extra_delay_s·s)·feedback_controller.
@@ -285,6 +288,69 @@ fn with_hold(g: &StateSpace, loop_hz: Option<f64>) -> Result<StateSpace> {
 /// # Ok::<(), skyloop::Error>(())
 /// ```
 pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
+    validate(req)?;
+    let template = req.template()?;
+    let loop_hz = template.as_ref().map(RateGains::loop_hz);
+    let plants: Vec<StateSpace> = std::iter::once(&req.plant)
+        .chain(&req.extra_plants)
+        .map(|p| with_hold(p, loop_hz))
+        .collect::<Result<_>>()?;
+    let block = match &template {
+        Some(t) => t.block()?,
+        None => generic_block(req)?,
+    };
+    let (prob, defaults, wn) = problem(req, plants.clone(), block)?;
+    let tuned = optimize(&prob, template.as_ref(), req)?;
+    let th = &tuned.params;
+    let mut notes = Vec::new();
+    let mut ff_fit = None;
+    let mut weights = None;
+    // Map to the firmware's gains, round as the firmware stores them, and re-verify those.
+    let (gains, theta, cli, discrete, firmware_gains) = match &template {
+        None => {
+            let (g, w) = generic_gains(req, &prob, th, &mut notes)?;
+            weights = w;
+            (g, th.clone(), Vec::new(), None, None)
+        }
+        Some(t) => {
+            let (g, fit) = firmware_gains(req, &prob, t, th, &mut notes)?;
+            ff_fit = fit;
+            let c = g.feedback_controller()?;
+            (
+                g.to_json(),
+                g.continuous().to_vec(),
+                g.cli(),
+                Some(firmware::discrete(&c, g.loop_hz())?),
+                Some(g),
+            )
+        }
+    };
+    let (goal_reports, loops) = evaluate(&prob, &theta)?;
+    no_feedback_is_no_tune(&gains, &loops[0], &req.goals)?;
+    let feedback_controller = prob.structure.realize(&theta)?;
+    Ok(TuneOutcome {
+        gains,
+        feedback_controller,
+        discrete_controller: discrete,
+        margins: loops[0],
+        goals: goal_reports,
+        cli,
+        defaults,
+        notes,
+        loop_plant: plants[0].clone(),
+        noise_w_rad_s: wn,
+        feedforward: ff_fit,
+        setpoint_weights: weights,
+        firmware_gains,
+        extra_delay_s: match loop_hz {
+            Some(hz) => firmware::hold_delay_s(hz)?,
+            None => 0.0,
+        },
+    })
+}
+
+/// The request's plants and starts checked.
+fn validate(req: &TuneRequest) -> Result<()> {
     for (i, p) in std::iter::once(&req.plant).chain(&req.extra_plants).enumerate() {
         p.validate()?;
         if p.nx() > MAX_PLANT_ORDER {
@@ -305,41 +371,35 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
     if !(1..=64).contains(&req.starts) {
         return Err(Error::Input(format!("--starts must be in 1..=64, got {}", req.starts)));
     }
-    let loop_hz = match req.firmware {
-        Firmware::Betaflight => Some(req.betaflight.loop_hz),
-        Firmware::Inav => Some(req.inav.loop_hz),
-        Firmware::Px4 => Some(req.px4.loop_hz),
-        Firmware::Ardupilot => Some(req.ardupilot.loop_hz),
-        Firmware::Generic => None,
-    };
-    let plants: Vec<StateSpace> = std::iter::once(&req.plant)
-        .chain(&req.extra_plants)
-        .map(|p| with_hold(p, loop_hz))
-        .collect::<Result<_>>()?;
-    let block = match req.firmware {
-        Firmware::Betaflight => betaflight::block(&req.betaflight)?,
-        Firmware::Inav => inav::block(&req.inav)?,
-        Firmware::Px4 => px4::block(&req.px4)?,
-        Firmware::Ardupilot => ardupilot::block(&req.ardupilot)?,
-        Firmware::Generic => match (req.structure, req.d_filter_tau_s) {
-            (GenericStructure::Pi, _) => Block::Pi,
-            (GenericStructure::Pid | GenericStructure::Pid2, None) => Block::Pid(DerivativeFilter::Tuned),
-            (GenericStructure::Pid | GenericStructure::Pid2, Some(tau)) => {
-                if !(tau.is_finite() && tau > 0.0) {
-                    return Err(Error::Input(format!(
-                        "--d-filter-tau must be a positive number of seconds, got {tau}"
-                    )));
-                }
-                Block::Pid(DerivativeFilter::Fixed(StateSpace::from_rows(
-                    &[vec![-1.0 / tau]],
-                    &[vec![1.0 / tau]],
-                    &[vec![1.0]],
-                    &[vec![0.0]],
-                    0.0,
-                )?))
+    Ok(())
+}
+
+/// The generic structure's tunable block: PI, or PID with its derivative filter tuned or fixed.
+fn generic_block(req: &TuneRequest) -> Result<Block> {
+    Ok(match (req.structure, req.d_filter_tau_s) {
+        (GenericStructure::Pi, _) => Block::Pi,
+        (GenericStructure::Pid | GenericStructure::Pid2, None) => Block::Pid(DerivativeFilter::Tuned),
+        (GenericStructure::Pid | GenericStructure::Pid2, Some(tau)) => {
+            if !(tau.is_finite() && tau > 0.0) {
+                return Err(Error::Input(format!(
+                    "--d-filter-tau must be a positive number of seconds, got {tau}"
+                )));
             }
-        },
-    };
+            Block::Pid(DerivativeFilter::Fixed(StateSpace::from_rows(
+                &[vec![-1.0 / tau]],
+                &[vec![1.0 / tau]],
+                &[vec![1.0]],
+                &[vec![0.0]],
+                0.0,
+            )?))
+        }
+    })
+}
+
+/// The tuning problem: the goals with their defaults (disk floor, integral corner with
+/// `--maximize crossover`, noise limit) and the objective; returns it with the defaults stated
+/// and the noise limit's frequency, rad/s.
+fn problem(req: &TuneRequest, plants: Vec<StateSpace>, block: Block) -> Result<(LoopTuning, Vec<String>, f64)> {
     let (mut goals, mut defaults) = goals_with_floor(&req.goals)?;
     if req.maximize != Maximize::IntegralGain && !goals.iter().any(|g| g.req == Requirement::IntegralCorner) {
         let (lo, hi) = DEFAULT_INTEGRAL_CORNER;
@@ -370,7 +430,7 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
         wn / (2.0 * PI)
     ));
     let prob = LoopTuning {
-        plants: plants.clone(),
+        plants,
         structure: Structure::new(block),
         goals,
         objective: match req.maximize {
@@ -382,64 +442,81 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
             ..Default::default()
         },
     };
-    let mut tuned = tune_loop(&prob)?;
+    Ok((prob, defaults, wn))
+}
+
+/// The optimum; for a firmware of coarse resolution (Betaflight), re-tuned while no rounding of
+/// it meets the hard goals.
+fn optimize(
+    prob: &LoopTuning,
+    template: Option<&RateGains>,
+    req: &TuneRequest,
+) -> Result<skyloop_robust::structured::systune::TunedLoop> {
+    let mut tuned = tune_loop(prob)?;
     // Firmware gains are rounded; when no rounding of the optimum meets the hard goals, re-tune
     // with the violated bounds tightened by twice the violation (at most three times).
-    if req.firmware == Firmware::Betaflight {
-        for _ in 0..3 {
-            let (_, theta) = betaflight_rounding(&prob, &tuned.params, req)?;
-            let (goals, loops) = evaluate(&prob, &theta)?;
-            let worst = goals
-                .iter()
-                .filter(|g| g.hard)
-                .map(|g| g.normalized)
-                .fold(f64::NEG_INFINITY, f64::max);
-            if worst <= 1.0 + 1e-6 && loops.iter().all(|l| l.stable) {
-                break;
-            }
-            let d = 2.0 * (worst - 1.0).max(1e-3);
-            let mut tight = prob.clone();
-            for (g, r) in tight.goals.iter_mut().zip(&goals) {
-                if r.hard && r.normalized > 1.0 - d {
-                    g.bound = match g.bound {
-                        Bound::AtMost(b) => Bound::AtMost(b / (1.0 + d)),
-                        Bound::AtLeast(b) => Bound::AtLeast(b * (1.0 + d)),
-                    };
-                }
-            }
-            match tune_loop(&tight) {
-                Ok(t) => tuned = t,
-                Err(_) => break,
+    let Some(t) = template.filter(|t| t.coarse_resolution()) else {
+        return Ok(tuned);
+    };
+    for _ in 0..3 {
+        let (_, theta) = rounded(prob, t, &tuned.params, req.maximize)?;
+        let (goals, loops) = evaluate(prob, &theta)?;
+        let worst = goals
+            .iter()
+            .filter(|g| g.hard)
+            .map(|g| g.normalized)
+            .fold(f64::NEG_INFINITY, f64::max);
+        if worst <= 1.0 + 1e-6 && loops.iter().all(|l| l.stable) {
+            break;
+        }
+        let d = 2.0 * (worst - 1.0).max(1e-3);
+        let mut tight = prob.clone();
+        for (g, r) in tight.goals.iter_mut().zip(&goals) {
+            if r.hard && r.normalized > 1.0 - d {
+                g.bound = match g.bound {
+                    Bound::AtMost(b) => Bound::AtMost(b / (1.0 + d)),
+                    Bound::AtLeast(b) => Bound::AtLeast(b * (1.0 + d)),
+                };
             }
         }
+        match tune_loop(&tight) {
+            Ok(t) => tuned = t,
+            Err(_) => break,
+        }
     }
-    let th = &tuned.params;
-    let mut notes = Vec::new();
-    let mut ff_fit = None;
+    Ok(tuned)
+}
+
+/// The generic gains `{kp, ki, kd, tf}` of the optimum `th` (with `pid2`: the setpoint weights
+/// `b`, `c` fitted).
+fn generic_gains(
+    req: &TuneRequest,
+    prob: &LoopTuning,
+    th: &[f64],
+    notes: &mut Vec<String>,
+) -> Result<(Value, Option<feedforward::SetpointWeights>)> {
+    let plants = &prob.plants;
     let mut weights = None;
-    // Map to the firmware's gains, round as the firmware stores them, and re-verify those.
-    let (gains, theta, cli, discrete) = match req.firmware {
-        Firmware::Generic => {
-            let mut g = json!({"kp": th[0], "ki": th[1]});
-            if th.len() > 2 {
-                g["kd"] = json!(th[2]);
-                g["tf"] = json!(if th.len() > 3 {
-                    th[3].exp()
-                } else {
-                    req.d_filter_tau_s.unwrap_or(0.0)
-                });
-            } else {
-                g["kd"] = json!(0.0);
-                g["tf"] = json!(0.0);
-            }
-            if req.structure == GenericStructure::Pid2 {
-                let (ipath, ppath, dpath) = pid2_paths(&g)?;
-                let c = prob.structure.realize(th)?;
-                match feedforward::fit_setpoint_weights(&plants[0], &c, &ipath, &ppath, &dpath) {
-                    Ok(w) => {
-                        g["b"] = json!(w.b);
-                        g["c"] = json!(w.c);
-                        notes.push(format!(
+    let mut g = json!({"kp": th[0], "ki": th[1]});
+    if th.len() > 2 {
+        g["kd"] = json!(th[2]);
+        g["tf"] = json!(if th.len() > 3 {
+            th[3].exp()
+        } else {
+            req.d_filter_tau_s.unwrap_or(0.0)
+        });
+    } else {
+        g["kd"] = json!(0.0);
+        g["tf"] = json!(0.0);
+    }
+    if req.structure == GenericStructure::Pid2 {
+        let (ipath, ppath, dpath) = pid2_paths(&g)?;
+        let c = prob.structure.realize(th)?;
+        match feedforward::fit_setpoint_weights(&plants[0], &c, &ipath, &ppath, &dpath) {
+            Ok(w) => {
+                g["b"] = json!(w.b);
+                g["c"] = json!(w.c);
+                notes.push(format!(
                             "setpoint weights b = {:.2}, c = {:.2}: fitted to the tuned loop (least squared tracking error of a 25 ms ramp, adding no overshoot beyond {} % or the I-only path's own): predicted overshoot {:.1} % against {:.1} % for b = c = 1, squared error {:.0} % of theirs",
                             w.b,
                             w.c,
@@ -448,221 +525,56 @@ pub fn tune(req: &TuneRequest) -> Result<TuneOutcome> {
                             w.overshoot_one_dof_pct,
                             100.0 * w.ise_ratio_one_dof
                         ));
-                        weights = Some(w);
-                    }
-                    Err(e) => {
-                        g["b"] = json!(1.0);
-                        g["c"] = json!(1.0);
-                        notes.push(format!(
-                            "setpoint weights not fitted ({e}): b = c = 1, the one-degree-of-freedom PID"
-                        ));
-                    }
-                }
+                weights = Some(w);
             }
-            (g, th.clone(), Vec::new(), None)
-        }
-        Firmware::Betaflight => {
-            let (mut bg, theta) = betaflight_rounding(&prob, th, req)?;
-            let c = betaflight::feedback_controller(&bg, req.axis, &req.betaflight)?;
-            let unit = betaflight::FTERM_SCALE / 100.0;
-            let fit = fit_feedforward(
-                req,
-                &plants[0],
-                &c,
-                || {
-                    Ok((
-                        betaflight::reference_path(
-                            &betaflight::Gains { f: 0, ..bg },
-                            req.axis,
-                            req.betaflight.loop_hz,
-                        )?,
-                        betaflight::feedforward_unit(req.betaflight.loop_hz)?,
-                    ))
-                },
-                f64::from(betaflight::F_GAIN_MAX) * unit,
-                &mut notes,
-            )?;
-            if let Some(fit) = fit {
-                bg.f = (fit.gain / unit).round().clamp(0.0, f64::from(betaflight::F_GAIN_MAX)) as u32;
-                notes.push(feedforward_note(&format!("f_{} = {}", req.axis.name(), bg.f), &fit));
-                ff_fit = Some(fit);
-            } else {
-                bg.f = req.betaflight_f.unwrap_or(120);
+            Err(e) => {
+                g["b"] = json!(1.0);
+                g["c"] = json!(1.0);
                 notes.push(format!(
-                    "f_{} = {} is not tuned ({}){}",
-                    req.axis.name(),
-                    bg.f,
-                    keep_reason(req),
-                    if req.betaflight_f.is_some() {
-                        "; kept as flown"
-                    } else {
-                        "; Betaflight 4.4's default, keep yours"
-                    }
+                    "setpoint weights not fitted ({e}): b = c = 1, the one-degree-of-freedom PID"
                 ));
             }
-            notes.push("plant units: input Betaflight's PID sum, output gyro deg/s".into());
-            (
-                serde_json::to_value(bg)?,
-                theta,
-                betaflight::cli_lines(&bg, req.axis),
-                Some(firmware::discrete(&c, req.betaflight.loop_hz)?),
-            )
         }
-        Firmware::Inav => {
-            let mut ig = inav::from_continuous(th[0], th[1], th[2], req.inav_cd.unwrap_or(0), req.axis)?;
-            let c = inav::feedback_controller(&ig, &req.inav)?;
-            let unit = 1.0 / inav::CD_MULTIPLIER;
-            let fit = fit_feedforward(
-                req,
-                &plants[0],
-                &c,
-                || {
-                    Ok((
-                        inav::reference_path(&inav::Gains { cd: 0, ..ig }, &req.inav)?,
-                        inav::feedforward_unit(&req.inav)?,
-                    ))
-                },
-                f64::from(inav::GAIN_MAX) * unit,
-                &mut notes,
-            )?;
-            if let Some(fit) = fit {
-                ig.cd = (fit.gain / unit).round().clamp(0.0, f64::from(inav::GAIN_MAX)) as u32;
-                notes.push(feedforward_note(
-                    &format!("mc_cd_{} = {}", req.axis.name(), ig.cd),
-                    &fit,
-                ));
-                ff_fit = Some(fit);
-            } else {
-                notes.push(format!(
-                    "mc_cd_{} = {} is not tuned ({}){}",
-                    req.axis.name(),
-                    ig.cd,
-                    keep_reason(req),
-                    if req.inav_cd.is_some() { "; kept as flown" } else { "" }
-                ));
-            }
-            notes.push("plant units: input INAV's PID sum, output gyro deg/s".into());
-            let (kp, ki, kd, _) = inav::continuous(&ig);
-            (
-                serde_json::to_value(ig)?,
-                vec![kp, ki, kd],
-                inav::cli_lines(&ig, req.axis),
-                Some(firmware::discrete(&c, req.inav.loop_hz)?),
-            )
-        }
-        Firmware::Ardupilot => {
-            let mut ag = ardupilot::Gains {
-                p: round6(th[0]),
-                i: round6(th[1]),
-                d: round6(th[2]),
-                ff: req.ardupilot_ff.unwrap_or(0.0),
-            };
-            let c = ardupilot::feedback_controller(&ag, &req.ardupilot)?;
-            let fit = fit_feedforward(
-                req,
-                &plants[0],
-                &c,
-                || {
-                    Ok((
-                        ardupilot::reference_path(&ardupilot::Gains { ff: 0.0, ..ag }, &req.ardupilot)?,
-                        ardupilot::feedforward_unit(&req.ardupilot)?,
-                    ))
-                },
-                ardupilot::GAIN_RANGES[3].1,
-                &mut notes,
-            )?;
-            if let Some(fit) = fit {
-                ag.ff = round6(fit.gain);
-                notes.push(feedforward_note(&format!("FF = {}", ag.ff), &fit));
-                ff_fit = Some(fit);
-            } else {
-                notes.push(format!("FF = {} is not tuned ({})", ag.ff, keep_reason(req)));
-            }
-            notes.extend(ardupilot::range_notes(&ag, req.axis));
-            notes.push(
-                "plant units: input the mixer's normalized command, output rad/s; IMAX and SMAX not modelled".into(),
-            );
-            let mut g = serde_json::Map::new();
-            for (n, v) in ardupilot::param_names(req.axis).iter().zip([ag.p, ag.i, ag.d, ag.ff]) {
-                g.insert(n.clone(), json!(v));
-            }
-            (
-                Value::Object(g),
-                vec![ag.p, ag.i, ag.d],
-                ardupilot::cli_lines(&ag, req.axis),
-                Some(firmware::discrete(&c, req.ardupilot.loop_hz)?),
-            )
-        }
-        Firmware::Px4 => {
-            let mut pg = px4::Gains {
-                k: 1.0,
-                p: round6(th[0]),
-                i: round6(th[1]),
-                d: round6(th[2]),
-                ff: req.px4_ff.unwrap_or(0.0),
-            };
-            let c = px4::feedback_controller(&pg, &req.px4)?;
-            let fit = fit_feedforward(
-                req,
-                &plants[0],
-                &c,
-                || {
-                    Ok((
-                        px4::reference_path(&px4::Gains { ff: 0.0, ..pg })?,
-                        firmware::static_gain(1.0)?,
-                    ))
-                },
-                PX4_FF_MAX,
-                &mut notes,
-            )?;
-            if let Some(fit) = fit {
-                pg.ff = round6(fit.gain);
-                notes.push("MC_*RATE_K = 1 (parallel form)".into());
-                notes.push(feedforward_note(&format!("FF = {}", pg.ff), &fit));
-                ff_fit = Some(fit);
-            } else {
-                notes.push(format!(
-                    "MC_*RATE_K = 1 (parallel form); FF = {} is not tuned ({})",
-                    pg.ff,
-                    keep_reason(req)
-                ));
-            }
-            notes.push("plant units: input normalized torque, output rad/s".into());
-            let (kp, ki, kd) = px4::continuous(&pg);
-            let names = px4::param_names(req.axis);
-            let mut g = serde_json::Map::new();
-            for (n, v) in names.iter().zip([pg.k, pg.p, pg.i, pg.d, pg.ff]) {
-                g.insert(n.clone(), json!(v));
-            }
-            (
-                Value::Object(g),
-                vec![kp, ki, kd],
-                px4::cli_lines(&pg, req.axis),
-                Some(firmware::discrete(&c, req.px4.loop_hz)?),
-            )
-        }
-    };
-    let (goal_reports, loops) = evaluate(&prob, &theta)?;
-    no_feedback_is_no_tune(&gains, &loops[0], &req.goals)?;
-    let feedback_controller = prob.structure.realize(&theta)?;
-    Ok(TuneOutcome {
-        gains,
-        feedback_controller,
-        discrete_controller: discrete,
-        margins: loops[0],
-        goals: goal_reports,
-        cli,
-        defaults,
+    }
+    Ok((g, weights))
+}
+
+/// The firmware's gains nearest the optimum `th` that meet the goals best, with the feedforward
+/// fitted to them (or kept), and the notes on what was kept and the plant's units.
+fn firmware_gains(
+    req: &TuneRequest,
+    prob: &LoopTuning,
+    template: &RateGains,
+    th: &[f64],
+    notes: &mut Vec<String>,
+) -> Result<(RateGains, Option<feedforward::FeedforwardFit>)> {
+    let (mut g, _) = rounded(prob, template, th, req.maximize)?;
+    let c = g.feedback_controller()?;
+    let fit = fit_feedforward(
+        req,
+        &prob.plants[0],
+        &c,
+        || g.feedforward_paths(),
+        g.feedforward_max(),
         notes,
-        loop_plant: plants[0].clone(),
-        noise_w_rad_s: wn,
-        feedforward: ff_fit,
-        setpoint_weights: weights,
-        extra_delay_s: match loop_hz {
-            Some(hz) => firmware::hold_delay_s(hz)?,
-            None => 0.0,
-        },
-    })
+    )?;
+    if let Some(fit) = &fit {
+        g = g.with_feedforward(fit.gain);
+        notes.push(feedforward_note(&g.feedforward_label(), fit));
+    } else {
+        notes.push(format!(
+            "{} is not tuned ({}){}",
+            g.feedforward_label(),
+            keep_reason(req),
+            if req.feedforward_flown {
+                "; kept as flown"
+            } else {
+                g.default_feedforward_note()
+            }
+        ));
+    }
+    notes.extend(g.tuning_notes());
+    Ok((g, fit))
 }
 
 /// Gains that leave the loop without a gain crossover (P = I = D = 0 after rounding, or so small
@@ -739,6 +651,7 @@ pub fn outcome_for_gains(
         noise_w_rad_s: 0.0,
         feedforward: None,
         setpoint_weights: None,
+        firmware_gains: Some(g.clone()),
         extra_delay_s: firmware::hold_delay_s(g.loop_hz())?,
     })
 }
@@ -780,12 +693,6 @@ pub fn generic_reference_path(g: &Value) -> Result<StateSpace> {
         &d,
     )?)
 }
-
-use crate::firmware::round6;
-
-/// Largest PX4 rate feedforward the fit may propose, normalized torque per rad/s (a sanity bound:
-/// full torque for a 1 rad/s setpoint).
-const PX4_FF_MAX: f64 = 1.0;
 
 /// The feedforward fitted to the loop `c` around `plant` (see [`feedforward::fit`]), or None:
 /// when `--keep-feedforward` asks so, or with a note when it cannot be fitted (e.g. the Padé
@@ -829,58 +736,23 @@ fn feedforward_note(what: &str, fit: &feedforward::FeedforwardFit) -> String {
     )
 }
 
-/// Betaflight stores integers: of the 8 floor/ceil roundings of (P, I, D), and the floors with I
-/// lowered by 1 to 10 units, the one that meets every hard goal with the best objective (rounding
-/// can cost a margin).
-fn betaflight_rounding(prob: &LoopTuning, th: &[f64], req: &TuneRequest) -> Result<(betaflight::Gains, Vec<f64>)> {
-    let yaw = if req.axis == Axis::Yaw { 2.5 } else { 1.0 };
-    let scales = [
-        betaflight::PTERM_SCALE,
-        betaflight::ITERM_SCALE * yaw,
-        betaflight::DTERM_SCALE,
-    ];
-    // The optimum in firmware units (P, I, D), and one candidate from whole units.
-    let units: Vec<f64> = (0..3).map(|j| th[j] / scales[j]).collect();
-    let candidate = |u: [f64; 3]| -> Result<(betaflight::Gains, Vec<f64>)> {
-        let bg = betaflight::from_continuous(
-            u[0] * scales[0],
-            u[1] * scales[1],
-            u[2] * scales[2],
-            req.betaflight_f.unwrap_or(120),
-            req.axis,
-        )?;
-        let (kp, ki, kd, _) = betaflight::continuous(&bg, req.axis);
-        Ok((bg, vec![kp, ki, kd]))
-    };
-    let mut cands = Vec::new();
-    for mask in 0..8u32 {
-        let pick = |j: usize| {
-            (if mask & (1 << j) == 0 {
-                units[j].floor()
-            } else {
-                units[j].ceil()
-            })
-            .max(0.0)
-        };
-        cands.push(candidate([pick(0), pick(1), pick(2)])?);
-    }
-    // When every rounding of the optimum misses an active goal by a hair (one unit of I moves
-    // the margins by more than the tightening re-tune can foresee), I lowered by up to 10 units
-    // steps back into the feasible set at the smallest cost to the objective.
-    let floors = units.iter().map(|u| u.floor().max(0.0)).collect::<Vec<_>>();
-    for back in 1..=10u32 {
-        let i = floors[1] - f64::from(back);
-        if i < 0.0 {
-            break;
-        }
-        cands.push(candidate([floors[0], i, floors[2]])?);
-    }
-    best_rounding(prob, cands, req.maximize)
+/// The rounding of the optimum `th` to the firmware's resolution ([`RateGains::roundings`]) that
+/// meets the hard goals with the best objective, and its continuous gains.
+fn rounded(prob: &LoopTuning, template: &RateGains, th: &[f64], maximize: Maximize) -> Result<(RateGains, Vec<f64>)> {
+    let cands = template
+        .roundings(th)?
+        .into_iter()
+        .map(|g| {
+            let c = g.continuous().to_vec();
+            (g, c)
+        })
+        .collect();
+    best_rounding(prob, cands, maximize)
 }
 
 /// The candidate gain set that meets every hard goal (exact check) with the best objective, or
 /// the one that violates the worst goal least.
-fn best_rounding<G: Copy>(prob: &LoopTuning, cands: Vec<(G, Vec<f64>)>, maximize: Maximize) -> Result<(G, Vec<f64>)> {
+fn best_rounding<G>(prob: &LoopTuning, cands: Vec<(G, Vec<f64>)>, maximize: Maximize) -> Result<(G, Vec<f64>)> {
     let mut best: Option<(bool, f64, G, Vec<f64>)> = None;
     for (g, th) in cands {
         let (goals, loops) = evaluate(prob, &th)?;
