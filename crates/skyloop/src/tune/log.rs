@@ -1067,80 +1067,8 @@ fn grid_proposal(
             &mut all,
         )?;
     }
-    let floor = 0.5f64.min(cur.worst.disk_alpha);
-    let flown_os = cur.flight.as_ref().map(FlightCheck::worst_overshoot_pct);
-    let os_limit = flown_os.map(|o| (o + 5.0).max(20.0));
+    let (chosen, rejected) = verify_candidates(flown, cur, &ranked, &fs, &limits, held, wn, flight)?;
     let axis = req.axis.name();
-    let mut chosen = None;
-    let mut rejected = Vec::new();
-    let below_floor = fs.alpha_worst < limits.alpha_floor;
-    // One candidate per (P, D) pair: neighbours that differ in I alone fail for the same reason.
-    let mut seen = Vec::new();
-    let distinct = ranked.iter().filter(|c| c.gains != *flown).filter(|c| {
-        let k = c.gains.continuous();
-        let cut = c.gains.lowest_dterm_cutoff_hz().unwrap_or(0.0).round() as i64;
-        let key = ((k[0] * 1e6).round() as i64, (k[2] * 1e9).round() as i64, cut);
-        let new = !seen.contains(&key);
-        seen.push(key);
-        new
-    });
-    for c in distinct.take(VERIFY_MAX) {
-        let gain = if limits.keep_robustness {
-            c.scores.bandwidth_hz / fs.bandwidth_hz.max(1e-9) - 1.0
-        } else {
-            c.scores.crossover_hz / fs.crossover_hz.max(1e-9) - 1.0
-        };
-        let more_robust = c.scores.alpha_worst > fs.alpha_worst + 0.05;
-        if gain < super::candidates::MIN_GAIN && !more_robust {
-            break;
-        }
-        let a = analyse(
-            c.gains.to_json(),
-            &c.gains.feedback_controller()?,
-            &c.gains.reference_path()?,
-            held,
-            wn,
-            flight,
-        )?;
-        let os = a.flight.as_ref().map(FlightCheck::worst_overshoot_pct);
-        let cutoff = c
-            .gains
-            .lowest_dterm_cutoff_hz()
-            .filter(|_| scale_of(flown, &c.gains) != 1.0);
-        let why = if !a.margins.stable || !a.worst.stable {
-            Some("unstable in the exact check".to_string())
-        } else if let Some(fc) = cutoff.filter(|f| *f < MIN_CUTOFF_OVER_CROSSOVER * a.margins.crossover_hz) {
-            Some(format!(
-                "D-term cutoff {fc:.0} Hz below {MIN_CUTOFF_OVER_CROSSOVER}× the {:.1} Hz crossover",
-                a.margins.crossover_hz
-            ))
-        } else if a.worst.disk_alpha < floor - 1e-3 {
-            Some(format!(
-                "worst-case disk α {:.3} below the floor {floor:.3}",
-                a.worst.disk_alpha
-            ))
-        } else if a.margins.crossover_hz < cur.margins.crossover_hz && a.margins.disk_alpha < cur.margins.disk_alpha {
-            Some("slower and less robust than the flown tune in the exact check".to_string())
-        } else if a.flight.as_ref().is_some_and(|f| f.crashed) {
-            Some("crashed the 6-DOF check".to_string())
-        } else if let (Some(p), Some(f), false) = (&a.flight, &cur.flight, below_floor) {
-            // Above the floor a proposal must track at least as well; below it, robustness first.
-            let (ep, ef) = (p.doublets[0].rms_error_deg_s, f.doublets[0].rms_error_deg_s);
-            (ep > 1.05 * ef).then(|| format!("6-DOF tracking error {ep:.0} deg/s RMS above the flown tune's {ef:.0}"))
-        } else {
-            match (os, os_limit) {
-                (Some(o), Some(l)) if o > l => Some(format!("6-DOF overshoot {o:.0} % above {l:.0} %")),
-                _ => None,
-            }
-        };
-        match why {
-            None => {
-                chosen = Some((c.clone(), a));
-                break;
-            }
-            Some(w) => rejected.push(format!("{}: {w}", c.gains.to_json())),
-        }
-    }
     let fr: Vec<(Value, Scores, f64)> = front(&all, &fs, &limits, 5)
         .into_iter()
         .map(|c| {
@@ -1213,4 +1141,105 @@ fn grid_proposal(
         front: fr,
         filter_changes,
     })
+}
+
+/// The ranked candidates verified in turn (exact delay over the uncertainty set, the 6-DOF
+/// check) until one passes: it, with its analysis, and why each one before it was rejected.
+#[allow(clippy::too_many_arguments)]
+fn verify_candidates(
+    flown: &RateGains,
+    cur: &TuneAnalysis,
+    ranked: &[super::candidates::Candidate],
+    fs: &Scores,
+    limits: &SearchLimits,
+    held: &[StateSpace],
+    wn: f64,
+    flight: Option<&FlightSetup>,
+) -> Result<(Option<(super::candidates::Candidate, TuneAnalysis)>, Vec<String>)> {
+    let floor = 0.5f64.min(cur.worst.disk_alpha);
+    let flown_os = cur.flight.as_ref().map(FlightCheck::worst_overshoot_pct);
+    let os_limit = flown_os.map(|o| (o + 5.0).max(20.0));
+    let mut chosen = None;
+    let mut rejected = Vec::new();
+    let below_floor = fs.alpha_worst < limits.alpha_floor;
+    // One candidate per (P, D) pair: neighbours that differ in I alone fail for the same reason.
+    let mut seen = Vec::new();
+    let distinct = ranked.iter().filter(|c| c.gains != *flown).filter(|c| {
+        let k = c.gains.continuous();
+        let cut = c.gains.lowest_dterm_cutoff_hz().unwrap_or(0.0).round() as i64;
+        let key = ((k[0] * 1e6).round() as i64, (k[2] * 1e9).round() as i64, cut);
+        let new = !seen.contains(&key);
+        seen.push(key);
+        new
+    });
+    for c in distinct.take(VERIFY_MAX) {
+        let gain = if limits.keep_robustness {
+            c.scores.bandwidth_hz / fs.bandwidth_hz.max(1e-9) - 1.0
+        } else {
+            c.scores.crossover_hz / fs.crossover_hz.max(1e-9) - 1.0
+        };
+        let more_robust = c.scores.alpha_worst > fs.alpha_worst + 0.05;
+        if gain < super::candidates::MIN_GAIN && !more_robust {
+            break;
+        }
+        let a = analyse(
+            c.gains.to_json(),
+            &c.gains.feedback_controller()?,
+            &c.gains.reference_path()?,
+            held,
+            wn,
+            flight,
+        )?;
+        let why = rejection(&a, &c.gains, flown, cur, floor, os_limit, below_floor);
+        match why {
+            None => {
+                chosen = Some((c.clone(), a));
+                break;
+            }
+            Some(w) => rejected.push(format!("{}: {w}", c.gains.to_json())),
+        }
+    }
+    Ok((chosen, rejected))
+}
+
+/// Why a candidate analysed as `a` cannot be proposed over the flown tune `cur`, None when it
+/// can: unstable, a D-term cutoff too close to the crossover, below the robustness floor, slower
+/// and less robust, crashed or tracking worse in the 6-DOF check, or overshooting there.
+fn rejection(
+    a: &TuneAnalysis,
+    gains: &RateGains,
+    flown: &RateGains,
+    cur: &TuneAnalysis,
+    floor: f64,
+    os_limit: Option<f64>,
+    below_floor: bool,
+) -> Option<String> {
+    let os = a.flight.as_ref().map(FlightCheck::worst_overshoot_pct);
+    let cutoff = gains.lowest_dterm_cutoff_hz().filter(|_| scale_of(flown, gains) != 1.0);
+    if !a.margins.stable || !a.worst.stable {
+        Some("unstable in the exact check".to_string())
+    } else if let Some(fc) = cutoff.filter(|f| *f < MIN_CUTOFF_OVER_CROSSOVER * a.margins.crossover_hz) {
+        Some(format!(
+            "D-term cutoff {fc:.0} Hz below {MIN_CUTOFF_OVER_CROSSOVER}× the {:.1} Hz crossover",
+            a.margins.crossover_hz
+        ))
+    } else if a.worst.disk_alpha < floor - 1e-3 {
+        Some(format!(
+            "worst-case disk α {:.3} below the floor {floor:.3}",
+            a.worst.disk_alpha
+        ))
+    } else if a.margins.crossover_hz < cur.margins.crossover_hz && a.margins.disk_alpha < cur.margins.disk_alpha {
+        Some("slower and less robust than the flown tune in the exact check".to_string())
+    } else if a.flight.as_ref().is_some_and(|f| f.crashed) {
+        Some("crashed the 6-DOF check".to_string())
+    } else if let (Some(p), Some(f), false) = (&a.flight, &cur.flight, below_floor) {
+        // Above the floor a proposal must track at least as well; below it, robustness first.
+        let (ep, ef) = (p.doublets[0].rms_error_deg_s, f.doublets[0].rms_error_deg_s);
+        (ep > 1.05 * ef).then(|| format!("6-DOF tracking error {ep:.0} deg/s RMS above the flown tune's {ef:.0}"))
+    } else {
+        match (os, os_limit) {
+            (Some(o), Some(l)) if o > l => Some(format!("6-DOF overshoot {o:.0} % above {l:.0} %")),
+            _ => None,
+        }
+    }
 }
