@@ -13,17 +13,12 @@ use std::path::{Path, PathBuf};
 /// Largest ±2σ half width drawn, dB or degrees (incoherent points would fill the panel).
 const BAND_CLIP: f64 = 12.0;
 
-/// The legend of log `which` ("A" or "B"), with the reason when its part is missing.
+/// The legend of log `which` ("A" or "B"); a missing part says so briefly (its reason is in
+/// `compare.txt`: a long legend would narrow every panel).
 fn label<T>(which: &str, m: &Measured<T>) -> String {
     match m {
         Ok(_) => which.to_string(),
-        Err(e) => {
-            let short: String = e.chars().take(60).collect();
-            format!(
-                "{which}: not identified ({short}{})",
-                if e.len() > 60 { "…" } else { "" }
-            )
-        }
+        Err(_) => format!("{which}: not identified (see compare.txt)"),
     }
 }
 
@@ -164,8 +159,8 @@ pub fn plant_figure(a: &AxisComparison) -> Figure {
             continue;
         };
         name = format!(
-            "{which}: K {:.3}, tau {:.1} ms, Td {:.1} ms",
-            p.k.0,
+            "{which}: K {}, tau {:.1} ms, Td {:.1} ms",
+            super::report::sig(p.k.0),
             1e3 * p.tau_s.0,
             1e3 * p.td_s.0
         );

@@ -25,7 +25,7 @@ fn side_json(s: &AxisSide) -> Value {
 }
 
 /// Four significant digits, without an exponent in the usual range.
-fn sig(x: f64) -> String {
+pub(crate) fn sig(x: f64) -> String {
     if x == 0.0 || !x.is_finite() {
         return format!("{x}");
     }

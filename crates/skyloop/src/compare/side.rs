@@ -107,7 +107,7 @@ pub fn tracking(d: &AxisData, fmax_hz: f64) -> Result<Tracking> {
     Ok(Tracking::new(
         frf.freq_hz.clone(),
         frf.mag_db(),
-        frf.phase_deg(),
+        anchor_phase(&frf.phase_deg(), &frf.coherence),
         std_db,
         std_deg,
         frf.coherence.clone(),
@@ -178,7 +178,7 @@ pub fn plant(log: &Log, path: &std::path::Path, session: Option<usize>, axis: Ax
     Ok(Plant {
         freq_hz: id.frf.freq_hz.clone(),
         mag_db: id.frf.mag_db(),
-        phase_deg: id.frf.phase_deg(),
+        phase_deg: anchor_phase(&id.frf.phase_deg(), &id.frf.coherence),
         std_db: id.frf.rel_std().iter().map(|e| db * e).collect(),
         coherence: id.frf.coherence.clone(),
         k: get("K"),
@@ -264,6 +264,19 @@ pub fn resample(t: &[f64], y: &[f64], at: &[f64]) -> Vec<f64> {
         .collect()
 }
 
+/// `phase` (unwrapped, degrees) shifted by a whole number of turns so that its value at the most
+/// coherent point lies in (−270°, 90°]: two logs' curves then start from the same turn.
+pub fn anchor_phase(phase: &[f64], coherence: &[f64]) -> Vec<f64> {
+    let k = (0..phase.len().min(coherence.len()))
+        .filter(|&k| phase[k].is_finite())
+        .max_by(|&a, &b| coherence[a].total_cmp(&coherence[b]));
+    let Some(k) = k else {
+        return phase.to_vec();
+    };
+    let turns = ((phase[k] - 90.0) / 360.0).ceil();
+    phase.iter().map(|p| p - 360.0 * turns).collect()
+}
+
 /// True where the tracking estimate is trusted: squared coherence at least [`COHERENCE_MIN`].
 pub fn coherent(c: f64) -> bool {
     c >= COHERENCE_MIN
@@ -282,6 +295,14 @@ mod tests {
         let v = band_power_db(&f, &p, 100.0, 200.0).unwrap();
         assert!((v - 20.0).abs() < 1e-9, "{v}");
         assert!(band_power_db(&f, &p, 600.0, 700.0).is_none());
+    }
+
+    #[test]
+    fn phase_is_anchored_to_one_turn() {
+        let p = anchor_phase(&[170.0, 160.0, 100.0], &[0.2, 0.9, 0.5]);
+        assert_eq!(p, vec![-190.0, -200.0, -260.0]);
+        let p = anchor_phase(&[-10.0, -400.0], &[0.9, 0.9]);
+        assert_eq!(p, vec![-10.0, -400.0]);
     }
 
     #[test]

@@ -107,12 +107,21 @@ fn signed_db(d: f64) -> String {
 /// Plant parameters whose difference exceeds [`PARAM_Z`] combined standard errors, as text.
 pub fn plant_changes(a: &Plant, b: &Plant) -> Vec<String> {
     let mut out = Vec::new();
+    if a.gain_unit != b.gain_unit {
+        out.push(format!(
+            "K in different units ({}, {}), not compared",
+            a.gain_unit, b.gain_unit
+        ));
+    }
     let items = [
         ("K", a.k, b.k, 1.0, 0usize, ""),
         ("tau", a.tau_s, b.tau_s, 1e3, 1, "ms"),
         ("Td", a.td_s, b.td_s, 1e3, 1, "ms"),
     ];
     for (name, (va, sa), (vb, sb), scale, digits, unit) in items {
+        if name == "K" && a.gain_unit != b.gain_unit {
+            continue;
+        }
         let se = sa.hypot(sb);
         if (va - vb).abs() > PARAM_Z * se && se.is_finite() {
             out.push(format!("{name} {}", arrow(scale * va, scale * vb, digits, unit)));
@@ -147,8 +156,8 @@ pub fn axis_verdict(
             changed = true;
         }
         (Ok(_), Ok(_), Some(_)) => same.push("tracking"),
-        (Err(e), _, _) => parts.push(format!("tracking not measured in A ({e})")),
-        (_, Err(e), _) => parts.push(format!("tracking not measured in B ({e})")),
+        (Err(_), _, _) => parts.push("tracking not measured in A".into()),
+        (_, Err(_), _) => parts.push("tracking not measured in B".into()),
         _ => parts.push("tracking grids differ, not compared".into()),
     }
     match (&a.step, &b.step, step) {
@@ -164,8 +173,8 @@ pub fn axis_verdict(
             changed = true;
         }
         (Ok(_), Ok(_), Some(_)) => same.push("step"),
-        (Err(e), _, _) => parts.push(format!("step not measured in A ({e})")),
-        (_, Err(e), _) => parts.push(format!("step not measured in B ({e})")),
+        (Err(_), _, _) => parts.push("step not measured in A".into()),
+        (_, Err(_), _) => parts.push("step not measured in B".into()),
         _ => {}
     }
     match (&a.plant, &b.plant) {
@@ -183,6 +192,12 @@ pub fn axis_verdict(
         (_, Err(_)) => parts.push("plant not identified in B".into()),
     }
     match (&a.noise, &b.noise) {
+        (Ok(na), Ok(nb)) if na.unit != nb.unit => {
+            parts.push(format!(
+                "gyro noise in different units ({}, {}), not compared",
+                na.unit, nb.unit
+            ));
+        }
         (Ok(na), Ok(nb)) => {
             let mut s = Vec::new();
             for (name, x, y) in [("below", na.low_db, nb.low_db), ("above", na.high_db, nb.high_db)] {
@@ -205,7 +220,7 @@ pub fn axis_verdict(
                 changed = true;
             }
         }
-        (Err(e), _) | (_, Err(e)) => parts.push(format!("gyro noise not compared ({e})")),
+        (Err(_), _) | (_, Err(_)) => parts.push("gyro noise not compared (no noise picture of one log)".into()),
     }
     let mut line = format!("{axis}: ");
     if parts.is_empty() {
@@ -231,6 +246,15 @@ pub fn header_verdict(diffs: &[HeaderDiff]) -> Vec<String> {
     };
     if diffs.is_empty() {
         return vec!["settings: the headers' tuning is identical".into()];
+    }
+    if let [d] = diffs {
+        if d.key == "firmware" {
+            return vec![format!(
+                "settings: different firmware ({} → {}), not comparable key by key",
+                d.a.as_deref().unwrap_or("unknown"),
+                d.b.as_deref().unwrap_or("unknown")
+            )];
+        }
     }
     let gains: Vec<String> = diffs.iter().filter(|d| is_gain(&d.key)).map(show).collect();
     let other: Vec<String> = diffs.iter().filter(|d| !is_gain(&d.key)).map(show).collect();
