@@ -301,8 +301,12 @@ mod tests {
     fn phase_is_anchored_to_one_turn() {
         let p = anchor_phase(&[170.0, 160.0, 100.0], &[0.2, 0.9, 0.5]);
         assert_eq!(p, vec![-190.0, -200.0, -260.0]);
-        let p = anchor_phase(&[-10.0, -400.0], &[0.9, 0.9]);
+        // Already in range at the most coherent point: unchanged.
+        let p = anchor_phase(&[-10.0, -400.0], &[0.9, 0.5]);
         assert_eq!(p, vec![-10.0, -400.0]);
+        // Anchored at −400°: one turn up.
+        let p = anchor_phase(&[-10.0, -400.0], &[0.5, 0.9]);
+        assert_eq!(p, vec![350.0, -40.0]);
     }
 
     #[test]
