@@ -116,12 +116,17 @@ fn lookup(m: &BTreeMap<String, String>, key: &str) -> Option<String> {
 /// give one line, the firmware, since their settings do not correspond.
 pub fn diff(a: Option<&FirmwareTuning>, b: Option<&FirmwareTuning>) -> Vec<HeaderDiff> {
     let (fa, fb) = (a.map(flatten).unwrap_or_default(), b.map(flatten).unwrap_or_default());
+    diff_flat(&fa, &fb)
+}
+
+/// [`diff`] of two flattened tunings.
+fn diff_flat(fa: &BTreeMap<String, String>, fb: &BTreeMap<String, String>) -> Vec<HeaderDiff> {
     let family = |m: &BTreeMap<String, String>| m.get("firmware").cloned();
-    if family(&fa) != family(&fb) {
+    if family(fa) != family(fb) {
         return vec![HeaderDiff {
             key: "firmware".into(),
-            a: family(&fa),
-            b: family(&fb),
+            a: family(fa),
+            b: family(fb),
         }];
     }
     let mut keys: Vec<&String> = fa.keys().chain(fb.keys()).collect();
@@ -134,7 +139,7 @@ pub fn diff(a: Option<&FirmwareTuning>, b: Option<&FirmwareTuning>) -> Vec<Heade
     };
     keys.into_iter()
         .filter(|k| !has_parts(k))
-        .map(|k| (k, lookup(&fa, k), lookup(&fb, k)))
+        .map(|k| (k, lookup(fa, k), lookup(fb, k)))
         .filter(|(_, a, b)| a != b)
         .map(|(k, a, b)| HeaderDiff { key: k.clone(), a, b })
         .collect()
@@ -201,7 +206,11 @@ mod tests {
         let a = m(json!({"firmware": "x", "dterm_notch": null, "tpa": 10.0}));
         let b = m(json!({"firmware": "x", "dterm_notch": {"center_hz": 240.0, "cutoff_hz": 160.0}, "tpa": 10.0}));
         assert_eq!(lookup(&a, "dterm_notch.center_hz").as_deref(), Some("off"));
-        let fa: Vec<String> = a.keys().cloned().collect();
-        assert!(fa.contains(&"dterm_notch".to_string()));
+        let d = diff_flat(&a, &b);
+        let keys: Vec<&str> = d.iter().map(|x| x.key.as_str()).collect();
+        assert_eq!(keys, ["dterm_notch.center_hz", "dterm_notch.cutoff_hz"]);
+        assert_eq!(d[0].a.as_deref(), Some("off"));
+        assert_eq!(d[0].b.as_deref(), Some("240"));
+        assert!(diff_flat(&a, &a).is_empty());
     }
 }
