@@ -73,6 +73,7 @@
 //! its unit (`_hz`, `_deg`, `_db`); a controller C closes the loop as u = C·(r − y), so L = P·C;
 //! `hinfsyn` follows MATLAB's LFT convention u = K·y with the last outputs and inputs of P as y and u.
 
+pub mod compare;
 pub mod design;
 pub mod error;
 pub mod export;

@@ -1,6 +1,7 @@
 //! `skyloop log info FILE`: topics/fields, rates, duration and the firmware's tuning of a ULog,
 //! blackbox, ArduPilot DataFlash or CSV log; `skyloop log export FILE --fields .. --out F.csv`: raw channels as CSV;
-//! `skyloop log plot FILE --fields .. --out F.png|svg`: channels against time, airborne segments shaded.
+//! `skyloop log plot FILE --fields .. --out F.png|svg`: channels against time, airborne segments shaded;
+//! `skyloop log compare A B [--out DIR] [--json]`: two flights side by side (`skyloop::compare`).
 
 use std::path::{Path, PathBuf};
 
@@ -61,6 +62,28 @@ enum Action {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Two flights of one craft side by side, before (A) and after (B) a change: per axis the
+    /// tracking response setpoint → gyro, the identified plant, the step and the gyro noise of
+    /// both, the header settings that differ, and a verdict that names only differences beyond
+    /// the estimates' uncertainty.
+    Compare {
+        /// Log A (before the change).
+        a: PathBuf,
+        /// Log B (after the change).
+        b: PathBuf,
+        /// Blackbox session of A (counted from 1); default: the longest.
+        #[arg(long)]
+        session_a: Option<usize>,
+        /// Blackbox session of B (counted from 1); default: the longest.
+        #[arg(long)]
+        session_b: Option<usize>,
+        /// Write compare.json, compare.txt and the figures (PNG and SVG) here.
+        #[arg(long, default_value = "skyloop-compare")]
+        out: PathBuf,
+        /// Print the JSON object (as compare.json) instead of the summary.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 fn open(file: &Path, session: Option<usize>) -> skyloop::Result<Log> {
@@ -103,7 +126,56 @@ pub fn run(a: Args) -> skyloop::Result<()> {
             eprintln!("wrote {} ({} airborne segments shaded)", out.display(), spans.len());
             Ok(())
         }
+        Action::Compare {
+            a,
+            b,
+            session_a,
+            session_b,
+            out,
+            json,
+        } => compare(&a, &b, session_a, session_b, &out, json),
     }
+}
+
+fn show_compare(stage: &str) {
+    match crate::cmd::tune::spinner() {
+        Some(b) => b.set_message(format!("compare: {stage}")),
+        None => eprintln!("[compare] {stage} …"),
+    }
+}
+
+/// Compares two logs, writes the outputs and prints the summary (or the JSON).
+fn compare(
+    a: &Path,
+    b: &Path,
+    session_a: Option<usize>,
+    session_b: Option<usize>,
+    out: &Path,
+    json: bool,
+) -> skyloop::Result<()> {
+    let req = skyloop::compare::CompareRequest {
+        a,
+        b,
+        session_a,
+        session_b,
+        progress: Some(show_compare),
+    };
+    let c = skyloop::compare::compare_logs(&req);
+    if let Some(bar) = crate::cmd::tune::spinner() {
+        bar.finish_and_clear();
+    }
+    let c = c?;
+    let written = skyloop::compare::figures::write_outputs(&c, out)?;
+    eprintln!(
+        "wrote {} (compare.json, compare.txt, {} figures)",
+        out.display(),
+        written.len()
+    );
+    if json {
+        return print_json(&c.to_json());
+    }
+    print!("{}", c.to_text());
+    Ok(())
 }
 
 /// Reads the log and prints its summary.

@@ -167,26 +167,44 @@ pub fn analyze(req: &NoiseRequest) -> Result<NoiseAnalysis> {
         }
     };
     say("reading the log");
-    let (log, mut notes) = crate::firmware::open_log(req.path, req.session)?;
-    let ch = noise_channels(&log).ok_or_else(|| {
+    let (log, notes) = crate::firmware::open_log(req.path, req.session)?;
+    analyze_log(&log, notes, req)
+}
+
+/// [`analyze`] on a log already read and prepared ([`crate::firmware::open_log`]), `notes` its
+/// preparation notes; `req.path` and `req.session` are not used.
+///
+/// # Errors
+/// As [`analyze`], less the reading.
+pub fn analyze_log(
+    log: &skyloop_sysid::logs::Log,
+    mut notes: Vec<String>,
+    req: &NoiseRequest,
+) -> Result<NoiseAnalysis> {
+    let say = |s: &str| {
+        if let Some(p) = req.progress {
+            p(s)
+        }
+    };
+    let ch = noise_channels(log).ok_or_else(|| {
         Error::Input(format!(
             "{}: noise needs a Betaflight, INAV or PX4 log (ArduPilot and CSV logs are not supported yet)",
             log.source
         ))
     })?;
     let (flown, chain_notes) =
-        flown_chain(&log).ok_or_else(|| Error::Input(format!("{}: the log states no filter settings", log.source)))?;
+        flown_chain(log).ok_or_else(|| Error::Input(format!("{}: the log states no filter settings", log.source)))?;
     notes.extend(chain_notes);
     let what_if = req.filters.map(|s| flown.with_changes(s)).transpose()?;
-    let tap = raw_gyro_tap(&log);
+    let tap = raw_gyro_tap(log);
     let axes: Vec<Axis> = if req.axes.is_empty() {
         vec![Axis::Roll, Axis::Pitch, Axis::Yaw]
     } else {
         req.axes.clone()
     };
     let idx: Vec<usize> = axes.iter().map(|a| a.index()).collect();
-    let src = FrameSource::new(&log, &ch, tap.as_ref().map(|t| &t.channels), &idx)?;
-    let spans = airborne(&log, ch.gyro[idx[0]].as_deref().unwrap_or_default(), &mut notes);
+    let src = FrameSource::new(log, &ch, tap.as_ref().map(|t| &t.channels), &idx)?;
+    let spans = airborne(log, ch.gyro[idx[0]].as_deref().unwrap_or_default(), &mut notes);
     let starts = src.starts(&spans);
     if starts.is_empty() {
         return Err(Error::Input(format!(
