@@ -294,7 +294,6 @@ pub const MAX_GRID_VALUES: usize = 250_000_000;
 
 /// Resamples several series onto one uniform grid (see [`crate::logs::Log::uniform`]); series of one
 /// steadily logged group are taken sample for sample instead.
-
 pub fn resample(
     names: &[&str],
     series: &[(Vec<f64>, Vec<f64>)],

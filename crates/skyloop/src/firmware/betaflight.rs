@@ -508,7 +508,7 @@ pub fn filter_chain(b: &BetaflightTuning, log: &Log) -> (FilterChain, Vec<String
             let Some(l) = l else { return };
             // 3.x names the gyro lowpass type `gyro_soft_type`.
             let kind = type_key
-                .and_then(|k| one(k))
+                .and_then(&one)
                 .map(|t| {
                     match t as i64 {
                         1 => "BIQUAD",

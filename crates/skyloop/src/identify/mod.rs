@@ -166,7 +166,7 @@ pub fn identify_log(log: &Log, a: &IdentifyRequest) -> Result<Identification> {
     let preset = a
         .axis
         .as_deref()
-        .map(|ax| -> Result<AxisPreset> { axis_preset(&log, ax.parse::<Axis>()?) })
+        .map(|ax| -> Result<AxisPreset> { axis_preset(log, ax.parse::<Axis>()?) })
         .transpose()?;
     let input = a
         .input
@@ -217,7 +217,7 @@ pub fn identify_log(log: &Log, a: &IdentifyRequest) -> Result<Identification> {
     if let Some(r) = &excitation {
         specs.push(r);
     }
-    let (slow_name, slow_rate) = slowest_channel(&log, &specs)?;
+    let (slow_name, slow_rate) = slowest_channel(log, &specs)?;
     let fastest = specs
         .iter()
         .map(|s| log.series(s).map(|(t, _)| median_rate_hz(&t)))
@@ -276,7 +276,7 @@ pub fn identify_log(log: &Log, a: &IdentifyRequest) -> Result<Identification> {
         vec![seg]
     } else if let Some(p) = &preset {
         let t_end = t_of(data.len() - 1);
-        let air = airborne_segments(&log, &output, &p.criteria, Some(data.t0_s), Some(t_end))?;
+        let air = airborne_segments(log, &output, &p.criteria, Some(data.t0_s), Some(t_end))?;
         let total: f64 = air.segments.iter().map(Span::len_s).sum();
         let excluded: Vec<String> = air
             .excluded_s

@@ -121,7 +121,7 @@ fn schedule(accel: Option<f64>) -> (Vec<[Move; 3]>, f64) {
     for r in RATES_DEG_S {
         let mut prev = 0.0;
         let moves = [r, -r, 0.0].map(|to| {
-            let ramp_s = accel.map_or(RAMP_S, |a| ((to - prev) as f64).abs() / a).max(RAMP_S);
+            let ramp_s = accel.map_or(RAMP_S, |a| (to - prev).abs() / a).max(RAMP_S);
             let m = Move {
                 t_s: t,
                 ramp_s,

@@ -1143,6 +1143,9 @@ fn grid_proposal(
     })
 }
 
+/// A candidate that passed the verification, with its analysis.
+type Verified = (super::candidates::Candidate, TuneAnalysis);
+
 /// The ranked candidates verified in turn (exact delay over the uncertainty set, the 6-DOF
 /// check) until one passes: it, with its analysis, and why each one before it was rejected.
 #[allow(clippy::too_many_arguments)]
@@ -1155,7 +1158,7 @@ fn verify_candidates(
     held: &[StateSpace],
     wn: f64,
     flight: Option<&FlightSetup>,
-) -> Result<(Option<(super::candidates::Candidate, TuneAnalysis)>, Vec<String>)> {
+) -> Result<(Option<Verified>, Vec<String>)> {
     let floor = 0.5f64.min(cur.worst.disk_alpha);
     let flown_os = cur.flight.as_ref().map(FlightCheck::worst_overshoot_pct);
     let os_limit = flown_os.map(|o| (o + 5.0).max(20.0));
