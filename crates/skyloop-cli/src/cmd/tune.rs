@@ -6,7 +6,7 @@ use crate::output::print_json;
 use clap::Args as ClapArgs;
 use skyloop::firmware::betaflight::Axis;
 use skyloop::model::load_model;
-use skyloop::tune::log::{tune_from_log, LogTuneOutcome, LogTuneRequest};
+use skyloop::tune::log::{tune_axes_from_log, LogTuneOutcome, LogTuneRequest};
 use skyloop::tune::{report::write_outputs, tune as run_tune, Firmware, GenericStructure, Maximize, TuneRequest};
 
 /// Arguments of `skyloop tune`.
@@ -141,25 +141,26 @@ fn run_log(log: std::path::PathBuf, a: &Args) -> skyloop::Result<()> {
         Some(x) => vec![Axis::parse(x)?],
         None => vec![Axis::Roll, Axis::Pitch, Axis::Yaw],
     };
+    let mut req = LogTuneRequest::new(log.clone(), axes[0], Firmware::parse(&a.firmware)?);
+    req.session = a.session;
+    req.fmin_hz = a.fmin_hz;
+    req.fmax_hz = a.fmax_hz;
+    req.sigma = a.sigma;
+    req.structure = GenericStructure::parse(&a.structure)?;
+    req.d_filter_tau_s = a.d_filter_tau;
+    req.goals = a.goals.clone();
+    if let Some(m) = &a.maximize {
+        req.maximize = Maximize::parse(m)?;
+    }
+    req.starts = a.starts;
+    req.tune_feedforward = !a.keep_feedforward;
+    req.noise_budget = a.noise_budget;
+    req.tune_filters = a.tune_filters;
+    req.progress = Some(show_stage);
+    // The log is read once; an unreadable one fails before any axis starts.
     let mut outs = Vec::new();
-    for axis in &axes {
-        let mut req = LogTuneRequest::new(log.clone(), *axis, Firmware::parse(&a.firmware)?);
-        req.session = a.session;
-        req.fmin_hz = a.fmin_hz;
-        req.fmax_hz = a.fmax_hz;
-        req.sigma = a.sigma;
-        req.structure = GenericStructure::parse(&a.structure)?;
-        req.d_filter_tau_s = a.d_filter_tau;
-        req.goals = a.goals.clone();
-        if let Some(m) = &a.maximize {
-            req.maximize = Maximize::parse(m)?;
-        }
-        req.starts = a.starts;
-        req.tune_feedforward = !a.keep_feedforward;
-        req.noise_budget = a.noise_budget;
-        req.tune_filters = a.tune_filters;
-        req.progress = Some(show_stage);
-        match tune_from_log(&req) {
+    for (axis, r) in axes.iter().zip(tune_axes_from_log(&req, &axes)?) {
+        match r {
             Ok(o) => outs.push(Ok(o)),
             // One axis given: its error is the command's. Several: the others still answer.
             Err(e) if axes.len() == 1 => {

@@ -217,6 +217,25 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
     tune_from_read_log(req, log, derived)
 }
 
+/// [`tune_from_log`] for each of `axes` (`req.axis` is replaced), the log read once: an
+/// unreadable log is the call's error; each axis's own failure (e.g. too little stick input on
+/// yaw) is its entry's, so the other axes still answer.
+///
+/// # Errors
+/// An unreadable or unrecognised log, or `--sigma` out of range.
+pub fn tune_axes_from_log(req: &LogTuneRequest, axes: &[Axis]) -> Result<Vec<Result<LogTuneOutcome>>> {
+    check_sigma(req)?;
+    let (log, derived) = crate::firmware::open_log(&req.log, req.session)?;
+    Ok(axes
+        .iter()
+        .map(|&axis| {
+            let r = LogTuneRequest { axis, ..req.clone() };
+            progress(&r, "identify");
+            tune_from_read_log(&r, log.clone(), derived.clone())
+        })
+        .collect())
+}
+
 /// [`tune_from_log`] on a log's bytes already in memory (a browser's dropped file); `req.log` only
 /// names it in messages.
 ///
