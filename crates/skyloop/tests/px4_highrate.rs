@@ -119,6 +119,18 @@ enum Motors {
 
 /// The flight as a ULog with PX4's topics at 800 Hz.
 fn log_bytes(steps: &[Step], motors: Motors) -> Vec<u8> {
+    log_bytes_jitter(steps, motors, 0, 1)
+}
+
+/// The flight as a ULog whose time stamps jitter by up to `jitter_us` (the sample times of a real
+/// IMU and scheduler) and whose rate setpoint is logged every `sp_every`-th step (PX4's attitude
+/// controller publishes `vehicle_rates_setpoint` slower than the rate loop runs).
+fn log_bytes_jitter(steps: &[Step], motors: Motors, jitter_us: u64, sp_every: usize) -> Vec<u8> {
+    let mut seed = 99u64;
+    let mut jitter = move || {
+        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (seed >> 33) % (jitter_us + 1)
+    };
     let mut w = Writer::new(1_000_000);
     w.format(
         "vehicle_angular_velocity",
@@ -190,7 +202,8 @@ fn log_bytes(steps: &[Step], motors: Motors) -> Vec<u8> {
         w.add_logged(n, 0, i as u16);
     }
     let mut prev = 0.0;
-    for &(t, sp, r, u) in steps {
+    for (k, &(t, sp, r, u)) in steps.iter().enumerate() {
+        let t = t + jitter();
         let ts = F::U64(t);
         w.data(
             0,
@@ -203,17 +216,19 @@ fn log_bytes(steps: &[Step], motors: Motors) -> Vec<u8> {
         );
         prev = r;
         w.data(1, &[ts.clone(), ts.clone(), F::F32s(vec![u as f32, 0.0, 0.0])]);
-        w.data(
-            2,
-            &[
-                ts.clone(),
-                F::F32(sp as f32),
-                F::F32(0.0),
-                F::F32(0.0),
-                F::F32s(vec![0.0, 0.0, -0.45]),
-                F::Bytes(vec![0]), // reset_integral; the trailing padding is not written
-            ],
-        );
+        if k % sp_every == 0 {
+            w.data(
+                2,
+                &[
+                    ts.clone(),
+                    F::F32(sp as f32),
+                    F::F32(0.0),
+                    F::F32(0.0),
+                    F::F32s(vec![0.0, 0.0, -0.45]),
+                    F::Bytes(vec![0]), // reset_integral; the trailing padding is not written
+                ],
+            );
+        }
         // A quad's roll mix around hover; PX4 logs NaN for the outputs the frame does not use.
         let mut control = vec![f32::NAN; 12];
         for (k, side) in [-1.0, 1.0, 1.0, -1.0].iter().enumerate() {
@@ -328,4 +343,29 @@ fn a_test_stand_log_is_refused_with_the_reason() {
             "{e}"
         );
     }
+}
+
+#[test]
+fn jittered_time_stamps_and_a_slower_setpoint_keep_each_channel_at_its_own_rate() {
+    let bytes = log_bytes_jitter(&flight(25.0), Motors::Flying, 300, 3);
+    let id = identify_bytes(&bytes, &request()).unwrap();
+    let fit = &id.fit.as_ref().unwrap().1;
+    let (k, tau, td) = (fit.params["K"], fit.params["tau"], fit.params["Td"]);
+    let f_max = id.frf.freq_hz.last().copied().unwrap_or(0.0);
+    eprintln!(
+        "jittered, setpoint at 267 Hz: K {k:.1} tau {tau:.4} Td {td:.4}, FRF up to {f_max:.1} Hz; warnings {:?}",
+        id.warnings
+    );
+    // The band stops at the setpoint's 267 Hz / 2.5, and the warning says so.
+    assert!((f_max - 800.0 / 3.0 / 2.5).abs() < 3.0, "{f_max}");
+    assert!(
+        id.warnings
+            .iter()
+            .any(|w| w.contains("vehicle_rates_setpoint.roll") && w.contains("resampled to")),
+        "{:?}",
+        id.warnings
+    );
+    assert!((k / K - 1.0).abs() < 0.15, "K {k} vs {K}");
+    assert!((tau - TAU).abs() < 0.3 * TAU, "tau {tau} vs {TAU}");
+    assert!(td > TD - 0.001 && td < TD + 0.002, "Td {td} vs {TD}");
 }
