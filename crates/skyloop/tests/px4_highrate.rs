@@ -369,3 +369,18 @@ fn jittered_time_stamps_and_a_slower_setpoint_keep_each_channel_at_its_own_rate(
     assert!((tau - TAU).abs() < 0.3 * TAU, "tau {tau} vs {TAU}");
     assert!(td > TD - 0.001 && td < TD + 0.002, "Td {td} vs {TD}");
 }
+
+/// The same flight in PX4's default logging (every topic at 50 Hz) cannot show the rate loop; the
+/// warning says so and names the setting that logs it at the loop's rate.
+#[test]
+fn a_50_hz_px4_log_names_sdlog_profile() {
+    let steps: Vec<Step> = flight(25.0).into_iter().step_by(16).collect();
+    let id = identify_bytes(&log_bytes(&steps, Motors::Flying), &request()).unwrap();
+    assert!(
+        id.warnings
+            .iter()
+            .any(|w| w.contains("logged at 50.0 Hz, too slow") && w.contains("SDLOG_PROFILE bit 2")),
+        "{:?}",
+        id.warnings
+    );
+}

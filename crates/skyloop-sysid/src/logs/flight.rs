@@ -65,6 +65,11 @@ pub enum FlightFirmware {
 /// default without ATTITUDE_FAST) or the 25–50 Hz of rate-capped logs cannot show them.
 pub const ARDUPILOT_MIN_RATE_HZ: f64 = 100.0;
 
+/// Below this logging rate, Hz, a PX4 log's rate-loop topics cannot show the loop's dynamics (20–50
+/// Hz and up): PX4's default `SDLOG_PROFILE` logs them at 10–50 Hz, its high-rate bit at the loop's
+/// rate.
+pub const PX4_MIN_RATE_HZ: f64 = 100.0;
+
 /// Whether a blackbox log's header names INAV.
 pub fn is_inav(log: &Log) -> bool {
     let rev = log.setting("Firmware revision").unwrap_or_default().trim();
@@ -84,6 +89,31 @@ impl FlightFirmware {
                 "{}: a CSV log names no firmware, so --axis cannot choose its channels; give --input, --output and --excitation",
                 log.source
             ))),
+        }
+    }
+
+    /// What to change so that a log too slow for the rate loop (below [`PX4_MIN_RATE_HZ`] /
+    /// [`ARDUPILOT_MIN_RATE_HZ`]) is logged at the loop's rate next time; `None` where the firmware's
+    /// rate-loop channels are not logged slower than the loop.
+    pub fn slow_log_advice(self) -> Option<&'static str> {
+        match self {
+            FlightFirmware::Px4 => Some(
+                "set SDLOG_PROFILE bit 2 (High rate: vehicle_angular_velocity, vehicle_torque_setpoint, vehicle_rates_setpoint and actuator_motors at the rate loop's rate) and fly again",
+            ),
+            FlightFirmware::Ardupilot => Some(
+                "set LOG_BITMASK bits 0 (ATTITUDE_FAST) and 12 (PID) so RATE and PIDR/PIDP/PIDY are logged at the loop rate, and fly again",
+            ),
+            FlightFirmware::Betaflight | FlightFirmware::Inav => None,
+        }
+    }
+
+    /// The lowest logging rate of the rate-loop channels that supports an identification, Hz
+    /// (`None` where no limit is known).
+    pub fn min_rate_hz(self) -> Option<f64> {
+        match self {
+            FlightFirmware::Px4 => Some(PX4_MIN_RATE_HZ),
+            FlightFirmware::Ardupilot => Some(ARDUPILOT_MIN_RATE_HZ),
+            FlightFirmware::Betaflight | FlightFirmware::Inav => None,
         }
     }
 
