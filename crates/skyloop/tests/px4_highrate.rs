@@ -8,7 +8,6 @@
 #![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 #[path = "../../skyloop-sysid/tests/common/ulog_writer.rs"]
-#[allow(dead_code)]
 mod ulog_writer;
 
 use skyloop::identify::{identify_bytes, IdentifyRequest};
