@@ -114,6 +114,8 @@ enum Motors {
     Flying,
     Idle,
     Saturated,
+    /// Motors in range but no collective thrust (`thrust_body[2]` = 0).
+    NoThrust,
 }
 
 /// The flight as a ULog with PX4's topics at 800 Hz.
@@ -223,7 +225,7 @@ fn log_bytes_jitter(steps: &[Step], motors: Motors, jitter_us: u64, sp_every: us
                     F::F32(sp as f32),
                     F::F32(0.0),
                     F::F32(0.0),
-                    F::F32s(vec![0.0, 0.0, -0.45]),
+                    F::F32s(vec![0.0, 0.0, if motors == Motors::NoThrust { 0.0 } else { -0.45 }]),
                     F::Bytes(vec![0]), // reset_integral; the trailing padding is not written
                 ],
             );
@@ -232,7 +234,7 @@ fn log_bytes_jitter(steps: &[Step], motors: Motors, jitter_us: u64, sp_every: us
         let mut control = vec![f32::NAN; 12];
         for (k, side) in [-1.0, 1.0, 1.0, -1.0].iter().enumerate() {
             control[k] = match motors {
-                Motors::Flying => (0.45 + 0.3 * side * u) as f32,
+                Motors::Flying | Motors::NoThrust => (0.45 + 0.3 * side * u) as f32,
                 Motors::Idle => 0.0,
                 Motors::Saturated => 1.0,
             };
@@ -332,6 +334,7 @@ fn a_test_stand_log_is_refused_with_the_reason() {
     for (motors, reason) in [
         (Motors::Idle, "motors at idle"),
         (Motors::Saturated, "motor saturation"),
+        (Motors::NoThrust, "idle throttle"),
     ] {
         let e = identify_bytes(&log_bytes(&steps, motors), &request())
             .unwrap_err()
