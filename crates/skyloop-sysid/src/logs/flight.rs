@@ -65,6 +65,11 @@ pub enum FlightFirmware {
 /// default without ATTITUDE_FAST) or the 25–50 Hz of rate-capped logs cannot show them.
 pub const ARDUPILOT_MIN_RATE_HZ: f64 = 100.0;
 
+/// Below this logging rate, Hz, a PX4 log's rate-loop topics cannot show the loop's dynamics (20–50
+/// Hz and up): PX4's default `SDLOG_PROFILE` logs them at 10–50 Hz, its high-rate bit at the loop's
+/// rate.
+pub const PX4_MIN_RATE_HZ: f64 = 100.0;
+
 /// Whether a blackbox log's header names INAV.
 pub fn is_inav(log: &Log) -> bool {
     let rev = log.setting("Firmware revision").unwrap_or_default().trim();
@@ -84,6 +89,31 @@ impl FlightFirmware {
                 "{}: a CSV log names no firmware, so --axis cannot choose its channels; give --input, --output and --excitation",
                 log.source
             ))),
+        }
+    }
+
+    /// What to change so that a log too slow for the rate loop (below [`PX4_MIN_RATE_HZ`] /
+    /// [`ARDUPILOT_MIN_RATE_HZ`]) is logged at the loop's rate next time; `None` where the firmware's
+    /// rate-loop channels are not logged slower than the loop.
+    pub fn slow_log_advice(self) -> Option<&'static str> {
+        match self {
+            FlightFirmware::Px4 => Some(
+                "set SDLOG_PROFILE bit 2 (High rate: vehicle_angular_velocity, vehicle_torque_setpoint, vehicle_rates_setpoint and actuator_motors at the rate loop's rate) and fly again",
+            ),
+            FlightFirmware::Ardupilot => Some(
+                "set LOG_BITMASK bits 0 (ATTITUDE_FAST) and 12 (PID) so RATE and PIDR/PIDP/PIDY are logged at the loop rate, and fly again",
+            ),
+            FlightFirmware::Betaflight | FlightFirmware::Inav => None,
+        }
+    }
+
+    /// The lowest logging rate of the rate-loop channels that supports an identification, Hz
+    /// (`None` where no limit is known).
+    pub fn min_rate_hz(self) -> Option<f64> {
+        match self {
+            FlightFirmware::Px4 => Some(PX4_MIN_RATE_HZ),
+            FlightFirmware::Ardupilot => Some(ARDUPILOT_MIN_RATE_HZ),
+            FlightFirmware::Betaflight | FlightFirmware::Inav => None,
         }
     }
 
@@ -323,7 +353,8 @@ impl AirborneCriteria {
     ///   inside the `motorOutput` range less 1 % at either end, every |`gyroADC[i]`| below 1950 deg/s;
     /// - PX4: `vehicle_land_detected.landed` false, collective thrust above 5 %
     ///   (`vehicle_rates_setpoint.thrust_body[2]` or `actuator_controls_0.control[3]`),
-    ///   `actuator_motors.control[k]` inside (0.01, 0.99), |gyro| below 34 rad/s;
+    ///   `actuator_motors.control[k]` inside (0.01, 0.99) (below: "motors at idle", above: "motor
+    ///   saturation"), |gyro| below 34 rad/s;
     /// - 2 s shortest segment, 0.2 s margins, 1 s crash tail.
     pub fn for_log(log: &Log) -> Result<AirborneCriteria> {
         let firmware = FlightFirmware::of(log)?;
@@ -414,13 +445,12 @@ impl AirborneCriteria {
                         "idle throttle",
                     );
                 }
+                // Each end under its own name: motors at 0 throughout are a vehicle on the ground
+                // (or a test stand), not a saturated mixer.
                 for k in 0..8 {
-                    push(
-                        format!("actuator_motors.control[{k}]"),
-                        MOTOR_EDGE,
-                        1.0 - MOTOR_EDGE,
-                        "motor saturation",
-                    );
+                    let ch = format!("actuator_motors.control[{k}]");
+                    push(ch.clone(), MOTOR_EDGE, f64::INFINITY, "motors at idle");
+                    push(ch, f64::NEG_INFINITY, 1.0 - MOTOR_EDGE, "motor saturation");
                 }
                 let g = GYRO_SATURATED * GYRO_FULL_SCALE_DEG_S.to_radians();
                 for i in 0..3 {
@@ -575,29 +605,50 @@ pub fn airborne_segments(
         to_s: t_last,
     };
     if segments.is_empty() {
-        let why: Vec<String> = excluded
-            .iter()
-            .filter(|(_, s)| *s > 0.0)
-            .map(|(r, s)| format!("{r} {s:.1} s"))
-            .collect();
-        return Err(SysidError::NotEnoughData(format!(
-            "{}: no airborne segment of {} s or more between {:.2} s and {:.2} s (excluded: {})",
-            log.source,
-            c.min_len_s,
-            t_first,
-            t_last,
-            if why.is_empty() {
-                "nothing; the span is too short".to_string()
-            } else {
-                why.join(", ")
-            }
-        )));
+        return Err(no_segment_error(log, c, (t_first, t_last), &excluded));
     }
     Ok(Airborne {
         segments,
         excluded_s: excluded,
         searched,
     })
+}
+
+/// The refusal of a span without an airborne segment: how much each reason excluded, and, when one
+/// reason held for the whole span (motors idle or saturated, throttle at idle, landed), that there
+/// was no flight to identify and the vehicle must fly.
+fn no_segment_error(log: &Log, c: &AirborneCriteria, span: (f64, f64), excluded: &[(&'static str, f64)]) -> SysidError {
+    let (t_first, t_last) = span;
+    let why: Vec<String> = excluded
+        .iter()
+        .filter(|(_, s)| *s > 0.0)
+        .map(|(r, s)| format!("{r} {s:.1} s"))
+        .collect();
+    let whole: Vec<&str> = excluded
+        .iter()
+        .filter(|(_, s)| *s >= 0.99 * (t_last - t_first) && t_last > t_first)
+        .map(|(r, _)| *r)
+        .collect();
+    let advice = if whole.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; {} for the whole log, so it holds no flight (a test stand, or a vehicle that never took off?): fly and log again",
+            whole.join(" and ")
+        )
+    };
+    SysidError::NotEnoughData(format!(
+        "{}: no airborne segment of {} s or more between {:.2} s and {:.2} s (excluded: {}){advice}",
+        log.source,
+        c.min_len_s,
+        t_first,
+        t_last,
+        if why.is_empty() {
+            "nothing; the span is too short".to_string()
+        } else {
+            why.join(", ")
+        }
+    ))
 }
 
 /// Maximal runs of `true`.
@@ -689,6 +740,57 @@ mod tests {
         assert_eq!(ch.instrument, "setpoint[0]");
         assert_eq!(ch.gain_unit(), "deg/s² per PID unit");
         assert!(RateLoopChannels::find(&l, Axis::Pitch).is_err());
+    }
+}
+
+#[cfg(test)]
+mod px4_tests {
+    use super::*;
+    use crate::logs::{Channel, Group};
+
+    /// A 5 s PX4 log at 100 Hz whose four motors sit at `motor` throughout (a test stand).
+    fn stand(motor: f64) -> Log {
+        let n = 500;
+        let mut channels = vec![Channel {
+            name: "vehicle_angular_velocity.xyz[0]".into(),
+            values: vec![0.1; n],
+        }];
+        for k in 0..4 {
+            channels.push(Channel {
+                name: format!("actuator_motors.control[{k}]"),
+                values: vec![motor; n],
+            });
+        }
+        Log {
+            source: "stand.ulg".into(),
+            format: LogFormat::Ulog,
+            groups: vec![Group {
+                name: "all".into(),
+                prefix: None,
+                time_s: (0..n).map(|i| i as f64 * 0.01).collect(),
+                channels,
+            }],
+            notes: vec![],
+            settings: vec![],
+            clock_origin_s: 0.0,
+        }
+    }
+
+    #[test]
+    fn motors_idle_or_saturated_throughout_are_refused_by_name_with_the_advice_to_fly() {
+        for (m, reason) in [(0.0, "motors at idle"), (1.0, "motor saturation")] {
+            let l = stand(m);
+            let c = AirborneCriteria::for_log(&l).unwrap();
+            let e = airborne_segments(&l, "vehicle_angular_velocity.xyz[0]", &c, None, None)
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains(&format!("{reason} for the whole log")) && e.contains("fly"),
+                "{e}"
+            );
+            let other = if m == 0.0 { "motor saturation" } else { "motors at idle" };
+            assert!(!e.contains(other), "{e}");
+        }
     }
 }
 

@@ -42,7 +42,7 @@ pub enum RateGains {
         /// Filters and loop rate.
         filters: px4::Filters,
     },
-    /// ArduPilot ATC_RAT_<AXIS>_{P,I,D,FF} (per rad/s); the loop uses the gains × the plant's
+    /// ArduPilot `ATC_RAT_<AXIS>_{P,I,D,FF}` (per rad/s); the loop uses the gains × the plant's
     /// unit.
     Ardupilot {
         /// The gains, as the parameters hold them.

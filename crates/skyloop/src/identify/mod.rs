@@ -246,6 +246,16 @@ pub fn identify_log(log: &Log, a: &IdentifyRequest) -> Result<Identification> {
             slow_rate / 2.5
         ));
     }
+    // A rate loop logged below what shows its dynamics: the firmware's setting that logs it faster.
+    if let Some(fw) = preset.as_ref().map(|p| p.channels.firmware) {
+        if let (Some(min), Some(advice)) = (fw.min_rate_hz(), fw.slow_log_advice()) {
+            if slow_rate < min {
+                warnings.push(format!(
+                    "'{slow_name}' is logged at {slow_rate:.1} Hz, too slow to show the rate loop's dynamics (at least {min:.0} Hz): the fit below is not to be trusted; {advice}"
+                ));
+            }
+        }
+    }
 
     // The segments.
     let mut cols: Vec<&str> = specs.clone();
