@@ -16,6 +16,9 @@ use skyloop::identify::{identify_bytes, IdentifyRequest};
 use skyloop::tune::log::{tune_from_log_bytes, LogTuneRequest};
 use skyloop::tune::Firmware;
 use std::f64::consts::PI;
+#[path = "common/loop_margins.rs"]
+mod common;
+
 use writer::{Writer, V};
 
 const K: f64 = 6000.0; // deg/s² per unit of RATE.ROut
@@ -131,8 +134,7 @@ fn a_400_hz_ardupilot_log_identifies_the_rate_loop() {
         ..Default::default()
     };
     let id = identify_bytes(&log_bytes(1), &req).unwrap();
-    let fit = &id.fit.as_ref().unwrap().1;
-    let (k, tau, td) = (fit.params["K"], fit.params["tau"], fit.params["Td"]);
+    let (k, tau, td) = common::fitted(&id);
     eprintln!(
         "identified K {k:.1} (true {K}), tau {tau:.4} ({TAU}), Td {td:.4} ({TD}); input {}",
         id.input
@@ -170,18 +172,7 @@ fn true_margins(p: f64, i: f64, d: f64) -> (f64, f64) {
         c * g
     };
     // |L| falls through 1 once on this loop: bisect on a log scale between 1 and 5000 rad/s.
-    let (mut lo, mut hi) = (1.0f64, 5000.0f64);
-    assert!(l(lo).norm() > 1.0 && l(hi).norm() < 1.0);
-    for _ in 0..200 {
-        let mid = (lo * hi).sqrt();
-        if l(mid).norm() > 1.0 {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    let pm = 180.0 + l(lo).arg().to_degrees();
-    (lo / (2.0 * PI), pm)
+    common::crossover_and_phase_margin(l, 1.0, 5000.0)
 }
 
 #[test]

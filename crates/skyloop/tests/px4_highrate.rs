@@ -15,6 +15,9 @@ use skyloop::lti::c64;
 use skyloop::tune::log::{tune_from_log_bytes, LogTuneRequest};
 use skyloop::tune::Firmware;
 use std::f64::consts::PI;
+#[path = "common/loop_margins.rs"]
+mod common;
+
 use ulog_writer::{Writer, F};
 
 const K: f64 = 200.0; // rad/s² per unit of normalized torque
@@ -256,8 +259,7 @@ fn request() -> IdentifyRequest {
 fn an_800_hz_px4_log_identifies_the_rate_loop_at_its_own_rate() {
     let bytes = log_bytes(&flight(25.0), Motors::Flying);
     let id = identify_bytes(&bytes, &request()).unwrap();
-    let fit = &id.fit.as_ref().unwrap().1;
-    let (k, tau, td) = (fit.params["K"], fit.params["tau"], fit.params["Td"]);
+    let (k, tau, td) = common::fitted(&id);
     let f_max = id.frf.freq_hz.last().copied().unwrap_or(0.0);
     eprintln!(
         "identified K {k:.1} (true {K}), tau {tau:.4} ({TAU}), Td {td:.4} ({TD}); input {}, output {}, instrument {:?}; FRF up to {f_max:.1} Hz; notes {:?}; warnings {:?}",
@@ -287,17 +289,7 @@ fn true_margins(k: f64, p: f64, i: f64, d: f64) -> (f64, f64) {
         let g = K * (-s * (TD + 0.5 * dt)).exp() / (s * (TAU * s + 1.0));
         c * g
     };
-    let (mut lo, mut hi) = (1.0f64, 2000.0f64);
-    assert!(l(lo).norm() > 1.0 && l(hi).norm() < 1.0);
-    for _ in 0..200 {
-        let mid = (lo * hi).sqrt();
-        if l(mid).norm() > 1.0 {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    (lo / (2.0 * PI), 180.0 + l(lo).arg().to_degrees())
+    common::crossover_and_phase_margin(l, 1.0, 2000.0)
 }
 
 #[test]
@@ -351,8 +343,7 @@ fn a_test_stand_log_is_refused_with_the_reason() {
 fn jittered_time_stamps_and_a_slower_setpoint_keep_each_channel_at_its_own_rate() {
     let bytes = log_bytes_jitter(&flight(25.0), Motors::Flying, 300, 3);
     let id = identify_bytes(&bytes, &request()).unwrap();
-    let fit = &id.fit.as_ref().unwrap().1;
-    let (k, tau, td) = (fit.params["K"], fit.params["tau"], fit.params["Td"]);
+    let (k, tau, td) = common::fitted(&id);
     let f_max = id.frf.freq_hz.last().copied().unwrap_or(0.0);
     eprintln!(
         "jittered, setpoint at 267 Hz: K {k:.1} tau {tau:.4} Td {td:.4}, FRF up to {f_max:.1} Hz; warnings {:?}",

@@ -18,6 +18,14 @@ pub struct UniformData {
 }
 
 impl UniformData {
+    /// The grid samples inside `span` (s, the log's clock): the first sample at or after its
+    /// start to the last at or before its end, clamped to the grid (empty when none).
+    pub fn range_of(&self, span: &super::flight::Span) -> std::ops::Range<usize> {
+        let lo = ((span.from_s - self.t0_s) / self.dt_s).ceil().max(0.0) as usize;
+        let hi = (((span.to_s - self.t0_s) / self.dt_s).floor().max(0.0) as usize + 1).min(self.len());
+        lo..hi.max(lo)
+    }
+
     /// Number of samples.
     pub fn len(&self) -> usize {
         self.columns.first().map_or(0, |c| c.len())

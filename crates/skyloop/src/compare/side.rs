@@ -58,11 +58,7 @@ pub fn axis_data(log: &Log, axis: Axis) -> Result<AxisData> {
     let ranges: Vec<Range<usize>> = air
         .segments
         .iter()
-        .map(|s| {
-            let lo = ((s.from_s - data.t0_s) / data.dt_s).ceil().max(0.0) as usize;
-            let hi = (((s.to_s - data.t0_s) / data.dt_s).floor().max(0.0) as usize + 1).min(data.len());
-            lo..hi.max(lo)
-        })
+        .map(|s| data.range_of(s))
         .filter(|r| r.len() > 1)
         .collect();
     if ranges.is_empty() {

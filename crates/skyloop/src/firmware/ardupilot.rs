@@ -28,8 +28,8 @@ use skyloop_sysid::logs::tuning::ArduPilotTuning;
 /// the unit of a plant identified from a log; the gains act on rad/s.
 pub const LOG_RATE_UNIT_RAD_S: f64 = std::f64::consts::PI / 180.0;
 
-/// `ATC_RAT_<AXIS>_{P,I,D,FF}`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+/// `ATC_RAT_<AXIS>_{P,I,D,FF}` (default: all 0).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
 pub struct Gains {
     /// P, command per rad/s.
     pub p: f64,

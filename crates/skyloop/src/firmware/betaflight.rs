@@ -105,6 +105,18 @@ pub struct Gains {
     pub f: u32,
 }
 
+impl Default for Gains {
+    /// P = I = D = 0 and F 120, Betaflight 4.4's default feedforward.
+    fn default() -> Self {
+        Gains {
+            p: 0,
+            i: 0,
+            d: 0,
+            f: 120,
+        }
+    }
+}
+
 /// The filters and loop rate around the PID.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Filters {

@@ -127,13 +127,7 @@ pub fn flown_tune(log: &Log, firmware: Firmware, axis: betaflight::Axis) -> Resu
         (Some(FirmwareTuning::Px4(p)), Firmware::Px4) => {
             let (filters, g, lines) = px4::flown_from_header(p, axis);
             let controller = RateGains::Px4 {
-                gains: g.unwrap_or(px4::Gains {
-                    k: 1.0,
-                    p: 0.0,
-                    i: 0.0,
-                    d: 0.0,
-                    ff: 0.0,
-                }),
+                gains: g.unwrap_or_default(),
                 axis,
                 filters,
             };

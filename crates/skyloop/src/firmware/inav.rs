@@ -40,8 +40,8 @@ pub const GAIN_MAX: u32 = 255;
 /// The `mc_cd_lpf_hz` default, Hz.
 pub const CD_LPF_DEFAULT_HZ: f64 = 30.0;
 
-/// INAV's integer gains of one axis.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+/// INAV's integer gains of one axis (default: all 0).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
 pub struct Gains {
     /// `mc_p_<axis>`.
     pub p: u32,

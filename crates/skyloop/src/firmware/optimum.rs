@@ -39,23 +39,12 @@ impl RateGains {
                 filters: inav::Filters::default(),
             }),
             Firmware::Px4 => Some(RateGains::Px4 {
-                gains: px4::Gains {
-                    k: 1.0,
-                    p: 0.0,
-                    i: 0.0,
-                    d: 0.0,
-                    ff: 0.0,
-                },
+                gains: px4::Gains::default(),
                 axis,
                 filters: px4::Filters::default(),
             }),
             Firmware::Ardupilot => Some(RateGains::Ardupilot {
-                gains: ardupilot::Gains {
-                    p: 0.0,
-                    i: 0.0,
-                    d: 0.0,
-                    ff: 0.0,
-                },
+                gains: ardupilot::Gains::default(),
                 axis,
                 filters: ardupilot::Filters::default(),
                 plant_unit_rad_s: 1.0,

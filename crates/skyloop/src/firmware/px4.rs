@@ -34,6 +34,19 @@ pub struct Gains {
     pub ff: f64,
 }
 
+impl Default for Gains {
+    /// K = 1 (the parallel form), P = I = D = FF = 0.
+    fn default() -> Self {
+        Gains {
+            k: 1.0,
+            p: 0.0,
+            i: 0.0,
+            d: 0.0,
+            ff: 0.0,
+        }
+    }
+}
+
 /// Filters and loop rate.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Filters {

@@ -306,11 +306,7 @@ pub fn identify_log(log: &Log, a: &IdentifyRequest) -> Result<Identification> {
         ));
         air.segments
             .iter()
-            .map(|s| {
-                let lo = ((s.from_s - data.t0_s) / data.dt_s).ceil().max(0.0) as usize;
-                let hi = (((s.to_s - data.t0_s) / data.dt_s).floor() as usize + 1).min(data.len());
-                lo..hi
-            })
+            .map(|s| data.range_of(s))
             .filter(|r| r.end > r.start + 1)
             .collect()
     } else {

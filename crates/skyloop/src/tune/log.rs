@@ -748,15 +748,7 @@ fn measured(log: &Log, id: &Identification) -> (Result<MeasuredStep>, Result<Mea
             return (Err(Error::Failed(msg.clone())), Err(Error::Failed(msg)));
         }
     };
-    let ranges: Vec<std::ops::Range<usize>> = id
-        .segments
-        .iter()
-        .map(|s| {
-            let lo = ((s.from_s - data.t0_s) / data.dt_s).ceil().max(0.0) as usize;
-            let hi = (((s.to_s - data.t0_s) / data.dt_s).floor().max(0.0) as usize + 1).min(data.len());
-            lo..hi.max(lo)
-        })
-        .collect();
+    let ranges: Vec<std::ops::Range<usize>> = id.segments.iter().map(|s| data.range_of(s)).collect();
     let o = DeconvOptions::default();
     let (x, y) = (&data.columns[0], &data.columns[1]);
     (

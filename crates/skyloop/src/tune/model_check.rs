@@ -76,11 +76,10 @@ pub fn closed_loop_check(
         .segments
         .iter()
         .filter_map(|s| {
-            let lo = ((s.from_s - data.t0_s) / data.dt_s).ceil().max(0.0) as usize;
-            let hi = (((s.to_s - data.t0_s) / data.dt_s).floor().max(0.0) as usize + 1).min(data.len());
-            (hi > lo + 64).then(|| IoData {
-                u: &data.columns[0][lo..hi],
-                y: &data.columns[1][lo..hi],
+            let r = data.range_of(s);
+            (r.len() > 64).then(|| IoData {
+                u: &data.columns[0][r.clone()],
+                y: &data.columns[1][r],
                 r: None,
                 dt_s: data.dt_s,
             })
