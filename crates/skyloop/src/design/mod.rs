@@ -10,21 +10,16 @@
 
 pub mod loop_metrics;
 pub mod report;
+mod steps;
 pub mod table;
 
 pub use crate::spec::design::{DesignSpec, SynthesisMethod};
-use loop_metrics::{closeness, closeness_warped, crossover_limits, four_block_norms, loop_gain_at, loop_margins};
+use loop_metrics::{closeness, crossover_limits};
 use loop_metrics::{Closeness, CrossoverLimits, LoopMargins};
-use rayon::prelude::*;
 use serde::Serialize;
-use skyloop_lti::discretize::{c2d, Method as C2dMethod};
 use skyloop_lti::error::Result;
-use skyloop_lti::reduce::balred;
-use skyloop_lti::sos::{to_sos, Sos};
+use skyloop_lti::sos::Sos;
 use skyloop_lti::{LtiError, StateSpace};
-use skyloop_robust::mixsyn::mixsyn;
-use skyloop_robust::ncfsyn::{ncfsyn, NcfOptions};
-use std::f64::consts::PI;
 
 /// What one design step produced, as numbers.
 #[derive(Debug, Clone, Serialize)]
@@ -209,88 +204,22 @@ pub fn design(spec: &DesignSpec) -> crate::error::Result<DesignResult> {
     let pade = spec.plant.pade_order;
     let plant_rational = rational(&plant, pade);
     let syn = &spec.synthesis;
-    let load = |key: &str, text: &Option<String>| -> Result<Option<StateSpace>> {
-        text.as_deref().map(|t| spec.load_model(key, t)).transpose()
-    };
 
     // Step 1: synthesis.
     let mut notes: Vec<String> = Vec::new();
-    let mut gamma_min = None;
-    let mut factor = None;
-    let (mut w1, mut w2) = (None, None);
-    let (synthesized, synth_gamma) = match syn.method {
-        SynthesisMethod::Ncfsyn => {
-            let w1m = load("synthesis.w1", &syn.w1)?;
-            let w2m = load("synthesis.w2", &syn.w2)?;
-            let opts = NcfOptions {
-                factor: syn.factor.unwrap_or(NcfOptions::default().factor),
-                pade_order: pade,
-            };
-            let sol = ncfsyn(&plant, w1m.as_ref(), w2m.as_ref(), &opts)?;
-            gamma_min = Some(sol.gamma_min);
-            factor = Some(opts.factor);
-            w1 = w1m.map(|w| rational(&w, pade));
-            w2 = w2m.map(|w| rational(&w, pade));
-            (sol.controller, Some(sol.gamma))
-        }
-        SynthesisMethod::Mixsyn => {
-            // An improper weight (W_T = s/ω_T is the textbook one) gets the roll-off MATLAB's
-            // users add by hand, two decades above the plant's fastest dynamics, and a note says so.
-            let roll_w = 100.0 * skyloop_lti::freqresp::dynamics_range(&plant_rational)?.1;
-            let mut proper = |key: &str, text: &Option<String>| -> Result<Option<StateSpace>> {
-                let Some(t) = text.as_deref() else { return Ok(None) };
-                match spec.load_model(key, t) {
-                    Err(e) if e.to_string().contains("improper") => {
-                        for k in 1..=4 {
-                            let rolled = format!("({t})/(s/{roll_w:.6e}+1)^{k}");
-                            if let Ok(m) = spec.load_model(key, &rolled) {
-                                notes.push(format!(
-                                    "{key} = \"{t}\" is improper; synthesized with {key} = \"{rolled}\" (a roll-off of order {k} at {roll_w:.4e} rad/s, two decades above the plant's fastest dynamics; give a proper weight to choose it yourself)"
-                                ));
-                                return Ok(Some(m));
-                            }
-                        }
-                        Err(e)
-                    }
-                    r => r.map(Some),
-                }
-            };
-            let ws = proper("synthesis.ws", &syn.ws)?;
-            let wks = proper("synthesis.wks", &syn.wks)?;
-            let wt = proper("synthesis.wt", &syn.wt)?;
-            let sol = mixsyn(
-                &plant_rational,
-                ws.as_ref(),
-                wks.as_ref(),
-                wt.as_ref(),
-                &Default::default(),
-            )?;
-            (sol.controller, Some(sol.gamma))
-        }
-        SynthesisMethod::Given => {
-            let c = load("synthesis.controller", &syn.controller)?
-                .ok_or_else(|| LtiError::InvalidArgument("synthesis.controller: missing".into()))?;
-            if c.ny() != 1 || c.nu() != 1 {
-                return Err(LtiError::Dimension("synthesis.controller: must be SISO".into()).into());
-            }
-            if c.has_delay() {
-                return Err(LtiError::Unsupported("synthesis.controller: must not have delays".into()).into());
-            }
-            (c, None)
-        }
-    };
+    let s = steps::synthesize(spec, &plant, &plant_rational, &mut notes)?;
     let is_ncf = syn.method == SynthesisMethod::Ncfsyn;
     // Modes beyond 100x the fastest dynamics of the plant and weights are numerical artefacts of
     // γ near γ_opt (see residualize_fast_modes); 100x keeps the change ≤ 1% up to those dynamics.
     let mut fast_modes_removed = 0;
     let synthesized = if syn.method == SynthesisMethod::Given {
-        synthesized
+        s.controller
     } else {
         let mut hi = skyloop_lti::freqresp::dynamics_range(&plant_rational)?.1;
-        for w in [&w1, &w2].into_iter().flatten() {
+        for w in [&s.w1, &s.w2].into_iter().flatten() {
             hi = hi.max(skyloop_lti::freqresp::dynamics_range(w)?.1);
         }
-        let (c, k) = residualize_fast_modes(&synthesized, 100.0 * hi)?;
+        let (c, k) = residualize_fast_modes(&s.controller, 100.0 * hi)?;
         fast_modes_removed = k;
         c
     };
@@ -298,93 +227,31 @@ pub fn design(spec: &DesignSpec) -> crate::error::Result<DesignResult> {
     // Step 3 before step 2: reduction (balanced truncation and SPA) is linear in a scalar gain,
     // balred(k·C) = k·balred(C), so the unboosted controller is reduced once and the boost can
     // target the crossover of the loop that will actually fly (the reduced one, as the paper reports).
-    let reduced0 = match &spec.reduction {
-        Some(r) => {
-            let method = r
-                .method
-                .parse()
-                .map_err(|e| LtiError::InvalidArgument(format!("reduction.method: {e}")))?;
-            if r.order >= synthesized.nx() {
-                // As MATLAB's balred: nothing to reduce is not an error; the controller is kept.
-                notes.push(format!(
-                    "reduction.order {} is not below the controller order {}: nothing to reduce, the controller is kept as synthesized",
-                    r.order,
-                    synthesized.nx()
-                ));
-                None
-            } else {
-                let red = balred(&synthesized, r.order, method)
-                    .map_err(|e| LtiError::InvalidArgument(format!("reduction: {e}")))?;
-                Some(red)
-            }
-        }
-        None => None,
-    };
-
+    let reduced0 = steps::reduce(spec, &synthesized, &mut notes)?;
     // Step 2: gain boost (paper: K∞ scaled up until the crossover is as high as the plant allows).
-    let mut boost_gain = 1.0;
-    if let Some(b) = &spec.boost {
-        boost_gain = match (b.crossover_hz, b.gain) {
-            (Some(f), _) => {
-                let target = reduced0.as_ref().map(|r| &r.sys).unwrap_or(&synthesized);
-                let g = loop_gain_at(&plant, target, 2.0 * PI * f)?;
-                if !(g > 0.0 && g.is_finite()) {
-                    return Err(LtiError::Numerical(format!(
-                        "boost.crossover_hz: the loop gain at {f} Hz is {g}, cannot scale it to 1"
-                    ))
-                    .into());
-                }
-                1.0 / g
-            }
-            (None, Some(g)) => g,
-            (None, None) => 1.0,
-        };
-    }
+    let target = reduced0.as_ref().map(|r| &r.sys).unwrap_or(&synthesized);
+    let boost_gain = steps::boost_gain(spec, &plant, target)?;
     let full = scaled(&synthesized, boost_gain);
-
     let mut hsv = Vec::new();
     let mut reduction_error_bound = None;
-    let reduced = match reduced0 {
-        Some(red) => {
-            let sys = scaled(&red.sys, boost_gain);
-            hsv = red.hsv.iter().map(|h| h * boost_gain).collect();
-            reduction_error_bound = Some(red.error_bound * boost_gain);
-            Some(sys)
-        }
-        None => None,
-    };
+    let reduced = reduced0.map(|red| {
+        hsv = red.hsv.iter().map(|h| h * boost_gain).collect();
+        reduction_error_bound = Some(red.error_bound * boost_gain);
+        scaled(&red.sys, boost_gain)
+    });
 
-    // Analysis of every step; the steps are independent, so they run in parallel. The synthesis
-    // step's γ is ncfsyn's exact one; after boost and reduction C is no longer W1·K∞·W2 with the
-    // synthesized K∞, so γ is the 4-block norm on a grid (see loop_metrics::shaped_gamma).
-    let mut steps: Vec<(&str, &StateSpace, Option<f64>, bool)> = vec![("synthesis", &synthesized, synth_gamma, false)];
+    // Analysis of every step. The synthesis step's γ is ncfsyn's exact one; after boost and
+    // reduction C is no longer W1·K∞·W2 with the synthesized K∞, so γ is the 4-block norm on a
+    // grid (see loop_metrics::shaped_gamma).
+    let mut controllers: Vec<steps::Stage> = vec![("synthesis", &synthesized, s.gamma, false)];
     if spec.boost.is_some() {
-        steps.push(("boost", &full, None, is_ncf));
+        controllers.push(("boost", &full, None, is_ncf));
     }
     if let Some(r) = &reduced {
-        steps.push(("reduction", r, None, is_ncf));
+        controllers.push(("reduction", r, None, is_ncf));
     }
-    let stages = steps
-        .par_iter()
-        .map(|&(name, c, gamma, grid)| -> Result<StageSummary> {
-            let (first, margins) = rayon::join(
-                || -> Result<(f64, Option<f64>)> {
-                    let (g, inv_b) = four_block_norms(&plant_rational, w1.as_ref(), w2.as_ref(), c)?;
-                    let b = if inv_b.is_finite() { 1.0 / inv_b } else { 0.0 };
-                    Ok((b, if grid { Some(g) } else { gamma }))
-                },
-                || loop_margins(&plant, c),
-            );
-            let (ncf_margin, gamma) = first?;
-            Ok(StageSummary {
-                stage: name.into(),
-                order: c.nx(),
-                gamma,
-                ncf_margin,
-                margins: margins?,
-            })
-        })
-        .collect::<Result<Vec<_>>>()?;
+    let weights = (s.w1.as_ref(), s.w2.as_ref());
+    let stages = steps::analyse(&plant, &plant_rational, weights, &controllers)?;
     let mut reduced_vs_full = None;
     if let (Some(r), Some(st)) = (&reduced, stages.last()) {
         let fc = st.margins.crossover_hz;
@@ -398,23 +265,7 @@ pub fn design(spec: &DesignSpec) -> crate::error::Result<DesignResult> {
     let final_c = reduced.as_ref().unwrap_or(&full);
     let (discrete, sos, dsum) = match &spec.discretize {
         Some(d) => {
-            let dt = 1.0 / d.rate_hz;
-            let prewarp_rad_s = d.prewarp_hz.map(|f| 2.0 * PI * f);
-            let cd = c2d(final_c, dt, C2dMethod::Tustin { prewarp_rad_s })?;
-            let sos = to_sos(&cd)?;
-            let top = spec.analysis.compare_up_to_hz;
-            let vs_continuous = closeness(&cd, final_c, 0.01, top)?;
-            // Tustin with effective period T' maps e^{jωT} to s = j(2/T')·tan(ωT/2).
-            let t_eff = match prewarp_rad_s {
-                Some(w) => 2.0 * (w * dt / 2.0).tan() / w,
-                None => dt,
-            };
-            let vs_warped = closeness_warped(&cd, final_c, 0.01, top, |w| 2.0 / t_eff * (w * dt / 2.0).tan())?;
-            let ds = DiscreteSummary {
-                rate_hz: d.rate_hz,
-                vs_continuous,
-                vs_warped,
-            };
+            let (cd, sos, ds) = steps::discretize(d, final_c, spec.analysis.compare_up_to_hz)?;
             (Some(cd), Some(sos), Some(ds))
         }
         None => (None, None, None),
@@ -425,8 +276,8 @@ pub fn design(spec: &DesignSpec) -> crate::error::Result<DesignResult> {
     let summary = DesignSummary {
         name: spec.name.clone(),
         method: format!("{:?}", syn.method).to_lowercase(),
-        gamma_min,
-        factor,
+        gamma_min: s.gamma_min,
+        factor: s.factor,
         boost_gain,
         fast_modes_removed,
         notes,
@@ -440,8 +291,8 @@ pub fn design(spec: &DesignSpec) -> crate::error::Result<DesignResult> {
     Ok(DesignResult {
         plant,
         plant_rational,
-        w1,
-        w2,
+        w1: s.w1,
+        w2: s.w2,
         synthesized,
         full,
         reduced,

@@ -587,7 +587,8 @@ fn propose_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, fl: &Flow
             if let Some(why) = &refusal {
                 let mut out = outcome_for_gains(g, held, &req.goals, Vec::new())?;
                 out.cli.clear();
-                let nr = noise_of(&gn, g, g, held)?;
+                let mut nr = noise_of(&gn, g, g, held)?;
+                nr.budget = Some(req.noise_budget);
                 noise_report = Some(nr);
                 (
                     out,
@@ -1020,6 +1021,7 @@ pub(crate) fn noise_of(
         bands,
         dterm_check,
         spectra,
+        budget: None,
     })
 }
 
@@ -1126,7 +1128,8 @@ fn grid_proposal(
             },
         ),
     };
-    let noise = noise_of(gn, flown, &gains, held)?;
+    let mut noise = noise_of(gn, flown, &gains, held)?;
+    noise.budget = Some(req.noise_budget);
     let mut outcome = outcome_for_gains(&gains, held, &req.goals, notes)?;
     if let (Some(ds), false) = (dterm, filter_changes.is_empty()) {
         // The firmware's lines for the filters, before its `save`.

@@ -111,6 +111,9 @@ pub struct NoiseReport {
     /// predicted PID-output PSD of the flown and the proposed tune (units²/Hz), and the logged
     /// D term's PSD where logged.
     pub spectra: Spectra,
+    /// The tune's noise budget, the largest proposed/flown power it accepts (`--noise-budget`);
+    /// None where no budget applies (a live re-analysis).
+    pub budget: Option<f64>,
 }
 
 /// The noise spectra a report draws (see [`NoiseReport::spectra`]).
@@ -134,7 +137,8 @@ impl NoiseReport {
         self.proposed / self.flown.max(f64::MIN_POSITIVE)
     }
 
-    /// `{flown, proposed, ratio, band_hz, unit, bands: [{band_hz, flown, proposed, ratio}], dterm_check}`.
+    /// `{flown, proposed, ratio, band_hz, unit, bands: [{band_hz, flown, proposed, ratio}], dterm_check,
+    /// budget, spectra}`.
     pub fn to_json(&self) -> Value {
         json!({
             "flown": self.flown,
@@ -147,6 +151,7 @@ impl NoiseReport {
                 "ratio": p / f.max(f64::MIN_POSITIVE),
             })).collect::<Vec<_>>(),
             "dterm_check": self.dterm_check,
+            "budget": self.budget,
             "spectra": {
                 "freq_hz": self.spectra.freq_hz,
                 "gyro_psd": self.spectra.gyro,
