@@ -117,6 +117,25 @@ pub fn compare(
     hinf: &StateSpace,
     out: &Path,
 ) -> Result<(ComparisonPid, Vec<PathBuf>)> {
+    let pid = tuned_pid_claims(c, plant)?;
+    t_peak_claims(c, plant, &pid, hinf)?;
+    let (s_hinf, gmax) = s_gap_claim(c, plant, &pid, hinf)?;
+    gain_margin_goal_note(c, plant, &s_hinf)?;
+    let [kp, ki, kd, tf] = pid.gains;
+    c.measure("pid_kp", kp);
+    c.measure("pid_ki", ki);
+    c.measure("pid_kd", kd);
+    c.measure("pid_tf_s", tf);
+    c.measure("pid_gain_margin_db", pid.margins.gain_margin_db);
+    c.measure("pid_s_gap_max_db", gmax);
+
+    let files = figures(plant, hinf, &pid, out)?;
+    Ok((pid, files))
+}
+
+/// Step 4: tunes the PID on `plant` with [`GOALS`], notes its gains (plant units, tf in s) and
+/// loop numbers, and sets its PM (°), crossover (Hz) and GM (dB) beside the paper's.
+fn tuned_pid_claims(c: &mut Reproduction, plant: &StateSpace) -> Result<ComparisonPid> {
     c.note("Step 4: the comparison PID (the paper prints its loop numbers, not its gains)");
     let pid = tune_pid(plant)?;
     let [kp, ki, kd, tf] = pid.gains;
@@ -144,16 +163,42 @@ pub fn compare(
         "  PID loop: disk α {:.3}, Ms {:.3} at {:.2} Hz, Mt {:.3} at {:.2} Hz, GM read at {:.2} Hz",
         m.disk_alpha, m.ms, m.ms_freq_hz, m.mt, m.mt_freq_hz, m.gain_margin_freq_hz
     ));
+    Ok(pid)
+}
 
-    // Fig. 11: |T| of both, looking for the PID's peak near 27.8 Hz.
+/// |T| = |P·C/(1 + P·C)| in dB of `plant` with controller `ctrl` at `f_hz` (Hz).
+fn t_db(plant: &StateSpace, ctrl: &StateSpace, f_hz: &[f64]) -> Result<Vec<f64>> {
+    let p = response(plant, f_hz)?;
+    let cv = response(ctrl, f_hz)?;
+    Ok(db(&p
+        .iter()
+        .zip(&cv)
+        .map(|(a, b)| a * b / (1.0 + a * b))
+        .collect::<Vec<_>>()))
+}
+
+/// |S| = |1/(1 + P·C)| in dB of `plant` with controller `ctrl` at `f_hz` (Hz).
+fn s_db(plant: &StateSpace, ctrl: &StateSpace, f_hz: &[f64]) -> Result<Vec<f64>> {
+    let p = response(plant, f_hz)?;
+    let cv = response(ctrl, f_hz)?;
+    Ok(db(&p
+        .iter()
+        .zip(&cv)
+        .map(|(a, b)| 1.0 / (1.0 + a * b))
+        .collect::<Vec<_>>()))
+}
+
+/// The 41-point grid of the |S| comparison over [`S_BAND_HZ`] (Hz).
+fn s_band() -> Vec<f64> {
+    logspace(S_BAND_HZ.0.log10(), S_BAND_HZ.1.log10(), 41)
+}
+
+/// Fig. 11: the local maxima of |T| (5–100 Hz) of both loops, the PID's comb of peaks explained,
+/// and the claims that the PID has a notable peak near [`T_PEAK_HZ`] and the H∞ controller none.
+fn t_peak_claims(c: &mut Reproduction, plant: &StateSpace, pid: &ComparisonPid, hinf: &StateSpace) -> Result<()> {
     let f_hi: Vec<f64> = logspace(5f64.log10(), 2.0, 2000);
-    let t_of = |ctrl: &StateSpace, f: &[f64]| -> Result<Vec<c64>> {
-        let p = response(plant, f)?;
-        let cv = response(ctrl, f)?;
-        Ok(p.iter().zip(&cv).map(|(a, b)| a * b / (1.0 + a * b)).collect())
-    };
-    let t_pid = db(&t_of(&pid.controller, &f_hi)?);
-    let t_hinf = db(&t_of(hinf, &f_hi)?);
+    let t_pid = t_db(plant, &pid.controller, &f_hi)?;
+    let t_hinf = t_db(plant, hinf, &f_hi)?;
     let pid_peaks = local_peaks(&f_hi, &t_pid);
     let hinf_peaks = local_peaks(&f_hi, &t_hinf);
     let list = |v: &[(f64, f64, f64)]| {
@@ -171,20 +216,7 @@ pub fn compare(
         list(&pid_peaks),
         list(&hinf_peaks)
     ));
-    let big: Vec<f64> = pid_peaks
-        .iter()
-        .filter(|p| p.2 >= T_PEAK_MIN_PROMINENCE_DB)
-        .map(|p| p.0)
-        .collect();
-    if big.len() >= 2 {
-        let spacing = (big[big.len() - 1] - big[0]) / (big.len() - 1) as f64;
-        c.note(format!(
-            "  the PID's |T| peaks repeat every {spacing:.1} Hz: with |L| nearly flat above the RHP zero (D on a plant whose gain is \
-             flat there), |1 + L| dips each time the phase of L passes −180° (mod 360°), i.e. every {spacing:.1} Hz for {:.1} ms of \
-             delay and lag (the plant's pure delay is 32 ms); the peak near 27.8 Hz is the first of this comb",
-            1e3 / spacing
-        ));
-    }
+    comb_note(c, &pid_peaks);
     let near = peak_near(&f_hi, &t_pid);
     c.check(
         near.is_some(),
@@ -214,19 +246,39 @@ pub fn compare(
             ))
         ),
     );
+    Ok(())
+}
 
-    // Fig. 12: |S| at low frequency.
-    let f_lo: Vec<f64> = logspace(S_BAND_HZ.0.log10(), S_BAND_HZ.1.log10(), 41);
-    let s_of = |ctrl: &StateSpace| -> Result<Vec<f64>> {
-        let p = response(plant, &f_lo)?;
-        let cv = response(ctrl, &f_lo)?;
-        Ok(db(&p
-            .iter()
-            .zip(&cv)
-            .map(|(a, b)| 1.0 / (1.0 + a * b))
-            .collect::<Vec<_>>()))
-    };
-    let (s_pid, s_hinf) = (s_of(&pid.controller)?, s_of(hinf)?);
+/// When the PID's |T| has two or more prominent peaks (`pid_peaks`: Hz, dB, prominence dB), notes
+/// their mean spacing (Hz) and the delay (ms) it corresponds to.
+fn comb_note(c: &mut Reproduction, pid_peaks: &[(f64, f64, f64)]) {
+    let big: Vec<f64> = pid_peaks
+        .iter()
+        .filter(|p| p.2 >= T_PEAK_MIN_PROMINENCE_DB)
+        .map(|p| p.0)
+        .collect();
+    if big.len() >= 2 {
+        let spacing = (big[big.len() - 1] - big[0]) / (big.len() - 1) as f64;
+        c.note(format!(
+            "  the PID's |T| peaks repeat every {spacing:.1} Hz: with |L| nearly flat above the RHP zero (D on a plant whose gain is \
+             flat there), |1 + L| dips each time the phase of L passes −180° (mod 360°), i.e. every {spacing:.1} Hz for {:.1} ms of \
+             delay and lag (the plant's pure delay is 32 ms); the peak near 27.8 Hz is the first of this comb",
+            1e3 / spacing
+        ));
+    }
+}
+
+/// Fig. 12: |S| (dB) of both loops over [`S_BAND_HZ`], the low-frequency limit of their ratio, and
+/// the claim that H∞ attenuates more than 20 dB better; returns the H∞ |S| (dB) on the band and the
+/// largest gap |S_PID| − |S_H∞| (dB).
+fn s_gap_claim(
+    c: &mut Reproduction,
+    plant: &StateSpace,
+    pid: &ComparisonPid,
+    hinf: &StateSpace,
+) -> Result<(Vec<f64>, f64)> {
+    let f_lo = s_band();
+    let (s_pid, s_hinf) = (s_db(plant, &pid.controller, &f_lo)?, s_db(plant, hinf, &f_lo)?);
     // Positive: H∞ attenuates more.
     let gap: Vec<f64> = s_pid.iter().zip(&s_hinf).map(|(a, b)| a - b).collect();
     let gmax = gap.iter().copied().fold(f64::NEG_INFINITY, f64::max);
@@ -247,8 +299,9 @@ pub fn compare(
         (response(hinf, &[1e-4])?[0] * c64::new(0.0, w)).norm()
     };
     c.note(format!(
-        "  low-frequency limit: |S_PID/S_H∞| → ki_H∞/ki_PID with ki_H∞ = lim s·C(s) = {hinf_ki:.5}, ki_PID = {ki:.5}: \
+        "  low-frequency limit: |S_PID/S_H∞| → ki_H∞/ki_PID with ki_H∞ = lim s·C(s) = {hinf_ki:.5}, ki_PID = {:.5}: \
          H∞ 20 dB better would need ki_PID ≤ {:.5}",
+        pid.gains[1],
         hinf_ki / 10.0
     ));
     c.push(super::Claim {
@@ -265,15 +318,20 @@ pub fn compare(
             if gmax < 0.0 { "; the MIGO PID attenuates more" } else { "" }
         ),
     });
-    // Side analysis (a note, not a claim): the PID with all three printed margins as goals.
+    Ok((s_hinf, gmax))
+}
+
+/// Side analysis (a note, not a claim): the PID tuned with the printed GM as a third goal, its
+/// integral gain and margins, and its largest |S| gap (dB) to the H∞ loop's `s_hinf` over the band.
+fn gain_margin_goal_note(c: &mut Reproduction, plant: &StateSpace, s_hinf: &[f64]) -> Result<()> {
     let mut all3 = GOALS.to_vec();
     all3.push("gain_margin_db>=6.9");
     match tune_pid_with(plant, &all3) {
         Ok(p3) => {
-            let s3 = s_of(&p3.controller)?;
+            let s3 = s_db(plant, &p3.controller, &s_band())?;
             let g3 = s3
                 .iter()
-                .zip(&s_hinf)
+                .zip(s_hinf)
                 .map(|(a, b)| a - b)
                 .fold(f64::NEG_INFINITY, f64::max);
             c.note(format!(
@@ -296,15 +354,7 @@ pub fn compare(
             "  with the printed GM as a third goal too, tune found no PID: {e}"
         )),
     }
-    c.measure("pid_kp", kp);
-    c.measure("pid_ki", ki);
-    c.measure("pid_kd", kd);
-    c.measure("pid_tf_s", tf);
-    c.measure("pid_gain_margin_db", m.gain_margin_db);
-    c.measure("pid_s_gap_max_db", gmax);
-
-    let files = figures(plant, hinf, &pid, out)?;
-    Ok((pid, files))
+    Ok(())
 }
 
 /// Fig. 10–12 for both controllers: L (Bode with the PID's margins marked), and |S|, |T| in one

@@ -7,8 +7,9 @@ use crate::error::Result;
 use skyloop_plot::traces::{plot_traces, Trace, TracePanel};
 use skyloop_sim::cascade::RateLaw;
 use skyloop_sim::linear_models::{self, SsiLoop};
+use skyloop_sim::linearize::Linearization;
 use skyloop_sim::{disturbance::DisturbanceSpec, Sample, Scenario};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 const SCENARIO: &str = include_str!("../../../../examples/quadrotor-ssi.toml");
 
@@ -49,6 +50,16 @@ fn overshoot(trace: &[Sample], t0: f64, t1: f64, target: f64) -> f64 {
         / target
 }
 
+/// One nonlinear run of Fig. 6–8: its label, trace, largest roll error under the gust (rad), final
+/// roll error (rad) and whether it crashed.
+struct GustRun {
+    label: String,
+    trace: Vec<Sample>,
+    gust_err_rad: f64,
+    final_err_rad: f64,
+    crashed: bool,
+}
+
 /// Runs the reproduction, writing traces and plots to `out`.
 pub fn run(out: &Path) -> Result<Reproduction> {
     let scn = Scenario::from_toml(SCENARIO).map_err(|e| format!("embedded scenario: {e}"))?;
@@ -65,70 +76,107 @@ pub fn run(out: &Path) -> Result<Reproduction> {
     rep.note("\nLinear: roll axis of the linearized quadrotor (motors residualized), SSI-PI loop closed");
     let roll = linear_models::quad_roll_axis(&vehicle)?;
     for frac in [1.0, 0.5] {
-        let c = SsiLoop {
-            kp,
-            ki,
-            jm: frac * j,
-            k_att: 1.0,
-        };
-        let cl = linear_models::ssi_closed_loop(&roll, "roll_rad", "p_rad_s", "mx_n_m", c)?;
-        let poles = linear_models::eigenvalues(&cl.a)?;
-        let got = poly_from_roots(&poles);
-        let want = linear_models::eq32_charpoly(j, c);
-        let rel = got
-            .iter()
-            .zip(want.iter())
-            .map(|(g, w)| (g - w).abs() / w.abs())
-            .fold(0.0, f64::max);
-        rep.note(format!(
-            "  Jm = {frac}·J: closed-loop char. poly {:?}",
-            got.iter().map(|v| format!("{v:.6}")).collect::<Vec<_>>()
-        ));
-        rep.note(format!(
-            "               eq. (32)               {:?}",
-            want.iter().map(|v| format!("{v:.6}")).collect::<Vec<_>>()
-        ));
-        rep.check(
-            rel < 1e-6,
-            format!("eq. (32) coefficients match (Jm = {frac}·J), max rel. error {rel:.1e}"),
-        );
-        let pstr: Vec<String> = poles.iter().map(|p| format!("{:.4}{:+.4}j", p.re, p.im)).collect();
-        rep.note(format!("               poles {}", pstr.join(", ")));
-        if frac == 1.0 {
-            let a = kp / j;
-            let disc = a * a - 4.0 * a;
-            let r = if disc >= 0.0 {
-                vec![(-a - disc.sqrt()) / 2.0, (-a + disc.sqrt()) / 2.0, -ki]
-            } else {
-                vec![-ki]
-            };
-            let worst = r
-                .iter()
-                .map(|z| {
-                    poles
-                        .iter()
-                        .map(|p| (p - num_complex::Complex64::new(*z, 0.0)).norm())
-                        .fold(f64::INFINITY, f64::min)
-                })
-                .fold(0.0, f64::max);
-            rep.note(format!(
-                "               eq. (33) roots: −Ki = {}, s² + (Kp/J)s + Kp/J → {:?}",
-                -ki,
-                &r[..r.len().min(2)]
-            ));
-            rep.check(
-                worst < 1e-6 * ki,
-                format!("poles equal eq. (33)'s factorization (max distance {worst:.1e})"),
-            );
-        }
-        let max_re = poles.iter().fold(f64::NEG_INFINITY, |m, p| m.max(p.re));
-        let routh = linear_models::routh_eq35(j, c);
-        rep.check(
-            routh == (max_re < 0.0),
-            format!("Routh (35) says stable = {routh}, eigenvalues: max Re = {max_re:.4}"),
-        );
+        linear_loop_checks(&mut rep, &roll, j, kp, ki, frac)?;
     }
-    // Routh boundary swept: (35) must agree with the eigenvalues on each side of it.
+    routh_sweep(&mut rep, &roll, j, kp, ki)?;
+
+    let results = gust_runs(&mut rep, &scn, vehicle.nu(), out)?;
+    gust_checks(&mut rep, &results);
+    rate_step_check(&mut rep, &scn)?;
+
+    let path = roll_figure(out, &results)?;
+    rep.note(format!(
+        "\nwrote {} and per-run CSV/SVG in {}",
+        path.display(),
+        out.display()
+    ));
+    rep.artifact(&path);
+    super::write_report(
+        &mut rep,
+        "SSI-PI quadrotor (Tai, Phang & Hoo 2018): claims reproduced",
+        out,
+    )?;
+    Ok(rep)
+}
+
+/// The linearized roll axis `roll` with the SSI-PI loop closed (Kp in N·m per rad/s, Ki in 1/s,
+/// Jm = `frac`·J with J = `j` kg·m², attitude gain 1): its characteristic polynomial against
+/// eq. (32), its poles against eq. (33)'s factorization when Jm = J, and its stability against the
+/// Routh condition (35).
+fn linear_loop_checks(rep: &mut Reproduction, roll: &Linearization, j: f64, kp: f64, ki: f64, frac: f64) -> Result<()> {
+    let c = SsiLoop {
+        kp,
+        ki,
+        jm: frac * j,
+        k_att: 1.0,
+    };
+    let cl = linear_models::ssi_closed_loop(roll, "roll_rad", "p_rad_s", "mx_n_m", c)?;
+    let poles = linear_models::eigenvalues(&cl.a)?;
+    let got = poly_from_roots(&poles);
+    let want = linear_models::eq32_charpoly(j, c);
+    let rel = got
+        .iter()
+        .zip(want.iter())
+        .map(|(g, w)| (g - w).abs() / w.abs())
+        .fold(0.0, f64::max);
+    rep.note(format!(
+        "  Jm = {frac}·J: closed-loop char. poly {:?}",
+        got.iter().map(|v| format!("{v:.6}")).collect::<Vec<_>>()
+    ));
+    rep.note(format!(
+        "               eq. (32)               {:?}",
+        want.iter().map(|v| format!("{v:.6}")).collect::<Vec<_>>()
+    ));
+    rep.check(
+        rel < 1e-6,
+        format!("eq. (32) coefficients match (Jm = {frac}·J), max rel. error {rel:.1e}"),
+    );
+    let pstr: Vec<String> = poles.iter().map(|p| format!("{:.4}{:+.4}j", p.re, p.im)).collect();
+    rep.note(format!("               poles {}", pstr.join(", ")));
+    if frac == 1.0 {
+        eq33_check(rep, &poles, kp / j, ki);
+    }
+    let max_re = poles.iter().fold(f64::NEG_INFINITY, |m, p| m.max(p.re));
+    let routh = linear_models::routh_eq35(j, c);
+    rep.check(
+        routh == (max_re < 0.0),
+        format!("Routh (35) says stable = {routh}, eigenvalues: max Re = {max_re:.4}"),
+    );
+    Ok(())
+}
+
+/// Eq. (33) for Jm = J: the closed-loop `poles` are −Ki (`ki`, 1/s) and the roots of
+/// s² + a·s + a with `a` = Kp/J; notes the roots and checks the largest distance to them.
+fn eq33_check(rep: &mut Reproduction, poles: &[num_complex::Complex64], a: f64, ki: f64) {
+    let disc = a * a - 4.0 * a;
+    let r = if disc >= 0.0 {
+        vec![(-a - disc.sqrt()) / 2.0, (-a + disc.sqrt()) / 2.0, -ki]
+    } else {
+        vec![-ki]
+    };
+    let worst = r
+        .iter()
+        .map(|z| {
+            poles
+                .iter()
+                .map(|p| (p - num_complex::Complex64::new(*z, 0.0)).norm())
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max);
+    rep.note(format!(
+        "               eq. (33) roots: −Ki = {}, s² + (Kp/J)s + Kp/J → {:?}",
+        -ki,
+        &r[..r.len().min(2)]
+    ));
+    rep.check(
+        worst < 1e-6 * ki,
+        format!("poles equal eq. (33)'s factorization (max distance {worst:.1e})"),
+    );
+}
+
+/// The Routh condition (35) swept across its boundary (Jm from −J to 2J, four (Kp, Ki) pairs): it
+/// must agree with the eigenvalues wherever the loop is not marginal.
+fn routh_sweep(rep: &mut Reproduction, roll: &Linearization, j: f64, kp: f64, ki: f64) -> Result<()> {
     let mut agree = 0;
     let mut total = 0;
     for frac in [-1.0, -0.5, -0.1, 0.0, 0.01, 0.1, 0.5, 1.0, 2.0] {
@@ -139,7 +187,7 @@ pub fn run(out: &Path) -> Result<Reproduction> {
                 jm: frac * j,
                 k_att: 1.0,
             };
-            let cl = linear_models::ssi_closed_loop(&roll, "roll_rad", "p_rad_s", "mx_n_m", c)?;
+            let cl = linear_models::ssi_closed_loop(roll, "roll_rad", "p_rad_s", "mx_n_m", c)?;
             let max_re = linear_models::eigenvalues(&cl.a)?
                 .iter()
                 .fold(f64::NEG_INFINITY, |m, p| m.max(p.re));
@@ -153,7 +201,13 @@ pub fn run(out: &Path) -> Result<Reproduction> {
         agree == total,
         format!("Routh (35) agrees with eigenvalues on {agree}/{total} (Kp, Ki, Jm) cases"),
     );
+    Ok(())
+}
 
+/// The nonlinear 6-DOF runs of Fig. 6–8 (roll step 0.2 rad at 1 s, then the scenario's torque
+/// gust): SSI-PI with Jm = J and 0.5·J and the plain PI, each tabulated and written as CSV/SVG
+/// (`nu` motor channels) into `out`.
+fn gust_runs(rep: &mut Reproduction, scn: &Scenario, nu: usize, out: &Path) -> Result<Vec<GustRun>> {
     rep.note("\nNonlinear 6-DOF simulation (RK4 1 kHz, motors, gyro noise): roll step 0.2 rad at 1 s, gust torque");
     let t_gust = scn
         .disturbance
@@ -167,14 +221,14 @@ pub fn run(out: &Path) -> Result<Reproduction> {
         (
             "ssi_jm_1.0",
             "SSI-PI, Jm = J (Fig. 6)",
-            with_law(&scn, |i| ssi(&scn, i, 1.0)),
+            with_law(scn, |i| ssi(scn, i, 1.0)),
         ),
         (
             "ssi_jm_0.5",
             "SSI-PI, Jm = 0.5·J (Fig. 7)",
-            with_law(&scn, |i| ssi(&scn, i, 0.5)),
+            with_law(scn, |i| ssi(scn, i, 0.5)),
         ),
-        ("pi", "PI (same Kp, Ki·Kp)", with_law(&scn, |i| pi(&scn, i))),
+        ("pi", "PI (same Kp, Ki·Kp)", with_law(scn, |i| pi(scn, i))),
     ];
     let mut results = Vec::new();
     rep.note(format!(
@@ -192,43 +246,63 @@ pub fn run(out: &Path) -> Result<Reproduction> {
             "  {label:<28} {os:>12.2} {ge:>14.5} {fe:>14.5} {:>9}",
             m.crashed
         ));
-        crate::simulation::write_run(out, stem, label, &trace, vehicle.nu())?;
+        crate::simulation::write_run(out, stem, label, &trace, nu)?;
         rep.artifact(&out.join(format!("{stem}.csv")));
-        results.push((label.to_string(), trace, os, ge, fe, m.crashed));
+        results.push(GustRun {
+            label: label.to_string(),
+            trace,
+            gust_err_rad: ge,
+            final_err_rad: fe,
+            crashed: m.crashed,
+        });
     }
-    let (ideal, half, pi_r) = (&results[0], &results[1], &results[2]);
-    rep.check(!ideal.5 && !half.5, "no crash with Jm = J or Jm = 0.5·J".into());
+    Ok(results)
+}
+
+/// The paper's claims on the gust runs (SSI-PI Jm = J, Jm = 0.5·J, PI): no crash, the gust error
+/// bounded by 0.05 rad, the constant disturbance eliminated, and Jm = 0.5·J no better than Jm = J.
+fn gust_checks(rep: &mut Reproduction, results: &[GustRun]) {
+    let (ideal, half) = (&results[0], &results[1]);
     rep.check(
-        ideal.3 < 0.05,
+        !ideal.crashed && !half.crashed,
+        "no crash with Jm = J or Jm = 0.5·J".into(),
+    );
+    rep.check(
+        ideal.gust_err_rad < 0.05,
         format!(
             "Jm = J: angle error under the gust bounded by 0.05 rad ({:.4})",
-            ideal.3
+            ideal.gust_err_rad
         ),
     );
     rep.check(
-        half.3 < 0.05,
+        half.gust_err_rad < 0.05,
         format!(
             "Jm = 0.5·J: angle error under the gust bounded by 0.05 rad ({:.4})",
-            half.3
+            half.gust_err_rad
         ),
     );
     rep.check(
-        ideal.4 < 0.005 && half.4 < 0.005,
+        ideal.final_err_rad < 0.005 && half.final_err_rad < 0.005,
         "constant disturbance eliminated: final error < 0.005 rad".into(),
     );
     rep.check(
-        half.3 >= ideal.3,
+        half.gust_err_rad >= ideal.gust_err_rad,
         "Jm = 0.5·J is not as good as the ideal case (larger gust error)".into(),
     );
+}
+
+/// The rate loop alone: a 1 rad/s roll-rate step (rate mode, no gust, 2 s) with SSI-PI (Jm = J)
+/// and with the PI; notes each overshoot (%) and checks that SSI-PI's is the smaller.
+fn rate_step_check(rep: &mut Reproduction, scn: &Scenario) -> Result<()> {
     // The attitude loop's slow pole (≈ −1 s⁻¹) hides the inner loops' difference; compare the rate loop:
     // SSI-PI (Jm = J) has the real poles −Ki, −Kp/J, the PI the pair of J·s² + Kp·s + Kp·Ki.
     rep.note("\n  rate loop, 1 rad/s roll-rate step (rate mode, no gust):");
     let mut rate_os = Vec::new();
     for (label, law) in [("SSI-PI, Jm = J", 0usize), ("PI", 1usize)] {
         let mut s = if law == 0 {
-            with_law(&scn, |i| ssi(&scn, i, 1.0))
+            with_law(scn, |i| ssi(scn, i, 1.0))
         } else {
-            with_law(&scn, |i| pi(&scn, i))
+            with_law(scn, |i| pi(scn, i))
         };
         s.controller.mode = skyloop_sim::cascade::Mode::Rate;
         s.disturbance.clear();
@@ -256,16 +330,22 @@ pub fn run(out: &Path) -> Result<Reproduction> {
             100.0 * rate_os[1]
         ),
     );
+    Ok(())
+}
 
-    let t: Vec<f64> = ideal.1.iter().map(|s| s.t).collect();
-    let err = |r: &(String, Vec<Sample>, f64, f64, f64, bool)| Trace {
-        label: r.0.clone(),
-        t: r.1.iter().map(|s| s.t).collect(),
-        y: r.1.iter().map(|s| s.reference[0] - s.euler[0]).collect(),
+/// Fig. 6–8: roll (rad) of every gust run beside the reference, and their roll errors (rad) with
+/// the 0.05 rad bound, written as `fig6_8_roll.svg` in `out`; returns its path.
+fn roll_figure(out: &Path, results: &[GustRun]) -> Result<PathBuf> {
+    let ideal = &results[0];
+    let t: Vec<f64> = ideal.trace.iter().map(|s| s.t).collect();
+    let err = |r: &GustRun| Trace {
+        label: r.label.clone(),
+        t: r.trace.iter().map(|s| s.t).collect(),
+        y: r.trace.iter().map(|s| s.reference[0] - s.euler[0]).collect(),
     };
     let fig8 = TracePanel {
         y_label: "roll error [rad]".into(),
-        traces: vec![err(ideal), err(half), err(pi_r)],
+        traces: results.iter().map(err).collect(),
         references: vec![(0.05, "0.05 rad bound".into()), (-0.05, "".into())],
     };
     let step = TracePanel {
@@ -273,30 +353,19 @@ pub fn run(out: &Path) -> Result<Reproduction> {
         traces: std::iter::once(Trace {
             label: "reference".into(),
             t: t.clone(),
-            y: ideal.1.iter().map(|s| s.reference[0]).collect(),
+            y: ideal.trace.iter().map(|s| s.reference[0]).collect(),
         })
         .chain(results.iter().map(|r| Trace {
-            label: r.0.clone(),
-            t: r.1.iter().map(|s| s.t).collect(),
-            y: r.1.iter().map(|s| s.euler[0]).collect(),
+            label: r.label.clone(),
+            t: r.trace.iter().map(|s| s.t).collect(),
+            y: r.trace.iter().map(|s| s.euler[0]).collect(),
         }))
         .collect(),
         references: vec![],
     };
     let path = out.join("fig6_8_roll.svg");
     plot_traces(&path, "SSI-PI quadrotor: roll step and gust", &[step, fig8]).map_err(|e| format!("plot: {e}"))?;
-    rep.note(format!(
-        "\nwrote {} and per-run CSV/SVG in {}",
-        path.display(),
-        out.display()
-    ));
-    rep.artifact(&path);
-    super::write_report(
-        &mut rep,
-        "SSI-PI quadrotor (Tai, Phang & Hoo 2018): claims reproduced",
-        out,
-    )?;
-    Ok(rep)
+    Ok(path)
 }
 
 fn ssi(scn: &Scenario, axis: usize, frac: f64) -> RateLaw {
