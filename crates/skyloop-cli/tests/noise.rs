@@ -147,3 +147,35 @@ fn bad_input_exits_2_naming_it() {
     assert!(err.contains("Betaflight, INAV or PX4"), "{err}");
     std::fs::remove_file(&csv).ok();
 }
+
+/// ArduPilot states its gyro chain in PARM messages: INS_GYRO_FILTER (a biquad) and a fixed
+/// harmonic notch (INS_HNTCH_FREQ 80 Hz, BW 40 Hz: Q 2) at SCHED_LOOP_RATE; the chain's gain is
+/// −3 dB at the lowpass cutoff and the notch removes its centre.
+#[test]
+fn ardupilot_gyro_chain_from_its_parameters() {
+    let v = json(&["noise", &log("synthetic_arducopter.bin"), "--axis", "roll", "--json"]);
+    assert_eq!(v["loop_rate_hz"].as_f64(), Some(400.0));
+    let chain = v["flown_chain"].as_array().unwrap();
+    let names: Vec<&str> = chain.iter().map(|s| s["name"].as_str().unwrap()).collect();
+    assert_eq!(names, ["gyro_lpf1", "gyro_notch1"]);
+    assert_eq!(chain[0]["shape"], "biquad");
+    assert_eq!(chain[0]["hz"].as_f64(), Some(20.0));
+    assert!((chain[1]["q"].as_f64().unwrap() - 2.0).abs() < 1e-12);
+    let g = &v["axes"][0]["gyro_chain"];
+    let (f, db) = (nums(&g["freq_hz"]), nums(&g["gain_db"]));
+    let at = |hz: f64| {
+        let k = (0..f.len())
+            .min_by(|&a, &b| (f[a] - hz).abs().total_cmp(&(f[b] - hz).abs()))
+            .unwrap();
+        (f[k], db[k])
+    };
+    let (f80, g80) = at(80.0);
+    assert!((f80 - 80.0).abs() < 2.0 && g80 < -25.0, "{f80} Hz: {g80} dB");
+    let (f1, g1) = at(1.0);
+    assert!(f1 < 2.0 && g1.abs() < 0.1, "{f1} Hz: {g1} dB");
+    let notes = v["notes"].as_array().unwrap();
+    assert!(
+        notes.iter().any(|n| n.as_str().unwrap().contains("full depth")),
+        "{notes:?}"
+    );
+}

@@ -81,11 +81,11 @@ impl FilterKind {
             },
             FilterKind::BiquadLowpass(f) => {
                 // A biquad cannot sit at or above Nyquist; the firmware limits its cutoffs likewise.
-                let f = check(f)?.min(0.499 * nyquist);
+                let f = check(f)?.min(0.998 * nyquist);
                 biquad(f, dt_s, core::f64::consts::FRAC_1_SQRT_2, true)
             }
             FilterKind::Notch { center, q } => {
-                let f = check(center)?.min(0.499 * nyquist);
+                let f = check(center)?.min(0.998 * nyquist);
                 if !(q.is_finite() && q > 0.0) {
                     return Err(ControlError::NonFinite("notch Q"));
                 }
@@ -274,5 +274,21 @@ mod tests {
         assert!((gain(n, 0.0) - 1.0).abs() < 1e-12);
         assert!(Filter::<f32>::new(FilterKind::Pt1(-1.0), DT).is_err());
         assert!(Filter::<f32>::new(FilterKind::Notch { center: 100.0, q: 0.0 }, DT).is_err());
+    }
+
+    /// Between a quarter of the sample rate and Nyquist a notch still sits where it is asked
+    /// (a 400 Hz loop's second harmonic notch at 120 Hz), and a lowpass keeps its −3 dB point.
+    #[test]
+    fn stages_above_a_quarter_of_the_rate_are_not_moved() {
+        let dt = 1.0 / 400.0;
+        let n = FilterKind::Notch { center: 120.0, q: 8.0 };
+        let (re, im) = n.response(120.0, dt).unwrap();
+        assert!(re.hypot(im) < 1e-9, "{re} {im}");
+        // The RBJ biquad is prewarped at its cutoff: exactly 1/√2 there.
+        let (re, im) = FilterKind::BiquadLowpass(150.0).response(150.0, dt).unwrap();
+        assert!(
+            (re.hypot(im) - core::f64::consts::FRAC_1_SQRT_2).abs() < 1e-9,
+            "{re} {im}"
+        );
     }
 }

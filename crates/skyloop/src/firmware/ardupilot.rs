@@ -15,6 +15,7 @@
 //! while the output oscillates), D_FF, the notch filters of INS_HNTCH_* (inside an identified
 //! plant when the gyro is logged after them).
 
+use super::filters::{FilterChain, Path, Shape, Stage, StageKind};
 use super::{derivative_rolloff, Lowpass};
 use crate::error::{Error, Result};
 use crate::firmware::betaflight::Axis;
@@ -294,6 +295,115 @@ pub fn header_lines(a: &ArduPilotTuning) -> Vec<String> {
     out
 }
 
+/// The gyro filter chain ArduPilot's parameters state, at `SCHED_LOOP_RATE` (400 Hz when not
+/// logged): `INS_GYRO_FILTER` (a second-order Butterworth lowpass, `LowPassFilter2p`, a biquad)
+/// and, for a fixed harmonic notch (`INS_HNTCH_MODE` 0), a notch at `INS_HNTCH_FREQ` times each of
+/// the first two harmonics `INS_HNTCH_HMNCS` enables, Q = FREQ/BW. With notes on what is assumed:
+/// the IMU filters run at the sensor's own rate (modelled at the loop rate, which bends the phase
+/// near the loop's Nyquist frequency, not in the 10–100 Hz a rate loop lives in); the notch is
+/// full depth where ArduPilot's stops at `INS_HNTCH_ATT` dB; a tracking notch (throttle, RPM, ESC
+/// or FFT) and the second notch `INS_HNTC2_*` are not modelled; the per-axis `ATC_RAT_*_FLTE`/
+/// `FLTD` lowpasses are in the rate controller's model (`tune`), not in this chain.
+pub fn filter_chain(t: &ArduPilotTuning) -> (FilterChain, Vec<String>) {
+    let mut notes = Vec::new();
+    let loop_hz = t.loop_rate_hz.filter(|&r| r > 0.0).unwrap_or_else(|| {
+        notes.push("SCHED_LOOP_RATE not logged: a 400 Hz filter rate is assumed".into());
+        400.0
+    });
+    notes.push(format!(
+        "INS_GYRO_FILTER and the harmonic notch run at the IMU's sample rate; modelled at SCHED_LOOP_RATE {loop_hz} Hz (the phase differs near {:.0} Hz, not in a rate loop's band)",
+        0.5 * loop_hz
+    ));
+    let mut stages = Vec::new();
+    match t.gyro_filter_hz {
+        Some(hz) if hz > 0.0 && hz < 0.5 * loop_hz => stages.push(Stage {
+            name: "gyro_lpf1".into(),
+            path: Path::Gyro,
+            kind: StageKind::Lowpass {
+                shape: Shape::Biquad,
+                hz,
+            },
+        }),
+        Some(hz) if hz > 0.0 => notes.push(format!(
+            "INS_GYRO_FILTER {hz} Hz is at or above the loop's Nyquist frequency: left out"
+        )),
+        Some(_) => {}
+        None => notes.push("INS_GYRO_FILTER not logged: no gyro lowpass in the chain".into()),
+    }
+    let (notches, more) = harmonic_notch(t, loop_hz);
+    stages.extend(notches);
+    notes.extend(more);
+    notes.push("ATC_RAT_*_FLTE/FLTD (per axis) are in the rate controller's model, not in this chain".into());
+    (FilterChain { loop_hz, stages }, notes)
+}
+
+/// The first harmonic notch (`INS_HNTCH_*`) as fixed notch stages when its mode is fixed (0),
+/// with notes on what is not modelled.
+fn harmonic_notch(t: &ArduPilotTuning, loop_hz: f64) -> (Vec<Stage>, Vec<String>) {
+    let get = |n: &str| t.harmonic_notch.iter().find(|v| v.name == n).map(|v| v.value);
+    let mut notes = Vec::new();
+    if get("INS_HNTC2_ENABLE").is_some_and(|e| e > 0.0) {
+        notes.push("the second harmonic notch INS_HNTC2_* is enabled: not modelled".into());
+    }
+    if !get("INS_HNTCH_ENABLE").is_some_and(|e| e > 0.0) {
+        return (Vec::new(), notes);
+    }
+    let mode = get("INS_HNTCH_MODE").unwrap_or(0.0);
+    let (Some(freq), Some(bw)) = (get("INS_HNTCH_FREQ"), get("INS_HNTCH_BW")) else {
+        notes.push("INS_HNTCH_ENABLE is set but FREQ or BW is not logged: the notch is not modelled".into());
+        return (Vec::new(), notes);
+    };
+    if mode != 0.0 || freq <= 0.0 || bw <= 0.0 {
+        let what = match mode as i64 {
+            1 => "throttle",
+            2 => "RPM sensor",
+            3 => "ESC telemetry",
+            4 => "in-flight FFT",
+            _ => "an unknown mode",
+        };
+        notes.push(format!(
+            "the harmonic notch tracks {what} (INS_HNTCH_MODE {mode}, base {freq} Hz, bandwidth {bw} Hz): not modelled in this chain; the logged gyro is already after it"
+        ));
+        return (Vec::new(), notes);
+    }
+    // HMNCS is a bitmask: bit k enables harmonic k + 1 (1 when not logged).
+    let mask = get("INS_HNTCH_HMNCS").map_or(1, |m| m.max(0.0) as u32);
+    let harmonics: Vec<u32> = (0..16).filter(|k| mask & (1 << k) != 0).map(|k| k + 1).collect();
+    let mut stages = Vec::new();
+    for (name, h) in ["gyro_notch1", "gyro_notch2"].into_iter().zip(&harmonics) {
+        let center_hz = freq * f64::from(*h);
+        if center_hz >= 0.5 * loop_hz {
+            notes.push(format!(
+                "harmonic {h} of the notch ({center_hz} Hz) is above the loop's Nyquist frequency: left out"
+            ));
+            continue;
+        }
+        stages.push(Stage {
+            name: name.into(),
+            path: Path::Gyro,
+            kind: StageKind::Notch {
+                center_hz,
+                q: center_hz / bw,
+            },
+        });
+    }
+    if harmonics.len() > 2 {
+        notes.push(format!(
+            "INS_HNTCH_HMNCS enables {} harmonics: the first two are modelled",
+            harmonics.len()
+        ));
+    }
+    notes.push(match get("INS_HNTCH_ATT") {
+        Some(att) => format!(
+            "the fixed harmonic notch is modelled at full depth (ArduPilot's stops at INS_HNTCH_ATT = {att} dB)"
+        ),
+        None => {
+            "the fixed harmonic notch is modelled at full depth (INS_HNTCH_ATT, its depth in dB, is not logged)".into()
+        }
+    });
+    (stages, notes)
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)]
@@ -358,5 +468,76 @@ mod tests {
         })
         .unwrap_err();
         assert!(e.to_string().contains("FLTD"), "{e}");
+    }
+
+    fn tuning(notch: &[(&str, f64)]) -> ArduPilotTuning {
+        ArduPilotTuning {
+            firmware_revision: String::new(),
+            vehicle: None,
+            version: None,
+            frame: None,
+            rate: Vec::new(),
+            gyro_filter_hz: Some(40.0),
+            loop_rate_hz: Some(400.0),
+            harmonic_notch: notch
+                .iter()
+                .map(|(n, v)| skyloop_sysid::logs::tuning::NamedValue {
+                    name: (*n).into(),
+                    value: *v,
+                })
+                .collect(),
+            log_rates_hz: Vec::new(),
+        }
+    }
+
+    /// INS_GYRO_FILTER is a biquad at the loop rate: −3 dB at its cutoff (Butterworth, the
+    /// bilinear transform prewarped at the cutoff), and a fixed harmonic notch removes its centre
+    /// and its second harmonic; a tracking notch is named, not modelled.
+    #[test]
+    fn gyro_chain_from_the_parameters() {
+        use crate::firmware::filters::OperatingPoint;
+        let fixed = [
+            ("INS_HNTCH_ENABLE", 1.0),
+            ("INS_HNTCH_MODE", 0.0),
+            ("INS_HNTCH_FREQ", 60.0),
+            ("INS_HNTCH_BW", 15.0),
+            ("INS_HNTCH_HMNCS", 3.0),
+        ];
+        let (chain, notes) = filter_chain(&tuning(&fixed));
+        assert_eq!(chain.loop_hz, 400.0);
+        let names: Vec<&str> = chain.stages.iter().map(|s| s.name.as_str()).collect();
+        assert_eq!(names, ["gyro_lpf1", "gyro_notch1", "gyro_notch2"]);
+        let op = OperatingPoint::default();
+        let h = chain.response(Path::Gyro, &[1.0, 60.0, 120.0], &op).unwrap();
+        assert!((h[0].norm() - 1.0).abs() < 1e-2, "{}", h[0]);
+        assert!(
+            h[1].norm() < 1e-6 && h[2].norm() < 1e-6,
+            "{} {} {:?}",
+            h[1],
+            h[2],
+            chain.stages
+        );
+        let lp = FilterChain {
+            loop_hz: 400.0,
+            stages: chain.stages[..1].to_vec(),
+        };
+        let at_cut = lp.response(Path::Gyro, &[40.0], &op).unwrap()[0].norm();
+        assert!((20.0 * at_cut.log10() + 3.01).abs() < 0.1, "{at_cut}");
+        assert!(notes.iter().any(|n| n.contains("full depth")), "{notes:?}");
+
+        let fft = [
+            ("INS_HNTCH_ENABLE", 1.0),
+            ("INS_HNTCH_MODE", 4.0),
+            ("INS_HNTCH_FREQ", 60.0),
+            ("INS_HNTCH_BW", 15.0),
+        ];
+        let (chain, notes) = filter_chain(&tuning(&fft));
+        assert_eq!(chain.stages.len(), 1);
+        assert!(
+            notes
+                .iter()
+                .any(|n| n.contains("in-flight FFT") && n.contains("not modelled")),
+            "{notes:?}"
+        );
     }
 }

@@ -331,15 +331,15 @@ pub struct RawGyroTap {
     pub what: String,
 }
 
-/// The filter chain the log's header states, with notes on what is assumed; None for a log whose
-/// firmware states no filters skyloop reads (CSV, ArduPilot).
+/// The filter chain the log's header (or parameters) state, with notes on what is assumed; None for
+/// a log that states no filters (CSV).
 pub fn flown_chain(log: &skyloop_sysid::logs::Log) -> Option<(FilterChain, Vec<String>)> {
     use skyloop_sysid::logs::tuning::FirmwareTuning;
     match FirmwareTuning::from_log(log)? {
         FirmwareTuning::Betaflight(b) => Some(super::betaflight::filter_chain(&b, log)),
         FirmwareTuning::Inav(t) => Some(super::inav::filter_chain(&t)),
         FirmwareTuning::Px4(p) => Some(super::px4::filter_chain(&p)),
-        FirmwareTuning::ArduPilot(_) => None,
+        FirmwareTuning::ArduPilot(a) => Some(super::ardupilot::filter_chain(&a)),
     }
 }
 

@@ -174,7 +174,16 @@ pub fn write_outputs(out: &NoiseAnalysis, dir: &Path) -> Result<()> {
         let by_thr = heatmap(a, &a.by_throttle, "throttle [%]", what, out.units[0]);
         let by_time = heatmap(a, &a.by_time, "time [s]", what, out.units[0]);
         let mut svgs = Vec::new();
-        for (h, file) in [(&by_thr, "throttle"), (&by_time, "time")] {
+        for ((h, heat), file) in [(&by_thr, &a.by_throttle), (&by_time, &a.by_time)]
+            .into_iter()
+            .zip(["throttle", "time"])
+        {
+            if heat.x.is_empty() {
+                rep.section(format!("{name}: spectrogram against {file}")).text(format!(
+                    "not drawn: no frame has a {file} to place it by (the log has no {file} channel the firmware model reads, or no airborne frame)"
+                ));
+                continue;
+            }
             match h.save(&dir.join(format!("{name}_{file}.png"))) {
                 Ok(()) => svgs.push((h.to_svg_string()?, h.title.clone())),
                 // A flight without a throttle channel has no throttle rows: say so, keep going.

@@ -62,9 +62,7 @@ impl FrameSource {
         };
         let mut cols = Vec::new();
         for &a in axes {
-            let g = ch.gyro[a]
-                .as_deref()
-                .ok_or_else(|| Error::Input(format!("{}: no gyro channel for axis {a}", log.source)))?;
+            let g = ch.gyro[a].as_deref().ok_or_else(|| no_gyro(log, a))?;
             cols.push(AxisColumns {
                 gyro: push(g),
                 raw: raw.map(|r| push(&r[a])),
@@ -224,4 +222,20 @@ mod tests {
         let p = strongest_peaks(&d, 1.0 / (nfft as f64 * dt), 2);
         assert!((p[0] - 151.0).abs() < 1.0 && (p[1] - 302.0).abs() < 1.0, "{p:?}");
     }
+}
+
+/// Why a log has no rate-loop gyro for axis `a` (0 roll, 1 pitch, 2 yaw): the firmware model's own
+/// reason (which channels it looked for, what to log).
+fn no_gyro(log: &Log, a: usize) -> Error {
+    use skyloop_sysid::logs::flight::{Axis, RateLoopChannels};
+    let axis = [Axis::Roll, Axis::Pitch, Axis::Yaw][a.min(2)];
+    let why = RateLoopChannels::find(log, axis)
+        .err()
+        .map(|e| format!(": {e}"))
+        .unwrap_or_default();
+    Error::Input(format!(
+        "{}: no gyro channel for the {} axis{why}",
+        log.source,
+        axis.name()
+    ))
 }
