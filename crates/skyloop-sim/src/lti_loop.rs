@@ -80,85 +80,10 @@ pub fn simulate_lti_loop(
     x_init: &State,
     spec: &LtiLoopSpec,
 ) -> Result<LoopRun> {
-    let k = &spec.controller;
-    k.validate()?;
-    if k.is_continuous() {
-        return Err(SimError::Param("the loop controller must be discrete (dt > 0)".into()));
-    }
-    if k.has_delay() {
-        return Err(SimError::Param("the loop controller cannot have delays".into()));
-    }
+    let (nref, div) = check_spec(vehicle, spec)?;
     let nu = vehicle.nu();
-    let ny_lin = vehicle.nx() - 1;
-    if k.ny() != nu {
-        return Err(SimError::Param(format!(
-            "controller has {} outputs, the vehicle {nu} inputs",
-            k.ny()
-        )));
-    }
-    if let Some(&i) = spec.measured.iter().find(|&&i| i >= ny_lin) {
-        return Err(SimError::Param(format!(
-            "measured output {i} does not exist (the model has {ny_lin})"
-        )));
-    }
-    let nm = spec.measured.len();
-    if k.nu() < nm {
-        return Err(SimError::Param(format!(
-            "controller has {} inputs, fewer than the {nm} measurements",
-            k.nu()
-        )));
-    }
-    let nref = k.nu() - nm;
-    for (t, r) in &spec.reference {
-        if r.len() != nref || !t.is_finite() || r.iter().any(|v| !v.is_finite()) {
-            return Err(SimError::Param(format!(
-                "reference at t = {t} s must have {nref} finite values"
-            )));
-        }
-    }
-    if k.nx() > MAX_ORDER || k.nu() > MAX_IN {
-        return Err(SimError::Param(format!(
-            "controller of order {} with {} inputs exceeds the loop's capacity ({MAX_ORDER}, {MAX_IN})",
-            k.nx(),
-            k.nu()
-        )));
-    }
-    crate::error::check_pos(spec.physics_hz, "physics_hz")?;
-    crate::error::check_min(spec.measurement_delay_s, 0.0, "measurement_delay_s")?;
-    crate::error::check_min(spec.duration_s, 0.0, "duration_s")?;
-    let ratio = k.dt * spec.physics_hz;
-    let div = ratio.round();
-    if !(div >= 1.0 && (ratio - div).abs() < 1e-6 * ratio) {
-        return Err(SimError::Param(format!(
-            "controller sample time {} s is not a multiple of the physics step 1/{} s",
-            k.dt, spec.physics_hz
-        )));
-    }
-    let div = div as u64;
-    let flat = |m: &faer::Mat<f64>| {
-        (0..m.nrows())
-            .flat_map(|i| (0..m.ncols()).map(move |j| m[(i, j)]))
-            .collect::<Vec<f64>>()
-    };
-    let mut ctrl: Box<Ctrl> = Box::new(Ctrl::new(
-        k.nx(),
-        k.nu(),
-        k.ny(),
-        &flat(&k.a),
-        &flat(&k.b),
-        &flat(&k.c),
-        &flat(&k.d),
-    )?);
+    let (mut ctrl, dlo, dhi) = loop_controller(vehicle, u0, &spec.controller)?;
     let (lo, hi) = vehicle.input_limits();
-    let dlo: Vec<f64> = (0..nu).map(|i| lo[i] - u0[i]).collect();
-    let dhi: Vec<f64> = (0..nu).map(|i| hi[i] - u0[i]).collect();
-    *ctrl = ctrl.with_limits(&dlo, &dhi)?;
-    // Hanus conditioning needs a square invertible D; otherwise run unconditioned.
-    if k.nu() == k.ny() {
-        if let Ok(c) = ctrl.with_hanus_aw() {
-            *ctrl = c;
-        }
-    }
 
     let h = 1.0 / spec.physics_hz;
     let steps = (spec.duration_s * spec.physics_hz).round() as u64;
@@ -238,6 +163,109 @@ pub fn simulate_lti_loop(
             0.0
         },
     })
+}
+
+/// Checks a loop spec against the vehicle; returns the reference width and the physics steps per
+/// controller sample.
+///
+/// # Errors
+/// A continuous or delayed controller, sizes that do not match the vehicle or the references, a
+/// controller beyond the loop's capacity, rates and durations out of range, or a controller sample
+/// time that is not a multiple of the physics step.
+fn check_spec(vehicle: &Vehicle, spec: &LtiLoopSpec) -> Result<(usize, u64)> {
+    let k = &spec.controller;
+    k.validate()?;
+    if k.is_continuous() {
+        return Err(SimError::Param("the loop controller must be discrete (dt > 0)".into()));
+    }
+    if k.has_delay() {
+        return Err(SimError::Param("the loop controller cannot have delays".into()));
+    }
+    let nu = vehicle.nu();
+    let ny_lin = vehicle.nx() - 1;
+    if k.ny() != nu {
+        return Err(SimError::Param(format!(
+            "controller has {} outputs, the vehicle {nu} inputs",
+            k.ny()
+        )));
+    }
+    if let Some(&i) = spec.measured.iter().find(|&&i| i >= ny_lin) {
+        return Err(SimError::Param(format!(
+            "measured output {i} does not exist (the model has {ny_lin})"
+        )));
+    }
+    let nm = spec.measured.len();
+    if k.nu() < nm {
+        return Err(SimError::Param(format!(
+            "controller has {} inputs, fewer than the {nm} measurements",
+            k.nu()
+        )));
+    }
+    let nref = k.nu() - nm;
+    for (t, r) in &spec.reference {
+        if r.len() != nref || !t.is_finite() || r.iter().any(|v| !v.is_finite()) {
+            return Err(SimError::Param(format!(
+                "reference at t = {t} s must have {nref} finite values"
+            )));
+        }
+    }
+    if k.nx() > MAX_ORDER || k.nu() > MAX_IN {
+        return Err(SimError::Param(format!(
+            "controller of order {} with {} inputs exceeds the loop's capacity ({MAX_ORDER}, {MAX_IN})",
+            k.nx(),
+            k.nu()
+        )));
+    }
+    crate::error::check_pos(spec.physics_hz, "physics_hz")?;
+    crate::error::check_min(spec.measurement_delay_s, 0.0, "measurement_delay_s")?;
+    crate::error::check_min(spec.duration_s, 0.0, "duration_s")?;
+    let ratio = k.dt * spec.physics_hz;
+    let div = ratio.round();
+    if !(div >= 1.0 && (ratio - div).abs() < 1e-6 * ratio) {
+        return Err(SimError::Param(format!(
+            "controller sample time {} s is not a multiple of the physics step 1/{} s",
+            k.dt, spec.physics_hz
+        )));
+    }
+    Ok((nref, div as u64))
+}
+
+/// The discrete controller `k` as the loop runs it: its command limited to the vehicle's input
+/// range around `u0` (returned as deviations, lower and upper), with Hanus anti-windup when its D
+/// is square and invertible.
+///
+/// # Errors
+/// A controller the fixed-size runtime cannot hold.
+fn loop_controller(vehicle: &Vehicle, u0: &Input, k: &StateSpace) -> Result<(Box<Ctrl>, Vec<f64>, Vec<f64>)> {
+    let nu = vehicle.nu();
+    // Built right into its box, not through runtime_controller::to_ss_controller: the controller's
+    // fixed arrays are large enough that one more by-value Result frame overflows a test thread's
+    // stack.
+    let flat = |m: &faer::Mat<f64>| {
+        (0..m.nrows())
+            .flat_map(|i| (0..m.ncols()).map(move |j| m[(i, j)]))
+            .collect::<Vec<f64>>()
+    };
+    let mut ctrl: Box<Ctrl> = Box::new(Ctrl::new(
+        k.nx(),
+        k.nu(),
+        k.ny(),
+        &flat(&k.a),
+        &flat(&k.b),
+        &flat(&k.c),
+        &flat(&k.d),
+    )?);
+    let (lo, hi) = vehicle.input_limits();
+    let dlo: Vec<f64> = (0..nu).map(|i| lo[i] - u0[i]).collect();
+    let dhi: Vec<f64> = (0..nu).map(|i| hi[i] - u0[i]).collect();
+    *ctrl = ctrl.with_limits(&dlo, &dhi)?;
+    // Hanus conditioning needs a square invertible D; otherwise run unconditioned.
+    if k.nu() == k.ny() {
+        if let Ok(c) = ctrl.with_hanus_aw() {
+            *ctrl = c;
+        }
+    }
+    Ok((ctrl, dlo, dhi))
 }
 
 fn rk4(f: &impl Fn(&State, &Input, &mut State), x: &mut State, u: &Input, h: f64, n: usize) {

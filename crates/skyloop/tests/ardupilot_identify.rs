@@ -9,7 +9,6 @@
 #![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 #[path = "../../skyloop-sysid/tests/common/dataflash_writer.rs"]
-#[allow(dead_code)]
 mod writer;
 
 use skyloop::identify::{identify_bytes, IdentifyRequest};

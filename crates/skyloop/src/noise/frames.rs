@@ -202,6 +202,22 @@ pub(crate) fn strongest_peaks(d: &[f64], df_hz: f64, n: usize) -> Vec<f64> {
         .collect()
 }
 
+/// Why a log has no rate-loop gyro for axis `a` (0 roll, 1 pitch, 2 yaw): the firmware model's own
+/// reason (which channels it looked for, what to log).
+fn no_gyro(log: &Log, a: usize) -> Error {
+    use skyloop_sysid::logs::flight::{Axis, RateLoopChannels};
+    let axis = [Axis::Roll, Axis::Pitch, Axis::Yaw][a.min(2)];
+    let why = RateLoopChannels::find(log, axis)
+        .err()
+        .map(|e| format!(": {e}"))
+        .unwrap_or_default();
+    Error::Input(format!(
+        "{}: no gyro channel for the {} axis{why}",
+        log.source,
+        axis.name()
+    ))
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)]
@@ -222,20 +238,4 @@ mod tests {
         let p = strongest_peaks(&d, 1.0 / (nfft as f64 * dt), 2);
         assert!((p[0] - 151.0).abs() < 1.0 && (p[1] - 302.0).abs() < 1.0, "{p:?}");
     }
-}
-
-/// Why a log has no rate-loop gyro for axis `a` (0 roll, 1 pitch, 2 yaw): the firmware model's own
-/// reason (which channels it looked for, what to log).
-fn no_gyro(log: &Log, a: usize) -> Error {
-    use skyloop_sysid::logs::flight::{Axis, RateLoopChannels};
-    let axis = [Axis::Roll, Axis::Pitch, Axis::Yaw][a.min(2)];
-    let why = RateLoopChannels::find(log, axis)
-        .err()
-        .map(|e| format!(": {e}"))
-        .unwrap_or_default();
-    Error::Input(format!(
-        "{}: no gyro channel for the {} axis{why}",
-        log.source,
-        axis.name()
-    ))
 }

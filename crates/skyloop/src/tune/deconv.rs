@@ -83,6 +83,68 @@ pub fn step_from_log(
     ranges: &[std::ops::Range<usize>],
     o: &DeconvOptions,
 ) -> Result<MeasuredStep> {
+    let (n, m) = window_sizes(input, output, dt_s, o)?;
+    let adv = ((o.step_s / dt_s).round() as usize).max(1);
+    let d = Deconvolver::new(n, dt_s, o.cutoff_hz);
+    let mut sum = vec![0.0; m];
+    let mut sum2 = vec![0.0; m];
+    let mut neg_sum = 0.0;
+    let (mut used, mut total) = (0usize, 0usize);
+    for r in ranges {
+        let mut start = r.start;
+        while start + n <= r.end.min(input.len()) {
+            total += 1;
+            let x = &input[start..start + n];
+            let y = &output[start..start + n];
+            start += adv;
+            let mx = x.iter().sum::<f64>() / n as f64;
+            let rms = (x.iter().map(|v| (v - mx).powi(2)).sum::<f64>() / n as f64).sqrt();
+            if !(rms >= o.min_input_rms) {
+                continue;
+            }
+            let Some(imp) = d.impulse(x, y)? else { continue };
+            let mut acc = 0.0;
+            for k in 0..m {
+                acc += imp[k];
+                sum[k] += acc;
+                sum2[k] += acc * acc;
+            }
+            // The circular buffer's last m samples are lags −m·dt … −dt.
+            neg_sum += imp[d.nfft - m..].iter().sum::<f64>();
+            used += 1;
+        }
+    }
+    if used == 0 {
+        return Err(Error::Input(format!(
+            "deconvolution: none of the {total} windows of {} s has a setpoint RMS of at least {} (the log holds no stick input to measure a step response from)",
+            o.window_s, o.min_input_rms
+        )));
+    }
+    let k = used as f64;
+    let y: Vec<f64> = sum.iter().map(|s| s / k).collect();
+    let y_std = sum2
+        .iter()
+        .zip(&y)
+        .map(|(s2, mu)| (s2 / k - mu * mu).max(0.0).sqrt())
+        .collect();
+    let (neg, pos) = ((neg_sum / k).abs(), y.last().copied().unwrap_or(0.0).abs());
+    let acausal_fraction = if neg + pos > 0.0 { neg / (neg + pos) } else { 0.0 };
+    Ok(MeasuredStep {
+        t_s: (0..m).map(|i| i as f64 * dt_s).collect(),
+        y,
+        y_std,
+        windows: used,
+        windows_total: total,
+        acausal_fraction,
+    })
+}
+
+/// The window and response lengths in samples, (n, m), after checking the inputs.
+///
+/// # Errors
+/// Mismatched lengths, a sample period or option that is not a positive number, or a window
+/// outside 16..=2^20 samples.
+fn window_sizes(input: &[f64], output: &[f64], dt_s: f64, o: &DeconvOptions) -> Result<(usize, usize)> {
     if input.len() != output.len() {
         return Err(Error::Input(format!(
             "deconvolution: input has {} samples, output {}",
@@ -113,30 +175,59 @@ pub fn step_from_log(
             o.window_s
         )));
     }
-    let adv = ((o.step_s / dt_s).round() as usize).max(1);
-    let nfft = 2 * n;
-    let mut planner = RealFftPlanner::<f64>::new();
-    let fwd = planner.plan_fft_forward(nfft);
-    let inv = planner.plan_fft_inverse(nfft);
-    // Tukey (α = 0.25): flat over most of the window, so the output's taper matches the input's
-    // wherever the response has settled (a Hann taper biases the final value low by ~5 %).
-    let alpha = 0.25;
-    let taper: Vec<f64> = (0..n)
-        .map(|k| {
-            let x = k as f64 / (n - 1) as f64;
-            if x < alpha / 2.0 {
-                0.5 * (1.0 + (2.0 * PI / alpha * (x - alpha / 2.0)).cos())
-            } else if x > 1.0 - alpha / 2.0 {
-                0.5 * (1.0 + (2.0 * PI / alpha * (x - 1.0 + alpha / 2.0)).cos())
-            } else {
-                1.0
-            }
-        })
-        .collect();
-    let df = 1.0 / (nfft as f64 * dt_s);
-    let fc = o.cutoff_hz;
-    // Weight of the band: 1 up to fc, 0 beyond √2·fc, a raised cosine in log frequency between.
-    let band = |f: f64| {
+    Ok((n, m))
+}
+
+/// The regularized deconvolution of one window: tapered, zero-padded to twice its length,
+/// H = Y·X̄/(|X|² + λ) with λ growing beyond the cutoff.
+struct Deconvolver {
+    fwd: std::sync::Arc<dyn realfft::RealToComplex<f64>>,
+    inv: std::sync::Arc<dyn realfft::ComplexToReal<f64>>,
+    taper: Vec<f64>,
+    /// Window length, samples.
+    n: usize,
+    /// FFT length (2n), samples.
+    nfft: usize,
+    /// Bin spacing, Hz.
+    df: f64,
+    /// Band edge, Hz.
+    fc: f64,
+}
+
+impl Deconvolver {
+    /// Plans the transforms of an `n`-sample window at `dt_s` with band edge `fc` Hz.
+    fn new(n: usize, dt_s: f64, fc: f64) -> Self {
+        let nfft = 2 * n;
+        let mut planner = RealFftPlanner::<f64>::new();
+        // Tukey (α = 0.25): flat over most of the window, so the output's taper matches the
+        // input's wherever the response has settled (a Hann taper biases the final value low by ~5 %).
+        let alpha = 0.25;
+        let taper = (0..n)
+            .map(|k| {
+                let x = k as f64 / (n - 1) as f64;
+                if x < alpha / 2.0 {
+                    0.5 * (1.0 + (2.0 * PI / alpha * (x - alpha / 2.0)).cos())
+                } else if x > 1.0 - alpha / 2.0 {
+                    0.5 * (1.0 + (2.0 * PI / alpha * (x - 1.0 + alpha / 2.0)).cos())
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        Self {
+            fwd: planner.plan_fft_forward(nfft),
+            inv: planner.plan_fft_inverse(nfft),
+            taper,
+            n,
+            nfft,
+            df: 1.0 / (nfft as f64 * dt_s),
+            fc,
+        }
+    }
+
+    /// Weight of the band: 1 up to fc, 0 beyond √2·fc, a raised cosine in log frequency between.
+    fn band(&self, f: f64) -> f64 {
+        let fc = self.fc;
         if f <= fc {
             1.0
         } else if f >= fc * 2f64.sqrt() {
@@ -144,99 +235,63 @@ pub fn step_from_log(
         } else {
             0.5 + 0.5 * (PI * (f / fc).log2() / 0.5).cos()
         }
-    };
-    let mut sum = vec![0.0; m];
-    let mut sum2 = vec![0.0; m];
-    let mut neg_sum = 0.0;
-    let (mut used, mut total) = (0usize, 0usize);
-    for r in ranges {
-        let mut start = r.start;
-        while start + n <= r.end.min(input.len()) {
-            total += 1;
-            let x = &input[start..start + n];
-            let y = &output[start..start + n];
-            start += adv;
-            let mx = x.iter().sum::<f64>() / n as f64;
-            let rms = (x.iter().map(|v| (v - mx).powi(2)).sum::<f64>() / n as f64).sqrt();
-            if !(rms >= o.min_input_rms) {
-                continue;
-            }
-            // The means stay in: the windows' mean rates are what tells the step's final value.
-            let spec = |v: &[f64]| -> Result<Vec<C64>> {
-                let mut buf = vec![0.0; nfft];
-                for k in 0..n {
-                    buf[k] = v[k] * taper[k];
-                }
-                let mut out = fwd.make_output_vec();
-                fwd.process(&mut buf, &mut out)
-                    .map_err(|e| Error::Failed(format!("FFT failed: {e}")))?;
-                Ok(out)
-            };
-            let xs = spec(x)?;
-            let ys = spec(y)?;
-            let inband: Vec<f64> = xs
-                .iter()
-                .enumerate()
-                .filter(|(k, _)| *k as f64 * df <= fc)
-                .map(|(_, z)| z.norm_sqr())
-                .collect();
-            let lam0 = inband.iter().sum::<f64>() / inband.len().max(1) as f64 / SNR;
-            if !(lam0 > 0.0) {
-                continue;
-            }
-            let mut h: Vec<C64> = xs
-                .iter()
-                .zip(&ys)
-                .enumerate()
-                .map(|(k, (xk, yk))| {
-                    let w = band(k as f64 * df);
-                    let lam = lam0 * (w + (1.0 - w) * 1e9);
-                    yk * xk.conj() / (xk.norm_sqr() + lam)
-                })
-                .collect();
-            // A real signal's DC and Nyquist bins are real; rounding leaves tiny imaginary parts.
-            h[0].im = 0.0;
-            if let Some(last) = h.last_mut() {
-                last.im = 0.0;
-            }
-            let mut imp = inv.make_output_vec();
-            inv.process(&mut h, &mut imp)
-                .map_err(|e| Error::Failed(format!("inverse FFT failed: {e}")))?;
-            // realfft's inverse is unnormalized.
-            let mut acc = 0.0;
-            for k in 0..m {
-                acc += imp[k] / nfft as f64;
-                sum[k] += acc;
-                sum2[k] += acc * acc;
-            }
-            // The circular buffer's last m samples are lags −m·dt … −dt.
-            neg_sum += imp[nfft - m..].iter().sum::<f64>() / nfft as f64;
-            used += 1;
+    }
+
+    /// The tapered, zero-padded spectrum of a window. The means stay in: the windows' mean rates
+    /// are what tells the step's final value.
+    fn spectrum(&self, v: &[f64]) -> Result<Vec<C64>> {
+        let mut buf = vec![0.0; self.nfft];
+        for k in 0..self.n {
+            buf[k] = v[k] * self.taper[k];
         }
+        let mut out = self.fwd.make_output_vec();
+        self.fwd
+            .process(&mut buf, &mut out)
+            .map_err(|e| Error::Failed(format!("FFT failed: {e}")))?;
+        Ok(out)
     }
-    if used == 0 {
-        return Err(Error::Input(format!(
-            "deconvolution: none of the {total} windows of {} s has a setpoint RMS of at least {} (the log holds no stick input to measure a step response from)",
-            o.window_s, o.min_input_rms
-        )));
+
+    /// The impulse response of one window (circular, `nfft` samples, negative lags at the end);
+    /// None when the input has no power in the band.
+    ///
+    /// # Errors
+    /// An FFT that fails.
+    fn impulse(&self, x: &[f64], y: &[f64]) -> Result<Option<Vec<f64>>> {
+        let xs = self.spectrum(x)?;
+        let ys = self.spectrum(y)?;
+        let inband: Vec<f64> = xs
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| *k as f64 * self.df <= self.fc)
+            .map(|(_, z)| z.norm_sqr())
+            .collect();
+        let lam0 = inband.iter().sum::<f64>() / inband.len().max(1) as f64 / SNR;
+        if !(lam0 > 0.0) {
+            return Ok(None);
+        }
+        let mut h: Vec<C64> = xs
+            .iter()
+            .zip(&ys)
+            .enumerate()
+            .map(|(k, (xk, yk))| {
+                let w = self.band(k as f64 * self.df);
+                let lam = lam0 * (w + (1.0 - w) * 1e9);
+                yk * xk.conj() / (xk.norm_sqr() + lam)
+            })
+            .collect();
+        // A real signal's DC and Nyquist bins are real; rounding leaves tiny imaginary parts.
+        h[0].im = 0.0;
+        if let Some(last) = h.last_mut() {
+            last.im = 0.0;
+        }
+        let mut imp = self.inv.make_output_vec();
+        self.inv
+            .process(&mut h, &mut imp)
+            .map_err(|e| Error::Failed(format!("inverse FFT failed: {e}")))?;
+        // realfft's inverse is unnormalized.
+        let nfft = self.nfft as f64;
+        Ok(Some(imp.into_iter().map(|v| v / nfft).collect()))
     }
-    let k = used as f64;
-    let y: Vec<f64> = sum.iter().map(|s| s / k).collect();
-    let y_std = sum2
-        .iter()
-        .zip(&y)
-        .map(|(s2, mu)| (s2 / k - mu * mu).max(0.0).sqrt())
-        .collect();
-    let (neg, pos) = ((neg_sum / k).abs(), y.last().copied().unwrap_or(0.0).abs());
-    let acausal_fraction = if neg + pos > 0.0 { neg / (neg + pos) } else { 0.0 };
-    Ok(MeasuredStep {
-        t_s: (0..m).map(|i| i as f64 * dt_s).collect(),
-        y,
-        y_std,
-        windows: used,
-        windows_total: total,
-        acausal_fraction,
-    })
 }
 
 #[cfg(test)]
