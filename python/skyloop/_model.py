@@ -47,7 +47,7 @@ def _is_zero(p) -> bool:
 def _dt_of(dt) -> float:
     """A sample period: None / False / 0 continuous; dt=True refused (python-control's unspecified)."""
     if dt is True:
-        raise InputError("dt=True (discrete time with an unspecified sample period) is not supported: "
+        raise InputError("dt=True (discrete time with an unspecified sample time) is not supported: "
                          "skyloop's discrete models, delays and discretizations need the period in s")
     if dt is None or dt is False:
         return 0.0
@@ -670,6 +670,10 @@ def _to_ss(sys) -> StateSpace:
     if isinstance(sys, str):
         from . import tf
         return _to_ss(tf(sys))
+    if _is_scalar(sys) or isinstance(sys, (list, tuple, _np.ndarray)):
+        k = _np.asarray(sys, dtype=float)
+        if k.ndim <= 2 and k.size:
+            return _gain_ss(k, 0.0)
     if _is_control(sys):
         from . import from_control
         return from_control(sys)

@@ -72,13 +72,13 @@ def bode(sys, omega=None, margins: bool = False, label: Optional[str] = None) ->
         ph = b["phase_deg"][0, 0]
         k = _np.round((_np.median(ph) + 180.0) / 360.0)
         ap.axhline(-180.0 + 360.0 * k, color="k", lw=0.8, ls=":", label="-180°")
-        fc = m.get("crossover_hz")
+        fc = m.get("phase_margin_freq_hz")
         pm = m.get("phase_margin_deg")
         if fc is not None and _np.isfinite(fc):
             am.axvline(fc, color="C3", lw=0.8, ls="--")
             ap.axvline(fc, color="C3", lw=0.8, ls="--",
                        label=f"PM {pm:.1f}° at {fc:.3g} Hz" if pm is not None else None)
-        fg = m.get("phase_crossover_hz")
+        fg = m.get("gain_margin_freq_hz")
         gm = m.get("gain_margin_db")
         if fg is not None and gm is not None and _np.isfinite(fg) and _np.isfinite(gm):
             am.axvline(fg, color="C2", lw=0.8, ls="--", label=f"GM {gm:.2f} dB at {fg:.3g} Hz")
@@ -98,8 +98,9 @@ def _margin_title(m: dict) -> str:
         parts.append(f"GM {m['gain_margin_db']:.2f} dB")
     if m.get("phase_margin_deg") is not None:
         parts.append(f"PM {m['phase_margin_deg']:.1f}°")
-    if m.get("disk_margin_alpha", m.get("disk_alpha")) is not None:
-        parts.append(f"disk α {m.get('disk_margin_alpha', m.get('disk_alpha')):.3f}")
+    dm = m.get("disk_margin") or {}
+    if dm.get("alpha") is not None:
+        parts.append(f"disk margin α {dm['alpha']:.3f}")
     return ", ".join(parts)
 
 

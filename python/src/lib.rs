@@ -513,7 +513,7 @@ fn sys_of(s: &Bound<'_, PyAny>) -> PyResult<StateSpace> {
 }
 
 /// Calls ``skyloop._model.<name>(*args)``: the Python layer's half of a StateSpace method.
-fn py_model_call(py: Python<'_>, name: &str, args: impl pyo3::call::PyCallArgs<'_>) -> PyResult<PyObject> {
+fn py_model_call<'py>(py: Python<'py>, name: &str, args: impl pyo3::call::PyCallArgs<'py>) -> PyResult<PyObject> {
     Ok(py.import("skyloop._model")?.getattr(name)?.call1(args)?.unbind())
 }
 

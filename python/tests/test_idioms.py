@@ -23,10 +23,13 @@ def cresp(sys, w=W):
     return np.asarray(ct.frequency_response(sys, w, squeeze=False).fresp)
 
 
-def same_roots(a, b, rtol=1e-8):
-    a, b = np.sort_complex(np.asarray(a, complex)), np.sort_complex(np.asarray(b, complex))
+def same_roots(a, b, rtol=1e-9):
+    """The same root sets, compared as the monic polynomials they define (multiple roots are
+    ill-conditioned themselves: a triple root moves by eps^(1/3) under rounding)."""
+    a, b = np.asarray(a, complex), np.asarray(b, complex)
     assert a.shape == b.shape, (a, b)
-    close(a, b, rtol=rtol, atol=1e-9)
+    pa, pb = np.poly(a), np.poly(b)
+    close(pa, pb, rtol=rtol, atol=rtol * np.max(np.abs(pb)))
 
 
 def test_s_variable_builds_exact_rational_models():
@@ -67,7 +70,8 @@ def test_tf_num_den_dt_and_discrete_z():
     cGd = ct.tf([0.1, 0.05], [1, -1.2, 0.4], 0.01)
     close(sk.freqresp(Gd, W[:40]), cresp(cGd, W[:40]))
     z = tf('z', 0.01)
-    cz = ct.tf('z', 0.01)
+    cz = ct.tf([1, 0], [1], 0.01)   # python-control 0.10.2 has no tf('z', dt)
+    assert tf('z', dt=0.01).dt == 0.01
     H = (z - 0.5) / (z**2 - 1.5 * z + 0.7)
     cH = (cz - 0.5) / (cz**2 - 1.5 * cz + 0.7)
     close(H(np.exp(0.3j)), cH(np.exp(0.3j)))
@@ -295,5 +299,5 @@ def test_balred_and_empty_ss_errors():
 def test_help_signatures():
     import inspect
 
-    assert "sign=-1" in str(inspect.signature(sk.feedback))
+    assert "sign: float = -1" in str(inspect.signature(sk.feedback)).replace("'float'", "float")
     assert "keep_feedforward" in str(inspect.signature(sk.tune))
