@@ -403,7 +403,10 @@ def hinf_norm(sys) -> Tuple[float, float]:
     >>> round(n, 6), round(w, 4)
     (5.025189, 0.9899)
     """
-    return _skyloop.hinf_norm(balance(_as_sys(sys)))
+    orig = _as_sys(sys)
+    g = balance(orig)
+    n, wp = _skyloop.hinf_norm(g)
+    return _model._hinf_check(g, n, wp, _model._stable_dense(orig))
 
 
 def h2_norm(sys) -> float:
@@ -452,7 +455,10 @@ def dcgain(sys) -> Union[float, _np.ndarray]:
     """
     if isinstance(sys, TransferFunction):
         return sys.dcgain()
-    g = _skyloop.dcgain(_as_sys(sys))
+    m = balance(_as_sys(sys))
+    g = _skyloop.dcgain(m)
+    if not _np.all(_np.isfinite(g)):
+        g = _model._dcgain_dense(m, g)
     return float(g[0, 0]) if g.shape == (1, 1) else g
 
 
