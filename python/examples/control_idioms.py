@@ -39,7 +39,8 @@ H = (z - 0.5) / (z**2 - 1.5 * z + 0.7)
 print("H dc gain:", H.dcgain(), " G sampled:", G.feedback().c2d(0.01).dcgain())
 
 # synthesis, python-control's shapes
-Pgen = sk.ss([[-1.0]], [[1.0, 1.0]], [[1.0], [1.0]], [[0.0, 1.0], [1.0, 0.0]])
+# x' = -x + w + u; z = [x, 0.1 u]; y = x + 0.1 w
+Pgen = sk.ss([[-1.0]], [[1.0, 1.0]], [[1.0], [0.0], [1.0]], [[0.0, 0.0], [0.0, 0.1], [0.1, 0.0]])
 K, CL, gamma, rcond = sk.hinfsyn(Pgen, 1, 1)
 print(f"hinfsyn gamma {gamma:.4f}, closed-loop norm {sk.hinf_norm(CL)[0]:.4f}")
 

@@ -38,9 +38,12 @@ def _omega(sys, omega) -> _np.ndarray:
     return _np.asarray(_sk.bode(sys)["w_rad_s"], dtype=float)
 
 
-def bode(sys, omega=None, margins: bool = False, label: Optional[str] = None) -> Any:
+def bode(sys, omega=None, margins: bool = False, label: Optional[str] = None,
+         phase_floor_db: Optional[float] = -60.0) -> Any:
     """Bode plot: magnitude (dB) and unwrapped phase (deg) against frequency (Hz), one curve per
-    channel. ``margins=True`` (SISO loops L) marks the crossover, the phase margin at it and the gain
+    channel; the phase is drawn where the gain is at least ``phase_floor_db`` (as the CLI's figure:
+    a delay's phase far below the gain floor would squash the axis; None draws it all).
+    ``margins=True`` (SISO loops L) marks the crossover, the phase margin at it and the gain
     margin at the -180 deg crossing, with the 0 dB and -180 deg lines, as the CLI's figure.
 
     >>> import skyloop as sk, skyloop.plot
@@ -53,13 +56,20 @@ def bode(sys, omega=None, margins: bool = False, label: Optional[str] = None) ->
     f = _np.asarray(b["freq_hz"])
     fig, (am, ap) = plt.subplots(2, 1, sharex=True, figsize=(7, 6))
     ny, nu = b["mag_db"].shape[:2]
+    masked = False
     for i in range(ny):
         for j in range(nu):
             name = label if (ny, nu) == (1, 1) else f"u{j + 1} -> y{i + 1}"
-            am.semilogx(f, b["mag_db"][i, j], label=name)
-            ap.semilogx(f, b["phase_deg"][i, j], label=name)
+            mag, ph = b["mag_db"][i, j], b["phase_deg"][i, j].copy()
+            if phase_floor_db is not None:
+                hidden = mag < phase_floor_db
+                if hidden.any() and not hidden.all():
+                    ph[hidden] = _np.nan
+                    masked = True
+            am.semilogx(f, mag, label=name)
+            ap.semilogx(f, ph, label=name)
     am.set_ylabel("magnitude [dB]")
-    ap.set_ylabel("phase [deg]")
+    ap.set_ylabel(f"phase [deg], shown where gain ≥ {phase_floor_db:.0f} dB" if masked else "phase [deg]")
     ap.set_xlabel("frequency [Hz]")
     for a in (am, ap):
         a.grid(True, which="both", alpha=0.3)
@@ -70,7 +80,8 @@ def bode(sys, omega=None, margins: bool = False, label: Optional[str] = None) ->
         am.axhline(0.0, color="k", lw=0.8, ls=":", label="0 dB")
         # the -180 deg line at the branch of the plotted phase
         ph = b["phase_deg"][0, 0]
-        k = _np.round((_np.median(ph) + 180.0) / 360.0)
+        near = _np.abs(b["mag_db"][0, 0]) < 20
+        k = _np.round((_np.median(ph[near] if near.any() else ph) + 180.0) / 360.0)
         ap.axhline(-180.0 + 360.0 * k, color="k", lw=0.8, ls=":", label="-180°")
         fc = m.get("phase_margin_freq_hz")
         pm = m.get("phase_margin_deg")
@@ -154,7 +165,7 @@ def nyquist(L, omega=None, disk: bool = True, radius: Optional[float] = 3.0) -> 
     ax.set_xlabel("real")
     ax.set_ylabel("imaginary")
     ax.set_title("solid ω > 0, dashed ω < 0; arrow: increasing ω")
-    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_aspect("equal", adjustable="box")
     if radius is not None:
         ax.set_xlim(-radius, radius)
         ax.set_ylim(-radius, radius)
@@ -282,8 +293,9 @@ def sigma(sys, omega=None) -> Any:
 
 
 def nichols(L, omega=None, m_circles_db: Sequence[float] = (1.0, 3.0, 6.0)) -> Any:
-    """Nichols chart of the SISO loop L: open-loop gain (dB) against phase (deg), the critical point
-    (-180°, 0 dB), and the closed-loop |T| contours at ``m_circles_db``.
+    """Nichols chart of the SISO loop L: open-loop gain (dB) against phase (deg) where the gain is
+    within +-60 dB, the critical point (-180°, 0 dB) on the branch the loop crosses 0 dB, and the
+    closed-loop |T| contours at ``m_circles_db``.
 
     >>> import skyloop as sk, skyloop.plot
     >>> s = sk.tf('s')
@@ -296,9 +308,13 @@ def nichols(L, omega=None, m_circles_db: Sequence[float] = (1.0, 3.0, 6.0)) -> A
     if b["mag_db"].shape[:2] != (1, 1):
         raise _sk.InputError("nichols needs a SISO loop L")
     mag, ph = b["mag_db"][0, 0], b["phase_deg"][0, 0]
+    keep = (mag >= -60) & (mag <= 60)
+    if keep.any():
+        mag, ph = mag[keep], ph[keep]
     fig, ax = plt.subplots(figsize=(7, 5))
     ax.plot(ph, mag, "C0-", label="L")
-    k = _np.round((_np.median(ph) + 180.0) / 360.0)
+    near = _np.abs(mag) < 20
+    k = _np.round((_np.median(ph[near] if near.any() else ph) + 180.0) / 360.0)
     crit = -180.0 + 360.0 * k
     ax.plot([crit], [0.0], "r+", ms=12, mew=2, label="(-180°, 0 dB)")
     # |T| = |L / (1 + L)| = M contours, L = g e^{jp}
