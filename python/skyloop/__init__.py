@@ -31,10 +31,6 @@ from ._skyloop import (  # noqa: F401  (re-exported API)
     SkyloopError,
     StateSpace,
     SysidError,
-    ducted_fan_plants,
-    musyn_spec,
-    read_log,
-    reproduce,
 )
 from ._model import TransferFunction, balance
 
@@ -611,6 +607,11 @@ def mu(M, blocks: str, omega=None) -> dict:
     ``M`` a model: bounds over ``omega`` (rad/s; default a grid over its dynamics), dict {upper, lower,
     w_rad_s, freq_hz, peak {upper, lower, w_rad_s, freq_hz, margin_lower, margin_upper,
     margin_freq_hz}}. ``M`` a complex matrix: {upper, lower, delta} of that matrix.
+    
+    >>> import numpy as np, skyloop as sk
+    >>> r = sk.mu(np.array([[0.5, 0.2], [0.1, 0.3]]), "c1x1,c1x1")
+    >>> round(r["upper"], 6), round(r["lower"], 6)
+    (0.573205, 0.573205)
     """
     if isinstance(M, _np.ndarray) or (isinstance(M, (list, tuple)) and not isinstance(M, StateSpace)):
         m = _np.ascontiguousarray(_np.atleast_2d(_np.asarray(M, dtype=complex)))
@@ -625,6 +626,13 @@ def musyn(P, blocks: str, nmeas: int, ncon: int, omega=None, max_iter: int = 6, 
     ``omega`` the D-scale fit grid in rad/s (default automatic). Dict {controller, mu_peak, best,
     stop_reason, iterations [{gamma, mu_peak, mu_peak_w_rad_s, mu_lower_peak, mu_rs_peak,
     controller_order, scaled_plant_order}]}.
+    
+    >>> import skyloop as sk
+    >>> p = sk.ducted_fan_plants()
+    >>> blocks = ",".join(["c1x1"] * p["n_unc"])        # 14 scalar complex uncertainties
+    >>> r = sk.musyn(p["g"], blocks, p["nmeas"], p["ncon"], max_iter=1)
+    >>> len(r["iterations"]), sorted(r)
+    (1, ['best', 'controller', 'iterations', 'mu_peak', 'stop_reason'])
     """
     w = None if omega is None else [float(x) for x in _vec(omega, "omega")]
     return _skyloop._musyn(_as_sys(P), blocks, int(nmeas), int(ncon), w, int(max_iter), int(d_order),
@@ -650,6 +658,12 @@ def hinfstruct(P, nmeas: int, ncon: int, order: int, starts: int = 8, seed: int 
     random starts (1..=1000) run in parallel, start k seeded with ``seed + k``. Returns the CLI's
     ``--json`` fields: {gamma (the H-infinity norm of lft(P, K), recomputed), controller
     (StateSpace K), stabilized_starts}. A fixed-order gamma is never below hinfsyn's optimum.
+    
+    >>> import skyloop as sk
+    >>> P = sk.ss([[-1.0]], [[1.0, 1.0]], [[1.0], [0.0], [1.0]], [[0.0, 0.0], [0.0, 0.1], [0.1, 0.0]])
+    >>> r = sk.hinfstruct(P, 1, 1, 0, starts=2)
+    >>> round(r["gamma"], 4), r["controller"].nstates
+    (0.0995, 0)
     """
     return _skyloop._hinfstruct(_as_sys(P), _count(nmeas, "nmeas"), _count(ncon, "ncon"), _count(order, "order"),
                                 _count(starts, "starts"), _count(seed, "seed"))
@@ -681,6 +695,13 @@ def tune(plant, firmware: str, goals: Iterable[str] = (), structure: str = "pid"
     feedforward (the fit, or None), setpoint_weights (pid2, or None)},
     plus ``loop_plant`` (the plant the margins were checked with: ``plant`` with the firmware's
     sample-and-hold delay added), so ``margins(loop_plant * feedback_controller)`` re-derives them.
+    
+    >>> import skyloop as sk
+    >>> r = sk.tune("exp(-0.003*s)*400/(s*(0.025*s+1))", "betaflight", goals=["disk_margin>=0.6"], starts=2)
+    >>> sorted(r["gains"])
+    ['d', 'f', 'i', 'p']
+    >>> r["margins"]["disk_alpha"] >= 0.6
+    True
     """
     if isinstance(goals, str):
         goals = [goals]
@@ -700,6 +721,16 @@ def identify(data, input: Optional[str] = None, output: Optional[str] = None, **
     equal-length 1-D arrays with a ``time_s`` column (s), written to a temporary CSV at full
     precision and read by the same reader. Dict as ``identify --json``: {frf {freq_hz, mag,
     phase_deg, coherence, ...}, fit {...} with ``model``, tf {...} with ``tf``}.
+    
+    >>> import numpy as np, skyloop as sk
+    >>> t = np.arange(0, 20, 0.002)
+    >>> u = np.random.default_rng(0).standard_normal(t.size)
+    >>> y = np.zeros_like(u)
+    >>> for k in range(1, t.size):
+    ...     y[k] = 0.98 * y[k - 1] + 0.02 * u[k - 1]
+    >>> r = sk.identify({"time_s": t, "u": u, "y": y}, "u", "y")
+    >>> sorted(r["frf"])[:3]
+    ['coherence', 'dof', 'freq_hz']
     """
     if isinstance(data, dict):
         import tempfile
@@ -719,7 +750,11 @@ def identify(data, input: Optional[str] = None, output: Optional[str] = None, **
 
 
 def scenario_text(scenario: Union[str, "_os.PathLike[str]"]) -> str:
-    """The TOML text of a scenario given as a file path or as TOML text itself."""
+    """The TOML text of a scenario given as a file path or as TOML text itself.
+    >>> import skyloop as sk
+    >>> sk.scenario_text("examples/quadrotor-ssi.toml").startswith("#")
+    True
+    """
     s = _os.fspath(scenario)
     if "\n" not in s and _os.path.isfile(s):
         with open(s, encoding="utf-8") as f:
@@ -735,6 +770,11 @@ def simulate(scenario) -> dict:
     Dict {metrics {max_abs_error, rms_error, settling_time_s (s, None if never), saturated_fraction,
     crashed}, trajectory {t_s, pos_m (NED), euler_rad, rates_rad_s, reference, tracked,
     rate_sp_rad_s, torque_n_m (N m), u, saturated}} with arrays [n] or [n, 3].
+    
+    >>> import skyloop as sk
+    >>> r = sk.simulate("examples/quadrotor-ssi.toml")
+    >>> sorted(r["metrics"])
+    ['crashed', 'max_abs_error', 'rms_error', 'saturated_fraction', 'settling_time_s']
     """
     return _skyloop._simulate(scenario_text(scenario))
 
@@ -762,10 +802,72 @@ def montecarlo(scenario, seeds: Union[None, str, Iterable[int]] = None, threads:
     campaign gives the same runs. Dict {seeds, runs [{max_abs_error, rms_error, settling_time_s,
     saturated_fraction, crashed}], summary {runs, crashed, unsettled, <metric> {mean, std, min, p95,
     max}}} (the CLI's monte_carlo.json plus the seeds).
+    
+    >>> import skyloop as sk
+    >>> r = sk.montecarlo("examples/quadrotor-ssi.toml", range(2), threads=1)
+    >>> r["seeds"], r["summary"]["runs"]
+    ([0, 1], 2)
     """
     return _skyloop._montecarlo(scenario_text(scenario), _seeds(seeds), threads)
 
 
 def summarize(runs: Sequence[dict]) -> dict:
-    """The Monte Carlo ``summary`` dict of a list of run metrics (as ``montecarlo(...)["runs"]``)."""
+    """The Monte Carlo ``summary`` dict of a list of run metrics (as ``montecarlo(...)["runs"]``).
+    >>> import skyloop as sk
+    >>> runs = sk.montecarlo("examples/quadrotor-ssi.toml", range(3), threads=1)["runs"]
+    >>> sk.summarize(runs)["runs"]
+    3
+    """
     return _skyloop._summarize([dict(r) for r in runs])
+
+
+def ducted_fan_plants() -> dict:
+    """The ducted-fan paper's plants (skyloop's reproduction, default design): dict {g (generalized
+    plant: inputs [v n_unc | w n_w | u ncon], outputs [z n_unc | e n_e | y nmeas]), g_nom (nominal
+    plant for the H-infinity design, eq. (11)), n_unc, n_w, n_e, nmeas, ncon}.
+
+    >>> import skyloop as sk
+    >>> p = sk.ducted_fan_plants()
+    >>> p["nmeas"], p["ncon"], isinstance(p["g"], sk.StateSpace)
+    (12, 5, True)
+    """
+    return _skyloop.ducted_fan_plants()
+
+
+def musyn_spec(path: Union[str, "_os.PathLike[str]"]) -> dict:
+    """mu-synthesis from a spec file (the CLI's ``skyloop musyn spec.toml``): the :func:`musyn` dict.
+
+    >>> import skyloop as sk
+    >>> r = sk.musyn_spec("examples/musyn-distillation.toml")
+    >>> r["controller"].ninputs, round(r["iterations"][0]["mu_peak"], 2)
+    (2, 1.18)
+    """
+    return _skyloop.musyn_spec(_os.fspath(path))
+
+
+def read_log(path: Union[str, "_os.PathLike[str]"], session: Optional[int] = None) -> dict:
+    """A flight log's channels (CSV with a time_s column, PX4 ULog, Betaflight blackbox ``session``):
+    {channel: array, "<group>.time_s": array (s)} (a CSV's group is ``csv``).
+
+    >>> import os, tempfile, numpy as np, skyloop as sk
+    >>> d = tempfile.mkdtemp()
+    >>> p = os.path.join(d, "log.csv")
+    >>> np.savetxt(p, np.column_stack([np.arange(5) * 0.01, np.arange(5.0)]), delimiter=",", header="time_s,gyro", comments="")
+    >>> sorted(sk.read_log(p))
+    ['csv.time_s', 'gyro']
+    """
+    return _skyloop.read_log(_os.fspath(path), session)
+
+
+def reproduce(name: str, out: Union[str, "_os.PathLike[str]"], quick: bool = False) -> list:
+    """Reproduces a paper ("bicopter", "quadrotor-ssi", "ducted-fan"; ``quick`` for the shorter
+    ducted-fan run), writing figures and report.html into ``out``: list of claims {what, paper,
+    ours, tolerance, reproduced, line} as in the reproduction's report (a ``quick`` run reproduces
+    fewer of them).
+
+    >>> import tempfile, skyloop as sk
+    >>> claims = sk.reproduce("bicopter", tempfile.mkdtemp(), quick=True)
+    >>> sorted(claims[0])
+    ['line', 'ours', 'paper', 'reproduced', 'tolerance', 'what']
+    """
+    return _skyloop.reproduce(str(name), _os.fspath(out), bool(quick))

@@ -181,9 +181,20 @@ fn hz(w: f64) -> f64 {
 ///
 /// Continuous time when ``dt == 0``, else discrete with sample period ``dt`` seconds. Build one with
 /// :func:`skyloop.ss` or :func:`skyloop.tf`. ``a * b`` is the series connection (``b`` first, then
-/// ``a``, as python-control), ``a + b`` / ``a - b`` the parallel sum / difference; numbers and
-/// 2-D arrays act as static gains. Models pickle (through their LTI JSON), so they travel to
-/// Dask or Ray workers.
+/// ``a``, as python-control), ``a + b`` / ``a - b`` the parallel sum / difference, ``a / b`` and
+/// ``a ** n`` through the inverse; numbers, 2-D arrays (``np.eye(2) * G`` is a series connection:
+/// ``__array_priority__``), :class:`skyloop.TransferFunction` and python-control models combine with
+/// it. ``G(x)`` is the response at the complex point x (or an array of them), ``G[i, j]`` a
+/// subsystem; python-control's methods ``poles() zeros() dcgain() freqresp(w) bode(w) step(t)
+/// feedback(K) minreal() c2d(dt) sample(dt) hinf_norm() h2_norm()`` and ``margins()`` are here.
+/// Models pickle (through their LTI JSON), so they travel to Dask or Ray workers.
+///
+/// >>> import skyloop as sk
+/// >>> G = sk.ss([[-1.0]], [[1.0]], [[2.0]], [[0.0]])
+/// >>> G.dcgain(), complex(G(1j))
+/// (2.0, (1-1j))
+/// >>> sk.feedback(G).poles()
+/// array([-3.+0.j])
 #[pyclass(name = "StateSpace", module = "skyloop", frozen)]
 #[derive(Clone)]
 pub struct PyStateSpace {

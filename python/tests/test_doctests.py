@@ -7,12 +7,15 @@ import pytest
 import skyloop as sk
 import skyloop._model
 import skyloop.plot
+from conftest import ROOT
 
 MODULES = [sk, skyloop._model, skyloop.plot]
 
 
 @pytest.mark.parametrize("mod", MODULES, ids=[m.__name__ for m in MODULES])
-def test_docstring_examples_run(mod):
+def test_docstring_examples_run(mod, monkeypatch):
+    """The examples use the repository's example files by relative path (examples/*.toml)."""
+    monkeypatch.chdir(ROOT)
     pytest.importorskip("matplotlib")
     import matplotlib
 
