@@ -36,6 +36,15 @@ from ._model import TransferFunction, balance
 
 __version__ = _skyloop.__version__
 
+
+def __getattr__(name: str):
+    """``skyloop.plot`` (matplotlib) and ``skyloop.dask`` load on first use."""
+    if name in ("plot", "dask"):
+        import importlib
+
+        return importlib.import_module(f".{name}", __name__)
+    raise AttributeError(f"module 'skyloop' has no attribute {name!r}")
+
 __all__ = [
     "SkyloopError", "LinalgError", "ModelError", "RobustError", "SysidError", "SimError",
     "InputError", "FileError", "InternalError",

@@ -5,6 +5,8 @@ from typing import Any, Iterable, List, Optional, Sequence, Tuple, Union, overlo
 import numpy as np
 import numpy.typing as npt
 
+from . import plot as plot
+
 __version__: str
 
 class SkyloopError(Exception): ...

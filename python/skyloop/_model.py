@@ -666,7 +666,13 @@ def _to_ss(sys) -> StateSpace:
                 raise ModelError("these channel delays are not an input delay plus an output delay: "
                                  "no state-space form with exact delays")
             ind, outd = sp
-        return _skyloop._ss(A, B, C, D, sys.dt, ind, outd)
+        out = _skyloop._ss(A, B, C, D, sys.dt, ind, outd)
+        if not sys.issiso() and nx:
+            # channel by channel is not minimal for MIMO (shared poles repeat): python-control's
+            # realization is minimal, so is this one (minreal keeps the response, see its docstring)
+            from . import minreal
+            out = minreal(out)
+        return out
     if isinstance(sys, str):
         from . import tf
         return _to_ss(tf(sys))

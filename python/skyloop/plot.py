@@ -154,8 +154,10 @@ def nyquist(L, omega=None, disk: bool = True, radius: Optional[float] = 3.0) -> 
     ax.plot(_np.cos(t), _np.sin(t), color="0.6", lw=0.8, ls=":", label="|L| = 1")
     ax.plot([-1], [0], "r+", ms=12, mew=2, label="−1")
     if disk:
-        dm = _sk.diskmargin(L)
-        alpha = dm.get("alpha")
+        try:
+            alpha = _sk.diskmargin(L).get("alpha")
+        except _sk.SkyloopError:   # e.g. a FrequencyResponseData: no model to take the margin of
+            alpha = None
         cr = _disk(alpha) if alpha is not None else None
         if cr is not None:
             c, r = cr
@@ -338,3 +340,10 @@ def nichols(L, omega=None, m_circles_db: Sequence[float] = (1.0, 3.0, 6.0)) -> A
     ax.legend(loc="best", fontsize=8)
     fig.tight_layout()
     return fig
+
+
+# python-control's names
+bode_plot = bode
+nyquist_plot = nyquist
+singular_values_plot = sigma
+nichols_plot = nichols

@@ -153,6 +153,13 @@ def test_callable_and_indexing_mimo():
     close(S[1, :](2j), cS[1, :](2j))
     assert S(1j).shape == (2, 2)
     assert S(W * 1j).shape == (2, 2, W.size)
+    # a MIMO realization is minimal, as python-control's
+    same_roots(M.poles(), cM.poles())
+    assert S.nstates == cS.nstates
+    shared = tf(num, [[[1.0, 1.0]] * 2] * 2)
+    cshared = ct.tf(num, [[[1.0, 1.0]] * 2] * 2)
+    same_roots(shared.poles(), cshared.poles())
+    close(ss(shared)(W * 1j), cshared(W * 1j))
 
 
 def test_methods_on_models_match_control():
