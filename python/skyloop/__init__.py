@@ -164,7 +164,7 @@ def tf(*args, dt: Any = None) -> Any:
     x = args[0]
     if isinstance(x, str):
         v = x.strip()
-        if v in ("s", "z", "p"):
+        if v in ("s", "z"):
             d = _model._dt_of(dt)
             if v == "z" and d == 0:
                 raise InputError("tf('z') needs the sample period: tf('z', dt)")
