@@ -54,6 +54,8 @@ __all__ = [
     "hinfsyn", "hinfstruct", "tune", "ncfsyn", "mixsyn", "mu", "musyn", "musyn_spec",
     "identify", "read_log", "simulate", "montecarlo", "summarize", "scenario_text", "reproduce",
     "ducted_fan_plants",
+    "step_response", "frequency_response", "margin", "ss2tf", "tf2ss", "series", "parallel",
+    "sample_system",
 ]
 
 
@@ -361,7 +363,8 @@ def margins(sys) -> dict:
     gain_margin_db (dB), phase_margin_deg (deg), crossovers in Hz (``*_hz``), disk margin, ...
 
     Units: this dict (and the CLI's) is in dB / degrees / Hz, each field named with its unit;
-    :func:`allmargin` is python-control's ``stability_margins`` family: linear gain, degrees, rad/s.
+    :func:`allmargin` gives dB / degrees / rad/s, :func:`margin` python-control's tuple (linear gain,
+    degrees, rad/s).
 
     >>> import skyloop as sk
     >>> s = sk.tf('s')
@@ -373,8 +376,10 @@ def margins(sys) -> dict:
 
 
 def allmargin(sys) -> dict:
-    """Every gain / phase crossing of the SISO loop L (MATLAB ``allmargin``): linear gain margins,
-    phase margins in degrees, frequencies in rad/s (python-control's ``stability_margins`` units).
+    """Every gain / phase crossing of the SISO loop L (MATLAB ``allmargin``): {gain_margins [{gm_db,
+    w_rad_s}], phase_margins [{pm_deg, w_rad_s, delay_margin_s}], delay_margin_s, stable, ...}:
+    dB, degrees, rad/s (frequencies in rad/s as python-control's ``stability_margins``; see
+    :func:`margin` for python-control's tuple with a linear gain margin).
 
     >>> import skyloop as sk
     >>> s = sk.tf('s')
@@ -880,3 +885,115 @@ def reproduce(name: str, out: Union[str, "_os.PathLike[str]"], quick: bool = Fal
     ['line', 'ours', 'paper', 'reproduced', 'tolerance', 'what']
     """
     return _skyloop.reproduce(str(name), _os.fspath(out), bool(quick))
+
+
+# ---------------------------------------------------------------------------------------------
+# python-control's function names, as thin shapes over the functions above
+
+def step_response(sys, T=None) -> Tuple[_np.ndarray, _np.ndarray]:
+    """python-control's ``t, y = step_response(sys, T)``: y squeezed to [nt] for a SISO model, else
+    [ny, nu, nt] (the :func:`step` dict's arrays).
+
+    >>> import skyloop as sk
+    >>> t, y = sk.step_response(sk.tf([1], [1, 1]), [0.0, 1.0])
+    >>> round(float(y[-1]), 6)
+    0.632121
+    """
+    r = step(sys, T)
+    y = r["y"]
+    return r["t_s"], (y[0, 0] if y.shape[:2] == (1, 1) else y)
+
+
+def frequency_response(sys, omega) -> Tuple[_np.ndarray, _np.ndarray, _np.ndarray]:
+    """python-control's ``mag, phase, omega = frequency_response(sys, omega)``: linear magnitude,
+    phase in rad (wrapped, as python-control's), omega rad/s; SISO squeezed to [nfreq], else
+    [ny, nu, nfreq].
+
+    >>> import skyloop as sk
+    >>> mag, phase, w = sk.frequency_response(sk.tf([1], [1, 1]), [1.0])
+    >>> round(float(mag[0]), 6), round(float(phase[0]), 6)
+    (0.707107, -0.785398)
+    """
+    w = _vec(omega, "omega")
+    h = freqresp(sys, w)
+    if h.shape[:2] == (1, 1):
+        h = h[0, 0]
+    return _np.abs(h), _np.angle(h), w
+
+
+def margin(L) -> Tuple[float, float, float, float]:
+    """python-control's ``gm, pm, wcg, wcp = margin(L)``: gain margin (linear), phase margin (deg),
+    phase-crossover and gain-crossover frequencies (rad/s); inf / nan where there is none. (The
+    :func:`margins` dict has the same numbers in dB and Hz.)
+
+    >>> import skyloop as sk
+    >>> s = sk.tf('s')
+    >>> gm, pm, wcg, wcp = sk.margin(4 / (s * (s + 1) * (0.1 * s + 1)))
+    >>> round(gm, 6), round(pm, 4), round(wcg, 6), round(wcp, 6)
+    (2.75, 17.705, 3.162278, 1.861216)
+    """
+    m = margins(L)
+    gdb, pm = m.get("gain_margin_db"), m.get("phase_margin_deg")
+    fg, fp = m.get("gain_margin_freq_hz"), m.get("phase_margin_freq_hz")
+    gm = float("inf") if gdb is None else float(10 ** (gdb / 20))
+    return (gm, float("inf") if pm is None else float(pm),
+            float("nan") if fg is None else float(fg) * 2 * _np.pi,
+            float("nan") if fp is None else float(fp) * 2 * _np.pi)
+
+
+def ss2tf(sys) -> TransferFunction:
+    """python-control's ``ss2tf``: ``tf(sys)``.
+
+    >>> import skyloop as sk
+    >>> sk.ss2tf(sk.ss([[-2.0]], [[1.0]], [[3.0]], [[0.0]]))
+    TransferFunction(num=[3.0], den=[1.0, 2.0], dt=0.0)
+    """
+    return _model.tf_of(sys)
+
+
+def tf2ss(*args) -> StateSpace:
+    """python-control's ``tf2ss(sys)`` or ``tf2ss(num, den[, dt])``: ``ss(tf(...))``.
+
+    >>> import skyloop as sk
+    >>> sk.tf2ss([1], [1, 2]).poles()
+    array([-2.+0.j])
+    """
+    return _model._to_ss(args[0] if len(args) == 1 else tf(*args))
+
+
+def series(*systems) -> Any:
+    """python-control's ``series(sys1, sys2, ...)``: sys1 first, then sys2 (``sysn * ... * sys1``).
+
+    >>> import skyloop as sk
+    >>> sk.series(sk.tf([1], [1, 1]), 2).dcgain()
+    2.0
+    """
+    out = systems[0]
+    for g in systems[1:]:
+        out = g * out
+    if isinstance(out, (int, float)):
+        raise InputError("series needs at least one model")
+    return out
+
+
+def parallel(*systems) -> Any:
+    """python-control's ``parallel(sys1, sys2, ...)``: the sum.
+
+    >>> import skyloop as sk
+    >>> sk.parallel(sk.tf([1], [1, 1]), 2).dcgain()
+    3.0
+    """
+    out = systems[0]
+    for g in systems[1:]:
+        out = out + g
+    return out
+
+
+def sample_system(sys, Ts: float, method: str = "zoh", prewarp_frequency: Optional[float] = None) -> Any:
+    """python-control's ``sample_system``: :func:`c2d`.
+
+    >>> import skyloop as sk
+    >>> round(sk.sample_system(sk.tf([1], [1, 1]), 0.1).dcgain(), 12)
+    1.0
+    """
+    return c2d(sys, Ts, method, prewarp_frequency)

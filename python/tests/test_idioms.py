@@ -308,3 +308,23 @@ def test_help_signatures():
 
     assert "sign: float = -1" in str(inspect.signature(sk.feedback)).replace("'float'", "float")
     assert "keep_feedforward" in str(inspect.signature(sk.tune))
+
+
+def test_python_control_function_names():
+    s, cs = tf('s'), ct.tf('s')
+    L, cL = 4 / (s * (s + 1) * (0.1 * s + 1)), 4 / (cs * (cs + 1) * (0.1 * cs + 1))
+    close(sk.margin(L), ct.margin(cL), rtol=1e-9)
+    T = np.linspace(0, 5, 51)
+    t, y = sk.step_response(1 / (s + 1), T)
+    r = ct.step_response(1 / (cs + 1), T)
+    close(t, r.time)
+    close(y, r.outputs, rtol=1e-9, atol=1e-12)
+    mag, phase, w = sk.frequency_response(L, W)
+    cm, cp, _ = ct.frequency_response(cL, W)
+    close(mag, cm)
+    close(np.exp(1j * phase), np.exp(1j * np.asarray(cp)))
+    close(sk.series(1 / (s + 1), 2 / (s + 3))(1j), ct.series(1 / (cs + 1), 2 / (cs + 3))(1j))
+    close(sk.parallel(1 / (s + 1), 2 / (s + 3))(1j), ct.parallel(1 / (cs + 1), 2 / (cs + 3))(1j))
+    close(sk.ss2tf(ss(1 / (s + 1)))(1j), (1 / (cs + 1))(1j))
+    close(sk.tf2ss([1], [1, 1])(1j), (1 / (cs + 1))(1j))
+    close(sk.sample_system(1 / (s + 1), 0.1)(np.exp(0.3j)), ct.sample_system(1 / (cs + 1), 0.1)(np.exp(0.3j)))
