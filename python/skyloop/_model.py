@@ -425,9 +425,15 @@ def _pstr(p, var: str) -> str:
             continue
         t = f"{c:g}"
         if e >= 1:
-            t += f"*{var}" + (f"^{e}" if e > 1 else "")
+            v = var + (f"^{e}" if e > 1 else "")
+            t = v if c == 1 else (f"-{v}" if c == -1 else f"{t}*{v}")
         terms.append(t)
-    return " + ".join(terms) if terms else "0"
+    if not terms:
+        return "0"
+    out = terms[0]
+    for t in terms[1:]:
+        out += f" - {t[1:]}" if t.startswith("-") else f" + {t}"
+    return out
 
 
 def _nested(x) -> List[List[Any]]:
@@ -949,6 +955,7 @@ def balance(sys: StateSpace) -> StateSpace:
     >>> float(abs(Gb.A).max()) < 4, round(Gb.dcgain() / G.dcgain(), 12)
     (True, 1.0)
     """
+    sys = _to_ss(sys)
     A, B, C = sys.A, sys.B, sys.C
     n = A.shape[0]
     if n == 0:
