@@ -180,7 +180,7 @@ def nyquist(L, omega=None, disk: bool = True, radius: Optional[float] = 3.0) -> 
 def stepinfo(t, y, settling_band: float = 0.02) -> dict:
     """MATLAB's ``stepinfo`` of one step response y(t): {rise_time_s (10 % to 90 %), settling_time_s
     (last exit from the +-2 % band of the final value), overshoot_pct, peak, peak_time_s, final};
-    None where undefined.
+    None where undefined (all three when the final value is below 1e-3 of the peak: no steady state).
 
     >>> import numpy as np, skyloop.plot
     >>> t = np.linspace(0, 10, 10001)
@@ -192,8 +192,8 @@ def stepinfo(t, y, settling_band: float = 0.02) -> dict:
     yf = float(y[-1])
     out: dict = {"final": yf, "rise_time_s": None, "settling_time_s": None, "overshoot_pct": None,
                  "peak": float(_np.max(_np.abs(y))), "peak_time_s": float(t[int(_np.argmax(_np.abs(y)))])}
-    if yf == 0 or not _np.isfinite(yf):
-        return out
+    if not _np.isfinite(yf) or abs(yf) <= 1e-3 * out["peak"]:
+        return out   # no steady state to measure against (e.g. a derivative-like channel)
     yn = y / yf
 
     def cross(level):
@@ -240,7 +240,7 @@ def step(sys, t=None, info: bool = True) -> Any:
             if info:
                 si = stepinfo(ts, yy)
                 yf = si["final"]
-                if yf:
+                if si["overshoot_pct"] is not None:
                     ax.axhline(yf, color="0.5", lw=0.8, ls=":")
                     ax.axhspan(yf * 0.98, yf * 1.02, color="C2", alpha=0.12, label="±2 % band")
                     if si["rise_time_s"] is not None:
