@@ -86,7 +86,18 @@ def _delays(v) -> Optional[list]:
     return None if v is None else [float(x) for x in _np.atleast_1d(v)]
 
 
-def ss(*args, dt: Any = None, input_delay=None, output_delay=None) -> StateSpace:
+_NAME_KWARGS = ("name", "inputs", "outputs", "states", "input_prefix", "output_prefix", "state_prefix")
+
+
+def _drop_names(kwargs: dict, fn: str) -> None:
+    """python-control's signal-name keywords are accepted and not kept (skyloop's models are
+    unnamed); anything else is an error."""
+    bad = [k for k in kwargs if k not in _NAME_KWARGS]
+    if bad:
+        raise InputError(f"{fn}() got unexpected keyword arguments {bad}")
+
+
+def ss(*args, dt: Any = None, input_delay=None, output_delay=None, **names) -> StateSpace:
     """State-space model x' = A x + B u, y = C x + D u (python-control's ``ss``).
 
     ``ss(A, B, C, D)`` or ``ss(A, B, C, D, dt)``: A (nx x nx), B (nx x nu), C (ny x nx), D (ny x nu)
@@ -94,6 +105,8 @@ def ss(*args, dt: Any = None, input_delay=None, output_delay=None) -> StateSpace
     period must be known). ``input_delay`` / ``output_delay`` exact delays in s per input / output.
     An empty A, B, C gives a static gain D. ``ss(sys)`` converts any model (a
     :class:`TransferFunction` when proper, a python-control model, an expression string).
+    python-control's naming keywords (``name``, ``inputs``, ``outputs``, ``states``) are accepted
+    and not kept.
 
     >>> import skyloop as sk
     >>> G = sk.ss([[-1.0]], [[1.0]], [[2.0]], [[0.0]])
@@ -102,6 +115,7 @@ def ss(*args, dt: Any = None, input_delay=None, output_delay=None) -> StateSpace
     >>> sk.ss(sk.tf([1], [1, 1])).A
     array([[-1.]])
     """
+    _drop_names(names, "ss")
     if len(args) == 1:
         if dt is not None or input_delay is not None or output_delay is not None:
             raise InputError("ss(sys) converts a model; give dt or delays with ss(A, B, C, D, ...)")
@@ -125,7 +139,7 @@ def ss(*args, dt: Any = None, input_delay=None, output_delay=None) -> StateSpace
     return _skyloop._ss(a, b, c, d, _model._dt_of(dt), _delays(input_delay), _delays(output_delay))
 
 
-def tf(*args, dt: Any = None) -> Any:
+def tf(*args, dt: Any = None, **names) -> Any:
     """A transfer function, python-control's way or from an expression.
 
     - ``tf('s')`` (continuous) or ``tf('z', dt)``: the Laplace / z variable as a
@@ -149,7 +163,10 @@ def tf(*args, dt: Any = None) -> Any:
     >>> P = sk.tf("exp(-0.03*s)/(s**2+1)")
     >>> P.input_delay
     array([0.03])
+
+    python-control's naming keywords (``name``, ``inputs``, ``outputs``) are accepted and not kept.
     """
+    _drop_names(names, "tf")
     if len(args) == 3:
         if dt is not None:
             raise InputError("dt given twice")
