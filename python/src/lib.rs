@@ -181,9 +181,20 @@ fn hz(w: f64) -> f64 {
 ///
 /// Continuous time when ``dt == 0``, else discrete with sample period ``dt`` seconds. Build one with
 /// :func:`skyloop.ss` or :func:`skyloop.tf`. ``a * b`` is the series connection (``b`` first, then
-/// ``a``, as python-control), ``a + b`` / ``a - b`` the parallel sum / difference; numbers and
-/// 2-D arrays act as static gains. Models pickle (through their LTI JSON), so they travel to
-/// Dask or Ray workers.
+/// ``a``, as python-control), ``a + b`` / ``a - b`` the parallel sum / difference, ``a / b`` and
+/// ``a ** n`` through the inverse; numbers, 2-D arrays (``np.eye(2) * G`` is a series connection:
+/// ``__array_priority__``), :class:`skyloop.TransferFunction` and python-control models combine with
+/// it. ``G(x)`` is the response at the complex point x (or an array of them), ``G[i, j]`` a
+/// subsystem; python-control's methods ``poles() zeros() dcgain() freqresp(w) bode(w) step(t)
+/// feedback(K) minreal() c2d(dt) sample(dt) hinf_norm() h2_norm()`` and ``margins()`` are here.
+/// Models pickle (through their LTI JSON), so they travel to Dask or Ray workers.
+///
+/// >>> import skyloop as sk
+/// >>> G = sk.ss([[-1.0]], [[1.0]], [[2.0]], [[0.0]])
+/// >>> G.dcgain(), complex(G(1j))
+/// (2.0, (1-1j))
+/// >>> sk.feedback(G).poles()
+/// array([-3.+0.j])
 #[pyclass(name = "StateSpace", module = "skyloop", frozen)]
 #[derive(Clone)]
 pub struct PyStateSpace {
@@ -351,59 +362,97 @@ impl PyStateSpace {
         let f = py.import("skyloop._skyloop")?.getattr("_from_json")?.unbind();
         Ok((f, (self.to_json(),)))
     }
-    fn __mul__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<PyObject> {
-        let s = &self.inner;
+    fn __mul__(slf: &Bound<'_, Self>, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<PyObject> {
+        let s = &slf.get().inner;
         match as_model(other, s.nu(), s.dt)? {
             Some(o) => guarded(py, || skyloop::lti::interconnect::series(&o, s))
                 .map(wrap)?
                 .into_py_any(py),
-            None => Ok(py.NotImplemented()),
+            None => py_model_call(py, "_ss_binop", ("mul", slf, other)),
         }
     }
-    fn __rmul__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<PyObject> {
-        let s = &self.inner;
+    fn __rmul__(slf: &Bound<'_, Self>, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<PyObject> {
+        let s = &slf.get().inner;
         match as_model(other, s.ny(), s.dt)? {
             Some(o) => guarded(py, || skyloop::lti::interconnect::series(s, &o))
                 .map(wrap)?
                 .into_py_any(py),
-            None => Ok(py.NotImplemented()),
+            None => py_model_call(py, "_ss_binop", ("rmul", slf, other)),
         }
     }
-    fn __add__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<PyObject> {
-        let s = &self.inner;
+    fn __add__(slf: &Bound<'_, Self>, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<PyObject> {
+        let s = &slf.get().inner;
         match as_model(other, s.ny(), s.dt)? {
             Some(o) => guarded(py, || skyloop::lti::interconnect::parallel(s, &o))
                 .map(wrap)?
                 .into_py_any(py),
-            None => Ok(py.NotImplemented()),
+            None => py_model_call(py, "_ss_binop", ("add", slf, other)),
         }
     }
-    fn __radd__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<PyObject> {
-        let s = &self.inner;
+    fn __radd__(slf: &Bound<'_, Self>, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<PyObject> {
+        let s = &slf.get().inner;
         match as_model(other, s.ny(), s.dt)? {
             Some(o) => guarded(py, || skyloop::lti::interconnect::parallel(&o, s))
                 .map(wrap)?
                 .into_py_any(py),
-            None => Ok(py.NotImplemented()),
+            None => py_model_call(py, "_ss_binop", ("radd", slf, other)),
         }
     }
-    fn __sub__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<PyObject> {
-        let s = &self.inner;
+    fn __sub__(slf: &Bound<'_, Self>, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<PyObject> {
+        let s = &slf.get().inner;
         match as_model(other, s.ny(), s.dt)? {
             Some(o) => guarded(py, || skyloop::lti::interconnect::parallel(s, &negated(&o)?))
                 .map(wrap)?
                 .into_py_any(py),
-            None => Ok(py.NotImplemented()),
+            None => py_model_call(py, "_ss_binop", ("sub", slf, other)),
         }
     }
-    fn __rsub__(&self, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<PyObject> {
-        let s = &self.inner;
+    fn __rsub__(slf: &Bound<'_, Self>, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<PyObject> {
+        let s = &slf.get().inner;
         match as_model(other, s.ny(), s.dt)? {
             Some(o) => guarded(py, || skyloop::lti::interconnect::parallel(&o, &negated(s)?))
                 .map(wrap)?
                 .into_py_any(py),
-            None => Ok(py.NotImplemented()),
+            None => py_model_call(py, "_ss_binop", ("rsub", slf, other)),
         }
+    }
+    fn __truediv__(slf: &Bound<'_, Self>, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<PyObject> {
+        py_model_call(py, "_ss_binop", ("truediv", slf, other))
+    }
+    fn __rtruediv__(slf: &Bound<'_, Self>, py: Python<'_>, other: &Bound<'_, PyAny>) -> PyResult<PyObject> {
+        py_model_call(py, "_ss_binop", ("rtruediv", slf, other))
+    }
+    fn __pow__(
+        slf: &Bound<'_, Self>,
+        py: Python<'_>,
+        other: &Bound<'_, PyAny>,
+        _modulo: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<PyObject> {
+        py_model_call(py, "_ss_binop", ("pow", slf, other))
+    }
+    /// ``G(x)``: the response at the complex point x (s or z), or at each point of an array.
+    #[pyo3(signature = (x, squeeze=None))]
+    fn __call__(
+        slf: &Bound<'_, Self>,
+        py: Python<'_>,
+        x: &Bound<'_, PyAny>,
+        squeeze: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<PyObject> {
+        py_model_call(py, "_ss_call", (slf, x, squeeze))
+    }
+    /// ``G[i, j]``: the channels (ints or slices) as a model, delays included.
+    fn __getitem__(slf: &Bound<'_, Self>, py: Python<'_>, key: &Bound<'_, PyAny>) -> PyResult<PyObject> {
+        py_model_call(py, "_ss_getitem", (slf, key))
+    }
+    /// The methods written in Python (poles, zeros, dcgain, freqresp, bode, step, feedback, minreal,
+    /// c2d, hinf_norm, h2_norm, ...), looked up in ``skyloop._model``.
+    fn __getattr__(slf: &Bound<'_, Self>, py: Python<'_>, name: &str) -> PyResult<PyObject> {
+        py_model_call(py, "_ss_getattr", (slf, name))
+    }
+    /// numpy defers to the model's reflected operators (``np.eye(2) * G`` is a series connection).
+    #[classattr]
+    fn __array_priority__() -> f64 {
+        100.0
     }
     fn __neg__(&self, py: Python<'_>) -> PyResult<PyStateSpace> {
         let s = &self.inner;
@@ -459,13 +508,24 @@ fn tf(py: Python<'_>, expr: String) -> PyResult<PyStateSpace> {
 }
 
 fn sys_of(s: &Bound<'_, PyAny>) -> PyResult<StateSpace> {
-    match s.downcast::<PyStateSpace>() {
-        Ok(s) => Ok(s.get().inner.clone()),
+    if let Ok(m) = s.downcast::<PyStateSpace>() {
+        return Ok(m.get().inner.clone());
+    }
+    // Anything else (a skyloop.TransferFunction, a python-control model, an expression) goes through
+    // the Python layer's conversion, which raises a clear error for what it cannot take.
+    let conv = s.py().import("skyloop._model")?.getattr("_to_ss")?.call1((s,))?;
+    match conv.downcast::<PyStateSpace>() {
+        Ok(m) => Ok(m.get().inner.clone()),
         Err(_) => Err(input_err(format!(
-            "expected a skyloop.StateSpace, got {} (convert with skyloop.from_control or skyloop.tf)",
+            "expected a skyloop model, got {}",
             s.get_type().name().map(|n| n.to_string()).unwrap_or_default()
         ))),
     }
+}
+
+/// Calls ``skyloop._model.<name>(*args)``: the Python layer's half of a StateSpace method.
+fn py_model_call<'py>(py: Python<'py>, name: &str, args: impl pyo3::call::PyCallArgs<'py>) -> PyResult<PyObject> {
+    Ok(py.import("skyloop._model")?.getattr(name)?.call1(args)?.unbind())
 }
 
 /// Feedback connection of ``sys1`` with ``sys2`` in the return path; ``sign=-1`` (default) for

@@ -23,9 +23,9 @@ def twins(rng, n, ny, nu, dt=0.0, strictly_proper=False):
 
 
 def cfresp(sysc, w):
-    """python-control's response as [nfreq, ny, nu]."""
+    """python-control's response as [ny, nu, nfreq] (skyloop's freqresp shape too)."""
     r = control.frequency_response(sysc, w, squeeze=False)
-    return np.moveaxis(np.asarray(r.fresp), -1, 0)
+    return np.asarray(r.fresp)
 
 
 def test_ss_properties_round_trip(rng):
@@ -46,7 +46,7 @@ def test_tf_expression_with_delay_is_exact():
     g = sk.tf("0.0887*exp(-0.032*s)/(0.0256*s+1)")
     assert g.nstates == 1 and abs(g.input_delay[0] - 0.032) < 1e-15
     w = np.logspace(-1, 3, 50)
-    h = sk.freqresp(g, w)[:, 0, 0]
+    h = sk.freqresp(g, w)[0, 0, :]
     ref = 0.0887 * np.exp(-0.032j * w) / (0.0256j * w + 1)
     np.testing.assert_allclose(h, ref, rtol=1e-12)
 
@@ -58,7 +58,7 @@ def test_freqresp_matches_control(rng, dt):
         s, sc = twins(rng, n, ny, nu, dt)
         w = np.logspace(-2, np.log10(np.pi / dt) - 0.01 if dt else 3, 300)
         g = sk.freqresp(s, w)
-        assert g.shape == (300, ny, nu) and g.dtype == np.complex128
+        assert g.shape == (ny, nu, 300) and g.dtype == np.complex128
         np.testing.assert_allclose(g, cfresp(sc, w), rtol=1e-9, atol=1e-11)
 
 
@@ -69,8 +69,8 @@ def test_bode_matches_freqresp(rng):
     g = sk.freqresp(s, w)
     np.testing.assert_allclose(b["w_rad_s"], w)
     np.testing.assert_allclose(b["freq_hz"], w / (2 * np.pi))
-    np.testing.assert_allclose(b["mag_db"], 20 * np.log10(np.abs(np.moveaxis(g, 0, -1))), rtol=1e-10)
-    ph = np.unwrap(np.angle(np.moveaxis(g, 0, -1)), axis=-1)
+    np.testing.assert_allclose(b["mag_db"], 20 * np.log10(np.abs(g)), rtol=1e-10)
+    ph = np.unwrap(np.angle(g), axis=-1)
     # Unwrapped phase: equal to numpy's up to a whole number of turns.
     k = (np.deg2rad(b["phase_deg"]) - ph) / (2 * np.pi)
     np.testing.assert_allclose(k, np.round(k), atol=1e-9)
@@ -215,7 +215,7 @@ def test_hinf_norm_bounds_a_dense_grid(rng):
         s, _ = twins(rng, rng.integers(2, 12), 2, 2)
         nrm, wpk = sk.hinf_norm(s)
         w = np.concatenate([np.logspace(-3, 4, 4000), [wpk] if np.isfinite(wpk) else []])
-        sv = np.linalg.svd(sk.freqresp(s, w), compute_uv=False)[:, 0]
+        sv = np.linalg.svd(np.moveaxis(sk.freqresp(s, w), -1, 0), compute_uv=False)[:, 0]
         assert sv.max() <= nrm * (1 + 1e-9)
         if np.isfinite(wpk):
             np.testing.assert_allclose(sv[-1], nrm, rtol=1e-6)  # attained at the reported peak

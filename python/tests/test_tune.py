@@ -95,7 +95,7 @@ def test_generic_pid_claims_hold_independently():
     C = r["feedback_controller"]
     s = 1j * W[::300]
     want = kp + ki / s + kd * s / (tf * s + 1)
-    assert np.allclose(sk.freqresp(C, W[::300])[:, 0, 0], want, rtol=1e-9)
+    assert np.allclose(sk.freqresp(C, W[::300])[0, 0, :], want, rtol=1e-9)
     assert r["loop_plant"].input_delay[0] == pytest.approx(0.02, abs=1e-15)
     g = check_claims(r, [200], [0.05, 1, 0], 0.02)
     assert g["ms"] <= 1.5 * (1 + 1e-4) and g["phase_margin_deg"] >= 45 - 1e-3
