@@ -7,8 +7,9 @@ use skyloop_sysid::logs::Log;
 /// The noise picture's channels of a log; absent ones are None or empty.
 #[derive(Debug, Clone, PartialEq)]
 pub struct NoiseChannels {
-    /// Filtered gyro of roll, pitch, yaw.
-    pub gyro: [Option<String>; 3],
+    /// Filtered gyro of roll, pitch, yaw, or why the firmware model found none for the axis
+    /// (which channels it looked for, what to log).
+    pub gyro: [std::result::Result<String, String>; 3],
     /// The gyro's unit ("deg/s", "rad/s").
     pub gyro_unit: &'static str,
     /// D term of roll, pitch, yaw (Betaflight, INAV `axisD[i]`).
@@ -29,8 +30,11 @@ pub struct NoiseChannels {
 pub fn noise_channels(log: &Log) -> Option<NoiseChannels> {
     let firmware = FlightFirmware::of(log).ok()?;
     let has = |n: &str| log.channel(n).is_ok();
-    let gyro =
-        [LogAxis::Roll, LogAxis::Pitch, LogAxis::Yaw].map(|a| RateLoopChannels::find(log, a).ok().map(|c| c.output));
+    let gyro = [LogAxis::Roll, LogAxis::Pitch, LogAxis::Yaw].map(|a| {
+        RateLoopChannels::find(log, a)
+            .map(|c| c.output)
+            .map_err(|e| e.to_string())
+    });
     let listed = |f: &dyn Fn(usize) -> String| (0..8).map(f).filter(|n| has(n)).collect::<Vec<_>>();
     Some(match firmware {
         FlightFirmware::Betaflight | FlightFirmware::Inav => {

@@ -186,7 +186,7 @@ pub fn write_outputs(out: &NoiseAnalysis, dir: &Path) -> Result<()> {
             }
             match h.save(&dir.join(format!("{name}_{file}.png"))) {
                 Ok(()) => svgs.push((h.to_svg_string()?, h.title.clone())),
-                // A flight without a throttle channel has no throttle rows: say so, keep going.
+                // Any other figure that cannot be drawn: say so, keep going.
                 Err(e) => {
                     rep.section(format!("{name}: spectrogram against {file}"))
                         .text(format!("not drawn: {e}"));

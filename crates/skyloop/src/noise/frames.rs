@@ -62,7 +62,10 @@ impl FrameSource {
         };
         let mut cols = Vec::new();
         for &a in axes {
-            let g = ch.gyro[a].as_deref().ok_or_else(|| no_gyro(log, a))?;
+            let g = ch.gyro[a].as_deref().map_err(|why| {
+                let axis = ["roll", "pitch", "yaw"][a.min(2)];
+                Error::Input(format!("{}: no gyro channel for the {axis} axis: {why}", log.source))
+            })?;
             cols.push(AxisColumns {
                 gyro: push(g),
                 raw: raw.map(|r| push(&r[a])),
@@ -200,22 +203,6 @@ pub(crate) fn strongest_peaks(d: &[f64], df_hz: f64, n: usize) -> Vec<f64> {
             (k as f64 + off) * df_hz
         })
         .collect()
-}
-
-/// Why a log has no rate-loop gyro for axis `a` (0 roll, 1 pitch, 2 yaw): the firmware model's own
-/// reason (which channels it looked for, what to log).
-fn no_gyro(log: &Log, a: usize) -> Error {
-    use skyloop_sysid::logs::flight::{Axis, RateLoopChannels};
-    let axis = [Axis::Roll, Axis::Pitch, Axis::Yaw][a.min(2)];
-    let why = RateLoopChannels::find(log, axis)
-        .err()
-        .map(|e| format!(": {e}"))
-        .unwrap_or_default();
-    Error::Input(format!(
-        "{}: no gyro channel for the {} axis{why}",
-        log.source,
-        axis.name()
-    ))
 }
 
 #[cfg(test)]
