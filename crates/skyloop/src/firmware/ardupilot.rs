@@ -15,6 +15,7 @@
 //! while the output oscillates), D_FF, the notch filters of INS_HNTCH_* (inside an identified
 //! plant when the gyro is logged after them).
 
+use super::filter_settings::{FilterSetting, FilterSettings, Knob, LineStyle};
 use super::filters::{FilterChain, Path, Shape, Stage, StageKind};
 use super::{derivative_rolloff, Lowpass};
 use crate::error::{Error, Result};
@@ -235,6 +236,38 @@ pub fn flown_from_header(t: &ArduPilotTuning, axis: Axis) -> (Filters, Option<Ga
         _ => None,
     });
     (filters, gains, lines)
+}
+
+/// The lowpass cutoffs `tune --tune-filters` may move for `axis`: `INS_GYRO_FILTER` (a biquad on
+/// the gyro, before `RATE` is logged) and `ATC_RAT_<AXIS>_FLTD` (first order, on the D term),
+/// where on (FLTD at ArduCopter's 20 Hz default where not logged, as the controller assumes).
+pub fn filter_settings(t: &ArduPilotTuning, axis: Axis) -> FilterSettings {
+    let mut settings = Vec::new();
+    let mut gyro = Vec::new();
+    if let Some(g) = t.gyro_filter_hz.filter(|x| x.is_finite() && *x > 0.0) {
+        settings.push(FilterSetting {
+            name: "INS_GYRO_FILTER".into(),
+            knob: Knob::Gyro,
+            flown_hz: g,
+            shared: true,
+        });
+        gyro.push(Lowpass::Biquad(g));
+    }
+    let (filters, _, _) = flown_from_header(t, axis);
+    if filters.fltd_hz > 0.0 {
+        let a = param_names(axis)[0].trim_end_matches("_P").to_string();
+        settings.push(FilterSetting {
+            name: format!("{a}_FLTD"),
+            knob: Knob::Dterm,
+            flown_hz: filters.fltd_hz,
+            shared: false,
+        });
+    }
+    FilterSettings {
+        settings,
+        gyro,
+        style: LineStyle::Param,
+    }
 }
 
 /// The parameters as `log info` lists them, each under its own name (DataFlash PARM messages): the rate PIDs and filters, the gyro filter and loop rate, the harmonic notches and the rate-loop messages' logging rates.

@@ -15,6 +15,7 @@
 //! Not modelled: TPA, anti-gravity, I-term relax, d_min's dynamic D (a flown tune with d_min is
 //! analysed at D = d_min by [`crate::tune::log`]), feedforward smoothing.
 
+use super::filter_settings::{FilterSetting, FilterSettings, Knob, LineStyle};
 use super::filters::{
     static_notches, FilterChain, Path, RawGyroTap, Shape, Stage, StageKind, ThrottleCurve, STAGE_NAMES,
 };
@@ -23,7 +24,7 @@ use crate::error::{Error, Result};
 use serde::Serialize;
 use skyloop_lti::StateSpace;
 use skyloop_robust::structured::blocks::Block;
-use skyloop_sysid::logs::tuning::{BetaflightTuning, Rates};
+use skyloop_sysid::logs::tuning::{BetaflightTuning, Lowpass as HeaderLowpass, Rates};
 use skyloop_sysid::logs::{Channel, Log};
 
 /// `PTERM_SCALE` of Betaflight's pid.h.
@@ -308,76 +309,79 @@ fn names_4_3(b: &BetaflightTuning) -> bool {
     b.version_major.unwrap_or(4) > 4 || (b.version_major == Some(4) && minor >= 3)
 }
 
-/// One D-term lowpass stage as the header sets it, Hz.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct DtermStage {
-    /// 1 or 2 (`dterm_lpf1`, `dterm_lpf2`).
-    pub index: usize,
-    /// The static cutoff.
-    pub static_hz: f64,
-    /// The throttle-following range (min, max), when dynamic.
-    pub dynamic_hz: Option<(f64, f64)>,
-}
-
-/// The D-term lowpass settings of a Betaflight header, with the CLI names of its version: what
-/// `tune --tune-filters` changes and the `set` lines that change it.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct DtermSettings {
-    /// The stages that are on.
-    pub stages: Vec<DtermStage>,
-    /// 4.3's names (`dterm_lpf1_static_hz`, `dterm_lpf1_dyn_min_hz`) instead of 4.0–4.2's and
-    /// 3.x's (`dterm_lowpass_hz`, `dyn_lpf_dterm_min_hz`).
-    pub names_4_3: bool,
-}
-
-impl DtermSettings {
-    /// Reads the D-term lowpass stages of a header.
-    pub fn from_header(b: &BetaflightTuning) -> DtermSettings {
-        let stages = [(1, &b.dterm_lowpass), (2, &b.dterm_lowpass2)]
-            .into_iter()
-            .filter_map(|(index, l)| {
-                let l = l.as_ref()?;
-                (l.cutoff_hz > 0.0 || l.dynamic_hz.is_some()).then_some(DtermStage {
-                    index,
-                    static_hz: l.cutoff_hz,
-                    dynamic_hz: l.dynamic_hz,
-                })
-            })
-            .collect();
-        DtermSettings {
-            stages,
-            names_4_3: names_4_3(b),
-        }
-    }
-
-    /// (setting, flown Hz, Hz scaled by `k`) of every stage's cutoffs, in whole Hz.
-    pub fn scaled(&self, k: f64) -> Vec<(String, f64, f64)> {
-        let mut out = Vec::new();
-        let s = |x: f64| (x * k).round().max(1.0);
-        for st in &self.stages {
-            let (stat, dmin, dmax) = match (st.index, self.names_4_3) {
-                (1, true) => ("dterm_lpf1_static_hz", "dterm_lpf1_dyn_min_hz", "dterm_lpf1_dyn_max_hz"),
-                (1, false) => ("dterm_lowpass_hz", "dyn_lpf_dterm_min_hz", "dyn_lpf_dterm_max_hz"),
-                (_, true) => ("dterm_lpf2_static_hz", "", ""),
-                (_, false) => ("dterm_lowpass2_hz", "", ""),
-            };
-            match st.dynamic_hz {
-                Some((lo, hi)) if !dmin.is_empty() => {
-                    out.push((dmin.to_string(), lo, s(lo)));
-                    out.push((dmax.to_string(), hi, s(hi)));
-                }
-                _ => out.push((stat.to_string(), st.static_hz, s(st.static_hz))),
+/// The gyro and D-term lowpass cutoffs of a Betaflight header that `tune --tune-filters` may move,
+/// with the CLI names of its version: 4.3's (`gyro_lpf1_static_hz`, `dterm_lpf1_dyn_min_hz`, ...)
+/// or 4.0–4.2's and 3.x's (`gyro_lowpass_hz`, `dyn_lpf_dterm_min_hz`, ...). A throttle-following
+/// lowpass moves by its range's two ends, a static one by its cutoff.
+pub fn filter_settings(b: &BetaflightTuning) -> FilterSettings {
+    let v43 = names_4_3(b);
+    // (header stage, knob, static name, dynamic min name, dynamic max name)
+    let table: [(&Option<HeaderLowpass>, Knob, &str, &str, &str); 4] = if v43 {
+        [
+            (
+                &b.gyro_lowpass,
+                Knob::Gyro,
+                "gyro_lpf1_static_hz",
+                "gyro_lpf1_dyn_min_hz",
+                "gyro_lpf1_dyn_max_hz",
+            ),
+            (&b.gyro_lowpass2, Knob::Gyro, "gyro_lpf2_static_hz", "", ""),
+            (
+                &b.dterm_lowpass,
+                Knob::Dterm,
+                "dterm_lpf1_static_hz",
+                "dterm_lpf1_dyn_min_hz",
+                "dterm_lpf1_dyn_max_hz",
+            ),
+            (&b.dterm_lowpass2, Knob::Dterm, "dterm_lpf2_static_hz", "", ""),
+        ]
+    } else {
+        [
+            (
+                &b.gyro_lowpass,
+                Knob::Gyro,
+                "gyro_lowpass_hz",
+                "dyn_lpf_gyro_min_hz",
+                "dyn_lpf_gyro_max_hz",
+            ),
+            (&b.gyro_lowpass2, Knob::Gyro, "gyro_lowpass2_hz", "", ""),
+            (
+                &b.dterm_lowpass,
+                Knob::Dterm,
+                "dterm_lowpass_hz",
+                "dyn_lpf_dterm_min_hz",
+                "dyn_lpf_dterm_max_hz",
+            ),
+            (&b.dterm_lowpass2, Knob::Dterm, "dterm_lowpass2_hz", "", ""),
+        ]
+    };
+    let mut settings = Vec::new();
+    let mut gyro = Vec::new();
+    for (l, knob, stat, dmin, dmax) in table {
+        let Some(l) = l.as_ref().filter(|l| l.cutoff_hz > 0.0 || l.dynamic_hz.is_some()) else {
+            continue;
+        };
+        let set = |name: &str, flown_hz: f64| FilterSetting {
+            name: name.to_string(),
+            knob,
+            flown_hz,
+            shared: true,
+        };
+        match l.dynamic_hz {
+            Some((lo, hi)) if !dmin.is_empty() => {
+                settings.push(set(dmin, lo));
+                settings.push(set(dmax, hi));
             }
+            _ => settings.push(set(stat, l.cutoff_hz)),
         }
-        out
+        if knob == Knob::Gyro {
+            gyro.extend(super::header_lowpass(l, &mut Vec::new(), stat));
+        }
     }
-
-    /// The `set` lines that scale every D-term lowpass cutoff by `k`.
-    pub fn cli_lines(&self, k: f64) -> Vec<String> {
-        self.scaled(k)
-            .into_iter()
-            .map(|(name, _, v)| format!("set {name} = {v:.0}"))
-            .collect()
+    FilterSettings {
+        settings,
+        gyro,
+        style: LineStyle::Set,
     }
 }
 
@@ -398,8 +402,8 @@ impl Filters {
 /// The flown tune of one axis as a Betaflight header states it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FlownHeader {
-    /// The D-term lowpass settings, with the CLI names of the header's version.
-    pub dterm_settings: DtermSettings,
+    /// The gyro and D-term lowpass settings, with the CLI names of the header's version.
+    pub filter_settings: FilterSettings,
     /// The controller's filters (the D-term chain; the gyro chain is inside a plant identified from
     /// the logged gyro) and the PID loop rate.
     pub filters: Filters,
@@ -488,7 +492,7 @@ pub fn flown_from_header(b: &BetaflightTuning, axis: Axis, log: &Log) -> FlownHe
         ));
     }
     FlownHeader {
-        dterm_settings: DtermSettings::from_header(b),
+        filter_settings: filter_settings(b),
         filters,
         gains,
         lines,

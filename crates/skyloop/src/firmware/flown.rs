@@ -2,6 +2,7 @@
 //! (filters, loop rate, feedforward, the plant's units), the flown gains, and what a report says
 //! of them. One dispatcher over the firmwares; each firmware's file reads its own header.
 
+use super::filter_settings::FilterSettings;
 use super::rate_gains::RateGains;
 use super::{ardupilot, betaflight, inav, px4, Firmware};
 use crate::error::{Error, Result};
@@ -19,8 +20,8 @@ pub struct FlownTune {
     /// Betaflight with d_min active: the header's gains (D at its maximum); `controller` holds
     /// the D the firmware applies away from fast stick moves.
     pub d_max_gains: Option<betaflight::Gains>,
-    /// The D-term lowpass settings `--tune-filters` may change (Betaflight).
-    pub dterm_settings: Option<betaflight::DtermSettings>,
+    /// The gyro and D-term lowpass settings `--tune-filters` may change, as the firmware names them.
+    pub filter_settings: Option<FilterSettings>,
     /// The firmware's limit on the rate target's acceleration, deg/s², for the 6-DOF check
     /// (ArduPilot's `ATC_ACCEL_*_MAX`); None: Betaflight-style stick moves.
     pub setpoint_accel_deg_s2: Option<f64>,
@@ -79,7 +80,7 @@ pub fn flown_tune(log: &Log, firmware: Firmware, axis: betaflight::Axis) -> Resu
         controller,
         gains_flown,
         d_max_gains: None,
-        dterm_settings: None,
+        filter_settings: None,
         setpoint_accel_deg_s2: None,
         lines,
         notes,
@@ -106,7 +107,7 @@ pub fn flown_tune(log: &Log, firmware: Firmware, axis: betaflight::Axis) -> Resu
             };
             Some(FlownTune {
                 d_max_gains: d_max,
-                dterm_settings: Some(h.dterm_settings),
+                filter_settings: Some(h.filter_settings),
                 ..tune(controller, gains.is_some(), h.lines, h.notes)
             })
         }
@@ -122,7 +123,10 @@ pub fn flown_tune(log: &Log, firmware: Firmware, axis: betaflight::Axis) -> Resu
                 axis,
                 filters: h.filters,
             };
-            Some(tune(controller, h.gains.is_some(), h.lines, h.notes))
+            Some(FlownTune {
+                filter_settings: Some(inav::filter_settings(t, log)),
+                ..tune(controller, h.gains.is_some(), h.lines, h.notes)
+            })
         }
         (Some(FirmwareTuning::Px4(p)), Firmware::Px4) => {
             let (filters, g, lines) = px4::flown_from_header(p, axis);
@@ -131,7 +135,10 @@ pub fn flown_tune(log: &Log, firmware: Firmware, axis: betaflight::Axis) -> Resu
                 axis,
                 filters,
             };
-            Some(tune(controller, g.is_some(), lines, Vec::new()))
+            Some(FlownTune {
+                filter_settings: Some(px4::filter_settings(p)),
+                ..tune(controller, g.is_some(), lines, Vec::new())
+            })
         }
         (Some(FirmwareTuning::ArduPilot(t)), Firmware::Ardupilot) => {
             let (filters, g, lines) = ardupilot::flown_from_header(t, axis);
@@ -160,6 +167,7 @@ pub fn flown_tune(log: &Log, firmware: Firmware, axis: betaflight::Axis) -> Resu
             };
             Some(FlownTune {
                 setpoint_accel_deg_s2: accel,
+                filter_settings: Some(ardupilot::filter_settings(t, axis)),
                 ..tune(controller, true, lines, notes)
             })
         }

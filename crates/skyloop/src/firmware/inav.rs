@@ -18,6 +18,7 @@
 //! I-term relax, D-boost, the yaw P lowpass (`yaw_lpf_hz`), the Smith predictor and the gyro filters
 //! (inside a plant identified from the logged gyro).
 
+use super::filter_settings::{FilterSetting, FilterSettings, Knob, LineStyle};
 use super::filters::{static_notches, FilterChain, Path, Shape, Stage, StageKind};
 use super::{chain, derivative_rolloff, Lowpass};
 use crate::error::{Error, Result};
@@ -188,6 +189,57 @@ pub struct FlownHeader {
     pub lines: Vec<String>,
     /// What the analysis assumes.
     pub notes: Vec<String>,
+}
+
+/// The lowpass cutoffs `tune --tune-filters` may move: the gyro main lowpass (`gyro_main_lpf_hz`,
+/// or older INAV's `gyro_lpf_hz`, whichever the header holds; throttle-following:
+/// `gyro_dyn_lpf_min_hz`/`gyro_dyn_lpf_max_hz`) and the D-term lowpasses (`dterm_lpf_hz`,
+/// `dterm_lpf2_hz`), where on.
+pub fn filter_settings(t: &InavTuning, log: &skyloop_sysid::logs::Log) -> FilterSettings {
+    let gyro_name = if log.setting("gyro_main_lpf_hz").is_some() {
+        "gyro_main_lpf_hz"
+    } else {
+        "gyro_lpf_hz"
+    };
+    let mut settings = Vec::new();
+    let mut gyro = Vec::new();
+    let table = [
+        (
+            &t.gyro_lowpass,
+            Knob::Gyro,
+            gyro_name,
+            "gyro_dyn_lpf_min_hz",
+            "gyro_dyn_lpf_max_hz",
+        ),
+        (&t.dterm_lowpass, Knob::Dterm, "dterm_lpf_hz", "", ""),
+        (&t.dterm_lowpass2, Knob::Dterm, "dterm_lpf2_hz", "", ""),
+    ];
+    for (l, knob, stat, dmin, dmax) in table {
+        let Some(l) = l.as_ref().filter(|l| l.cutoff_hz > 0.0 || l.dynamic_hz.is_some()) else {
+            continue;
+        };
+        let set = |name: &str, flown_hz: f64| FilterSetting {
+            name: name.to_string(),
+            knob,
+            flown_hz,
+            shared: true,
+        };
+        match l.dynamic_hz {
+            Some((lo, hi)) if !dmin.is_empty() => {
+                settings.push(set(dmin, lo));
+                settings.push(set(dmax, hi));
+            }
+            _ => settings.push(set(stat, l.cutoff_hz)),
+        }
+        if knob == Knob::Gyro {
+            gyro.extend(super::header_lowpass(l, &mut Vec::new(), stat));
+        }
+    }
+    FilterSettings {
+        settings,
+        gyro,
+        style: LineStyle::Set,
+    }
 }
 
 /// Reads the flown tune of `axis` from an INAV header.

@@ -19,6 +19,7 @@
 pub mod ardupilot;
 pub mod betaflight;
 pub mod channels;
+pub mod filter_settings;
 pub mod filters;
 pub mod flown;
 pub mod inav;
@@ -269,6 +270,42 @@ impl Lowpass {
     /// True for a lowpass (not a notch).
     pub fn is_lowpass(&self) -> bool {
         !matches!(self, Lowpass::Notch(..))
+    }
+
+    /// The continuous filter's poles, rad/s (a notch's too: its zeros are not returned).
+    ///
+    /// # Errors
+    /// A cutoff that is not a finite positive number.
+    pub fn poles(&self) -> Result<Vec<skyloop_lti::c64>> {
+        use skyloop_lti::c64;
+        // Written out, not computed as eigenvalues: PT2's and PT3's repeated poles would come
+        // back perturbed by ~eps^(1/n), and a de-embedding ratio must cancel them exactly.
+        self.model()?;
+        let w = 2.0 * PI * self.cutoff_hz();
+        let pt = |n: i32| vec![c64::new(-w / (2f64.powf(1.0 / f64::from(n)) - 1.0).sqrt(), 0.0); n as usize];
+        Ok(match *self {
+            Lowpass::Pt1(_) => vec![c64::new(-w, 0.0)],
+            Lowpass::Pt2(_) => pt(2),
+            Lowpass::Pt3(_) => pt(3),
+            Lowpass::Biquad(_) => {
+                let h = w * std::f64::consts::FRAC_1_SQRT_2;
+                vec![c64::new(-h, h), c64::new(-h, -h)]
+            }
+            Lowpass::Notch(f0, fc) => {
+                let w0 = 2.0 * PI * f0;
+                let b = w0 / (f0 * fc / (f0 * f0 - fc * fc));
+                let disc = b * b - 4.0 * w0 * w0;
+                if disc >= 0.0 {
+                    vec![
+                        c64::new((-b + disc.sqrt()) / 2.0, 0.0),
+                        c64::new((-b - disc.sqrt()) / 2.0, 0.0),
+                    ]
+                } else {
+                    let im = (-disc).sqrt() / 2.0;
+                    vec![c64::new(-b / 2.0, im), c64::new(-b / 2.0, -im)]
+                }
+            }
+        })
     }
 
     /// The continuous filter.

@@ -10,6 +10,7 @@
 //!
 //! So C_fb(s) = K·[(P + I/s)·F_gyro(s) + D·s·F_dgyro(s)] and C_r(s) = K·(P + I/s) + FF.
 
+use super::filter_settings::{FilterSetting, FilterSettings, Knob, LineStyle};
 use super::filters::{FilterChain, Path, Shape, Stage, StageKind};
 use super::{derivative_rolloff, Lowpass};
 use crate::error::{Error, Result};
@@ -177,6 +178,38 @@ pub fn flown_from_header(p: &Px4Tuning, axis: Axis) -> (Filters, Option<Gains>, 
         }
     }
     (filters, gains, lines)
+}
+
+/// The lowpass cutoffs `tune --tune-filters` may move: `IMU_GYRO_CUTOFF` (a biquad on the gyro)
+/// and `IMU_DGYRO_CUTOFF` (a biquad on the D term), where on.
+pub fn filter_settings(p: &Px4Tuning) -> FilterSettings {
+    let on = |v: Option<f64>| v.filter(|x| x.is_finite() && *x > 0.0);
+    let mut settings = Vec::new();
+    let mut gyro = Vec::new();
+    if let Some(g) = on(p.gyro_cutoff_hz) {
+        settings.push(FilterSetting {
+            name: "IMU_GYRO_CUTOFF".into(),
+            knob: Knob::Gyro,
+            flown_hz: g,
+            shared: true,
+        });
+        gyro.push(Lowpass::Biquad(g));
+    }
+    // The controller assumes PX4's 30 Hz default where the parameter is not logged; so does this.
+    let d = p.dgyro_cutoff_hz.unwrap_or(30.0);
+    if d > 0.0 {
+        settings.push(FilterSetting {
+            name: "IMU_DGYRO_CUTOFF".into(),
+            knob: Knob::Dterm,
+            flown_hz: d,
+            shared: true,
+        });
+    }
+    FilterSettings {
+        settings,
+        gyro,
+        style: LineStyle::Param,
+    }
 }
 
 /// PX4's filter chain from its parameters: `IMU_GYRO_CUTOFF` (a biquad on the gyro) and

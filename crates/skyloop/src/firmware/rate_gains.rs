@@ -293,32 +293,48 @@ impl RateGains {
         }
     }
 
-    /// The same gains with every D-term lowpass cutoff scaled by `k` (whole Hz); None for a
-    /// firmware whose D-term filters `tune --tune-filters` does not change yet (INAV, PX4).
+    /// The same gains with every D-term lowpass cutoff scaled by `k` (whole Hz, as
+    /// [`super::Lowpass::scaled`]; notches kept); None when the D term has no lowpass to scale.
     pub fn with_dterm_scale(&self, k: f64) -> Option<RateGains> {
-        match self {
-            RateGains::Betaflight { gains, axis, filters } => Some(RateGains::Betaflight {
-                gains: *gains,
-                axis: *axis,
-                filters: filters.with_dterm_scale(k),
-            }),
-            RateGains::Inav { .. } | RateGains::Px4 { .. } | RateGains::Ardupilot { .. } => None,
+        let scaled = |hz: f64| (hz * k).round().max(1.0);
+        let mut out = self.clone();
+        match &mut out {
+            RateGains::Betaflight { filters, .. } => *filters = filters.with_dterm_scale(k),
+            RateGains::Inav { filters, .. } => {
+                for l in filters.dterm.iter_mut().filter(|l| l.is_lowpass()) {
+                    *l = l.scaled(k);
+                }
+            }
+            RateGains::Px4 { filters, .. } if filters.dgyro_cutoff_hz > 0.0 => {
+                filters.dgyro_cutoff_hz = scaled(filters.dgyro_cutoff_hz);
+            }
+            RateGains::Ardupilot { filters, .. } if filters.fltd_hz > 0.0 => filters.fltd_hz = scaled(filters.fltd_hz),
+            RateGains::Px4 { .. } | RateGains::Ardupilot { .. } => return None,
         }
+        self.lowest_dterm_cutoff_hz()?;
+        Some(out)
     }
 
-    /// The D-term filter chain in the controller (empty for PX4 and ArduPilot, whose D-term
-    /// lowpass is one cutoff, not a stage list).
-    pub fn dterm_chain(&self) -> &[super::Lowpass] {
+    /// The D-term filter stages in the controller, in order: Betaflight's and INAV's chain,
+    /// PX4's `IMU_DGYRO_CUTOFF` biquad, ArduPilot's `FLTD` first-order lowpass (empty when off).
+    pub fn dterm_lowpasses(&self) -> Vec<super::Lowpass> {
         match self {
-            RateGains::Betaflight { filters, .. } => &filters.dterm,
-            RateGains::Inav { filters, .. } => &filters.dterm,
-            RateGains::Px4 { .. } | RateGains::Ardupilot { .. } => &[],
+            RateGains::Betaflight { filters, .. } => filters.dterm.clone(),
+            RateGains::Inav { filters, .. } => filters.dterm.clone(),
+            RateGains::Px4 { filters, .. } => (filters.dgyro_cutoff_hz > 0.0)
+                .then_some(super::Lowpass::Biquad(filters.dgyro_cutoff_hz))
+                .into_iter()
+                .collect(),
+            RateGains::Ardupilot { filters, .. } => (filters.fltd_hz > 0.0)
+                .then_some(super::Lowpass::Pt1(filters.fltd_hz))
+                .into_iter()
+                .collect(),
         }
     }
 
     /// The lowest D-term lowpass cutoff, Hz (None without one).
     pub fn lowest_dterm_cutoff_hz(&self) -> Option<f64> {
-        self.dterm_chain()
+        self.dterm_lowpasses()
             .iter()
             .filter(|l| l.is_lowpass())
             .map(super::Lowpass::cutoff_hz)

@@ -15,6 +15,7 @@
 //! noise band ([`super::noise`]).
 
 use crate::error::{Error, Result};
+use crate::firmware::filter_settings::Scale;
 use crate::firmware::rate_gains::RateGains;
 use serde::Serialize;
 use skyloop_lti::freqresp::{logspace, FreqEvaluator};
@@ -169,6 +170,9 @@ pub struct Candidate {
     pub gains: RateGains,
     /// Its screened scores.
     pub scores: Scores,
+    /// The factors its gyro and D-term lowpass cutoffs are scaled by (`--tune-filters`; the
+    /// D-term chain is also in `gains`).
+    pub scale: Scale,
 }
 
 /// What the search is asked to do.
@@ -214,6 +218,7 @@ pub fn search_against(
         .map(|g| Candidate {
             scores: screen.score(g.continuous()),
             gains: g,
+            scale: Scale::FLOWN,
         })
         .collect();
     let eps = 1e-3;

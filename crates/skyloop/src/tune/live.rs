@@ -78,7 +78,7 @@ impl LiveLoop {
         v["loop"] = loop_response(&self.held[0], &c, &freq_hz)?;
         v["disk"] = disk_json(a.margins.disk_alpha);
         v["noise"] = match (&self.gyro_noise, robust) {
-            (Some(gn), true) => noise_of(gn, &self.flown, g, &self.held[..1])?.to_json(),
+            (Some(gn), true) => noise_of(gn, gn, &self.flown, g, &self.held[..1])?.to_json(),
             (Some(gn), false) => self.noise_ratio(gn, g)?,
             (None, _) => Value::Null,
         };

@@ -21,14 +21,17 @@
 
 use super::candidates::{front, search, Scores, Screen, SearchLimits};
 use super::deconv::{step_from_log, DeconvOptions, MeasuredStep};
-use super::filter_tuning::{add_filter_candidates, describe, scale_of, FilterChange, MIN_CUTOFF_OVER_CROSSOVER};
+use super::filter_tuning::{
+    add_filter_candidates, cutoff_rule, describe, variant_of, FilterChange, GyroVariant, ProposedFilters,
+};
 use super::flight::{fly, FlightCheck, FlightSetup};
 use super::live::LiveLoop;
 use super::noise::{self, NoiseReport};
 use super::verdict::{proposal_text, Verdict, VerdictKind};
 use super::{outcome_for_gains, tune, with_hold, Firmware, GenericStructure, Maximize, TuneOutcome, TuneRequest};
 use crate::error::{Error, Result};
-use crate::firmware::betaflight::{self, Axis};
+use crate::firmware::betaflight::Axis;
+use crate::firmware::filter_settings::{FilterSettings, Scale};
 use crate::firmware::flown::{flown_tune, FlownTune};
 use crate::firmware::rate_gains::RateGains;
 use crate::identify::{identify_log, Identification, IdentifyRequest};
@@ -175,8 +178,11 @@ pub struct LogTuneOutcome {
     pub noise: Option<NoiseReport>,
     /// The trade-off front within the bounded change: (gains, screened scores, noise ratio).
     pub front: Vec<(Value, Scores, f64)>,
-    /// The D-term filter changes of the proposal (`--tune-filters`), each with its reason.
+    /// The filter changes of the proposal (`--tune-filters`), each with its reason.
     pub filter_changes: Vec<FilterChange>,
+    /// The proposal's gyro and D-term lowpass chains against the flown ones (None unless
+    /// `--tune-filters` moved one).
+    pub proposed_filters: Option<ProposedFilters>,
     /// The axis.
     pub axis: Axis,
     /// The flown tune's closed loop setpoint → gyro, measured against predicted.
@@ -295,6 +301,7 @@ fn tune_from_read_log(req: &LogTuneRequest, log: Log, derived: Vec<String>) -> R
         noise: pr.noise,
         front: pr.front,
         filter_changes: pr.filter_changes,
+        proposed_filters: pr.proposed_filters,
         axis: req.axis,
         closed_loop: fl.closed_loop,
         live,
@@ -444,10 +451,10 @@ fn header_stage(req: &LogTuneRequest, idn: &Identified, notes: &mut Vec<String>)
         }
         None => notes.push("the log header carries no rate-controller tuning: nothing to compare".into()),
     }
-    let dterm = flown.as_ref().and_then(|f| f.dterm_settings.as_ref());
-    if req.tune_filters && dterm.is_none_or(|d| d.stages.is_empty()) {
+    let settings = flown.as_ref().and_then(|f| f.filter_settings.as_ref());
+    if req.tune_filters && settings.is_none_or(|d| d.settings.is_empty()) {
         notes.push(
-            "--tune-filters: the D-term filters are left as flown (tuned for Betaflight logs with a D-term lowpass only)".into(),
+            "--tune-filters: the filters are left as flown (the log states no gyro or D-term lowpass cutoff)".into(),
         );
     }
     Ok(Header { treq, filters, flown })
@@ -566,6 +573,7 @@ struct Proposal {
     noise: Option<NoiseReport>,
     gyro_noise: Option<noise::GyroNoise>,
     filter_changes: Vec<FilterChange>,
+    proposed_filters: Option<ProposedFilters>,
 }
 
 fn propose_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, fl: &Flown) -> Result<Proposal> {
@@ -577,6 +585,7 @@ fn propose_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, fl: &Flow
     let mut noise_report = None;
     let mut gyro_noise = None;
     let mut filter_changes = Vec::new();
+    let mut proposed_filters = None;
     let (proposed, proposed_analysis, verdict) = match (&fl.flown_rg, &fl.current) {
         (Some(g), Some(cur)) => {
             let spans: Vec<(f64, f64)> = id.segments.iter().map(|s| (s.from_s, s.to_s)).collect();
@@ -587,7 +596,7 @@ fn propose_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, fl: &Flow
             if let Some(why) = &refusal {
                 let mut out = outcome_for_gains(g, held, &req.goals, Vec::new())?;
                 out.cli.clear();
-                let mut nr = noise_of(&gn, g, g, held)?;
+                let mut nr = noise_of(&gn, &gn, g, g, held)?;
                 nr.budget = Some(req.noise_budget);
                 noise_report = Some(nr);
                 (
@@ -599,13 +608,14 @@ fn propose_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, fl: &Flow
                     },
                 )
             } else {
-                let dterm = hdr
+                let settings = hdr
                     .flown
                     .as_ref()
-                    .and_then(|f| f.dterm_settings.as_ref())
-                    .filter(|d| req.tune_filters && !d.stages.is_empty());
-                let r = grid_proposal(req, g, cur, held, &gn, wn, fl.flight_setup.as_ref(), dterm)?;
+                    .and_then(|f| f.filter_settings.as_ref())
+                    .filter(|d| req.tune_filters && !d.settings.is_empty());
+                let r = grid_proposal(req, g, cur, held, &gn, wn, fl.flight_setup.as_ref(), settings)?;
                 filter_changes = r.filter_changes;
+                proposed_filters = r.proposed_filters;
                 front_pts = r.front;
                 noise_report = Some(r.noise);
                 (r.outcome, r.analysis, r.verdict)
@@ -654,6 +664,7 @@ fn propose_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, fl: &Flow
         noise: noise_report,
         gyro_noise,
         filter_changes,
+        proposed_filters,
     })
 }
 
@@ -908,8 +919,12 @@ impl LogTuneOutcome {
         v["filter_changes"] = json!(self
             .filter_changes
             .iter()
-            .map(|c| json!({"name": c.name, "flown_hz": c.flown_hz, "proposed_hz": c.proposed_hz, "reason": c.reason}))
+            .map(|c| json!({"name": c.name, "filter": c.filter, "flown_hz": c.flown_hz, "proposed_hz": c.proposed_hz, "reason": c.reason}))
             .collect::<Vec<_>>());
+        v["filters_proposed"] = self
+            .proposed_filters
+            .as_ref()
+            .map_or(Value::Null, ProposedFilters::to_json);
         if let Some(n) = v["notes"].as_array_mut() {
             for x in &self.notes {
                 n.push(json!(x));
@@ -954,24 +969,25 @@ fn proposed_reference_path(req: &LogTuneRequest, proposed: &TuneOutcome) -> Resu
     })
 }
 
-/// The noise report of `proposed` against `flown` on the log's gyro spectrum, with the D-term check
-/// of the flown tune. Each gain set through its own filters (a live re-analysis may move the D-term
-/// cutoffs; a proposal keeps the flown ones).
+/// The noise report of `proposed` against `flown`: the flown tune on the log's gyro spectrum `gn`,
+/// the proposal on `gn_proposed` (the same, or the gyro behind a proposed gyro lowpass), with the
+/// D-term check of the flown tune. Each gain set through its own D-term filters.
 pub(crate) fn noise_of(
     gn: &noise::GyroNoise,
+    gn_proposed: &noise::GyroNoise,
     flown: &RateGains,
     proposed: &RateGains,
     held: &[StateSpace],
 ) -> Result<NoiseReport> {
     let block = flown.block()?;
-    let power = |g: &RateGains, band: (f64, f64)| -> Result<f64> {
+    let power = |g: &RateGains, gn: &noise::GyroNoise, band: (f64, f64)| -> Result<f64> {
         let (f, w) = gn.band_weights(band);
         Ok(Screen::new(&g.block()?, &held[..1], 10.0, &f, &w)?.noise(g.continuous()))
     };
     let bands = gn
         .sub_bands()
         .into_iter()
-        .map(|b| Ok((b, power(flown, b)?, power(proposed, b)?)))
+        .map(|b| Ok((b, power(flown, gn, b)?, power(proposed, gn_proposed, b)?)))
         .collect::<Result<Vec<_>>>()?;
     // The flown D path alone predicts the logged D term's spectrum.
     let dterm_check = match &gn.dterm {
@@ -992,14 +1008,15 @@ pub(crate) fn noise_of(
     } else {
         1.0
     };
-    let per_f = |g: &RateGains| -> Result<Vec<f64>> {
+    let per_f = |g: &RateGains, gn: &noise::GyroNoise| -> Result<Vec<f64>> {
+        let (f, w) = gn.band_weights(all);
         let sc = Screen::new(&g.block()?, &held[..1], 10.0, &f, &w)?;
         Ok(sc.noise_terms(g.continuous()).into_iter().map(|v| v / df).collect())
     };
     let spectra = noise::Spectra {
         gyro: w.iter().map(|v| v / df).collect(),
-        flown: per_f(flown)?,
-        proposed: per_f(proposed)?,
+        flown: per_f(flown, gn)?,
+        proposed: per_f(proposed, gn_proposed)?,
         dterm: gn
             .dterm
             .as_ref()
@@ -1015,8 +1032,8 @@ pub(crate) fn noise_of(
         freq_hz: f,
     };
     Ok(NoiseReport {
-        flown: power(flown, gn.band_hz)?,
-        proposed: power(proposed, gn.band_hz)?,
+        flown: power(flown, gn, gn.band_hz)?,
+        proposed: power(proposed, gn_proposed, gn.band_hz)?,
         band_hz: gn.band_hz,
         bands,
         dterm_check,
@@ -1033,13 +1050,15 @@ struct GridResult {
     noise: NoiseReport,
     front: Vec<(Value, Scores, f64)>,
     filter_changes: Vec<FilterChange>,
+    proposed_filters: Option<ProposedFilters>,
 }
 
 /// Most ranked candidates re-verified exactly (and flown in the 6-DOF check) before giving up.
 const VERIFY_MAX: usize = 6;
 
-/// The bounded search around the flown tune ([`super::candidates`]), the exact verification of the
-/// best candidates (margins over the uncertainty set, 6-DOF tracking no worse), and the verdict.
+/// The bounded search around the flown tune ([`super::candidates`]; with `settings`, the filter
+/// factors too, [`super::filter_tuning`]), the exact verification of the best candidates (margins
+/// over the uncertainty set, 6-DOF tracking no worse), and the verdict.
 #[allow(clippy::too_many_arguments)]
 fn grid_proposal(
     req: &LogTuneRequest,
@@ -1049,7 +1068,7 @@ fn grid_proposal(
     gn: &noise::GyroNoise,
     wn: f64,
     flight: Option<&FlightSetup>,
-    dterm: Option<&betaflight::DtermSettings>,
+    settings: Option<&FilterSettings>,
 ) -> Result<GridResult> {
     if !(req.noise_budget.is_finite() && (1.0..=10.0).contains(&req.noise_budget)) {
         return Err(Error::Input(format!(
@@ -1067,20 +1086,16 @@ fn grid_proposal(
         rank_by_integral: req.maximize == Maximize::IntegralGain,
     };
     let (mut ranked, mut all, fs) = search(&screen, flown, &limits);
-    if dterm.is_some() {
-        add_filter_candidates(
-            flown,
-            &screen,
-            held,
-            f_max,
-            (&nf, &nw),
-            &fs,
-            &limits,
-            &mut ranked,
-            &mut all,
-        )?;
-    }
-    let (chosen, rejected) = verify_candidates(flown, cur, &ranked, &fs, &limits, held, wn, flight)?;
+    let (variants, filter_notes) = match settings {
+        Some(st) => add_filter_candidates(flown, st, &screen, held, f_max, gn, &fs, &limits, &mut ranked, &mut all)?,
+        None => (Vec::new(), Vec::new()),
+    };
+    let plants = Plants {
+        held,
+        variants: &variants,
+        settings,
+    };
+    let (chosen, rejected) = verify_candidates(flown, cur, &ranked, &fs, &limits, &plants, wn, flight)?;
     let axis = req.axis.name();
     let fr: Vec<(Value, Scores, f64)> = front(&all, &fs, &limits, 5)
         .into_iter()
@@ -1098,25 +1113,23 @@ fn grid_proposal(
         all.len(),
         ranked.len()
     )];
+    notes.extend(filter_notes);
     notes.extend(rejected.into_iter().map(|r| format!("candidate rejected: {r}")));
-    let mut filter_changes = Vec::new();
-    let (gains, analysis, verdict) = match chosen {
+    let (gains, scale, analysis, verdict) = match chosen {
         Some((c, a)) => {
-            let nr = noise_of(gn, flown, &c.gains, held)?;
-            if let Some(ds) = dterm {
-                let k = scale_of(flown, &c.gains);
-                filter_changes = describe(ds, k, flown, &c.gains, a.margins.crossover_hz, nr.ratio(), req.noise_budget);
-            }
+            let gp = plants.noise_for(gn, c.scale);
+            let nr = noise_of(gn, gp, flown, &c.gains, held)?;
             let text = proposal_text(
                 axis,
                 (cur.margins.crossover_hz, a.margins.crossover_hz),
                 (cur.margins.disk_alpha, a.margins.disk_alpha),
                 nr.ratio(),
             );
-            (c.gains, a, Verdict { kind: VerdictKind::Propose, text })
+            (c.gains, c.scale, a, Verdict { kind: VerdictKind::Propose, text })
         }
         None => (
             flown.clone(),
+            Scale::FLOWN,
             cur.clone(),
             Verdict {
                 kind: VerdictKind::Keep,
@@ -1128,25 +1141,19 @@ fn grid_proposal(
             },
         ),
     };
-    let mut noise = noise_of(gn, flown, &gains, held)?;
+    let mut noise = noise_of(gn, plants.noise_for(gn, scale), flown, &gains, held)?;
     noise.budget = Some(req.noise_budget);
-    let mut outcome = outcome_for_gains(&gains, held, &req.goals, notes)?;
-    if let (Some(ds), false) = (dterm, filter_changes.is_empty()) {
-        // The firmware's lines for the filters, before its `save`.
-        let at = outcome
-            .cli
-            .iter()
-            .position(|l| l == "save")
-            .unwrap_or(outcome.cli.len());
-        let lines = ds.cli_lines(scale_of(flown, &gains));
-        outcome.cli.splice(at..at, lines);
-        for ch in &filter_changes {
-            outcome.notes.push(format!(
-                "{} {} → {} Hz: {}",
-                ch.name, ch.flown_hz, ch.proposed_hz, ch.reason
-            ));
+    // The proposal's goals and margins on its own loop (a changed gyro lowpass is in its plants).
+    let mut outcome = outcome_for_gains(&gains, plants.held_for(scale), &req.goals, notes)?;
+    let (filter_changes, proposed_filters) = match settings.filter(|_| !scale.is_flown()) {
+        Some(st) => {
+            let pf = ProposedFilters::new(st, scale, flown, &gains);
+            let ch = describe(st, &pf, analysis.margins.crossover_hz, noise.ratio(), req.noise_budget);
+            add_filter_lines(&mut outcome, st, scale, &ch);
+            (ch, Some(pf))
         }
-    }
+        None => (Vec::new(), None),
+    };
     Ok(GridResult {
         outcome,
         analysis,
@@ -1154,7 +1161,43 @@ fn grid_proposal(
         noise,
         front: fr,
         filter_changes,
+        proposed_filters,
     })
+}
+
+/// The firmware's lines for the filters, before its `save` (Betaflight, INAV), and one note per
+/// change with its reason.
+fn add_filter_lines(outcome: &mut TuneOutcome, st: &FilterSettings, scale: Scale, changes: &[FilterChange]) {
+    let at = outcome
+        .cli
+        .iter()
+        .position(|l| l == "save")
+        .unwrap_or(outcome.cli.len());
+    outcome.cli.splice(at..at, st.cli_lines(scale));
+    for ch in changes {
+        outcome.notes.push(format!(
+            "{} {} → {} Hz: {}",
+            ch.name, ch.flown_hz, ch.proposed_hz, ch.reason
+        ));
+    }
+}
+
+/// The plants and gyro spectra a candidate is judged on: the identified ones, or with a changed
+/// gyro lowpass, its [`GyroVariant`].
+struct Plants<'a> {
+    held: &'a [StateSpace],
+    variants: &'a [GyroVariant],
+    settings: Option<&'a FilterSettings>,
+}
+
+impl Plants<'_> {
+    fn held_for(&self, scale: Scale) -> &[StateSpace] {
+        variant_of(self.variants, scale).map_or(self.held, |v| &v.held)
+    }
+
+    fn noise_for<'g>(&'g self, gn: &'g noise::GyroNoise, scale: Scale) -> &'g noise::GyroNoise {
+        variant_of(self.variants, scale).map_or(gn, |v| &v.noise)
+    }
 }
 
 /// A candidate that passed the verification, with its analysis.
@@ -1169,7 +1212,7 @@ fn verify_candidates(
     ranked: &[super::candidates::Candidate],
     fs: &Scores,
     limits: &SearchLimits,
-    held: &[StateSpace],
+    plants: &Plants,
     wn: f64,
     flight: Option<&FlightSetup>,
 ) -> Result<(Option<Verified>, Vec<String>)> {
@@ -1179,16 +1222,22 @@ fn verify_candidates(
     let mut chosen = None;
     let mut rejected = Vec::new();
     let below_floor = fs.alpha_worst < limits.alpha_floor;
-    // One candidate per (P, D) pair: neighbours that differ in I alone fail for the same reason.
+    // One candidate per (P, D, filters): neighbours that differ in I alone fail for the same reason.
     let mut seen = Vec::new();
-    let distinct = ranked.iter().filter(|c| c.gains != *flown).filter(|c| {
-        let k = c.gains.continuous();
-        let cut = c.gains.lowest_dterm_cutoff_hz().unwrap_or(0.0).round() as i64;
-        let key = ((k[0] * 1e6).round() as i64, (k[2] * 1e9).round() as i64, cut);
-        let new = !seen.contains(&key);
-        seen.push(key);
-        new
-    });
+    let distinct = ranked
+        .iter()
+        .filter(|c| c.gains != *flown || !c.scale.is_flown())
+        .filter(|c| {
+            let k = c.gains.continuous();
+            let sc = (
+                (c.scale.gyro * 100.0).round() as i64,
+                (c.scale.dterm * 100.0).round() as i64,
+            );
+            let key = ((k[0] * 1e6).round() as i64, (k[2] * 1e9).round() as i64, sc);
+            let new = !seen.contains(&key);
+            seen.push(key);
+            new
+        });
     for c in distinct.take(VERIFY_MAX) {
         let gain = if limits.keep_robustness {
             c.scores.bandwidth_hz / fs.bandwidth_hz.max(1e-9) - 1.0
@@ -1203,11 +1252,12 @@ fn verify_candidates(
             c.gains.to_json(),
             &c.gains.feedback_controller()?,
             &c.gains.reference_path()?,
-            held,
+            plants.held_for(c.scale),
             wn,
             flight,
         )?;
-        let why = rejection(&a, &c.gains, flown, cur, floor, os_limit, below_floor);
+        let why = cutoff_rule(plants.settings, c.scale, &c.gains, a.margins.crossover_hz)
+            .or_else(|| rejection(&a, cur, floor, os_limit, below_floor));
         match why {
             None => {
                 chosen = Some((c.clone(), a));
@@ -1220,26 +1270,18 @@ fn verify_candidates(
 }
 
 /// Why a candidate analysed as `a` cannot be proposed over the flown tune `cur`, None when it
-/// can: unstable, a D-term cutoff too close to the crossover, below the robustness floor, slower
-/// and less robust, crashed or tracking worse in the 6-DOF check, or overshooting there.
+/// can: unstable, below the robustness floor, slower and less robust, crashed or tracking worse
+/// in the 6-DOF check, or overshooting there.
 fn rejection(
     a: &TuneAnalysis,
-    gains: &RateGains,
-    flown: &RateGains,
     cur: &TuneAnalysis,
     floor: f64,
     os_limit: Option<f64>,
     below_floor: bool,
 ) -> Option<String> {
     let os = a.flight.as_ref().map(FlightCheck::worst_overshoot_pct);
-    let cutoff = gains.lowest_dterm_cutoff_hz().filter(|_| scale_of(flown, gains) != 1.0);
     if !a.margins.stable || !a.worst.stable {
         Some("unstable in the exact check".to_string())
-    } else if let Some(fc) = cutoff.filter(|f| *f < MIN_CUTOFF_OVER_CROSSOVER * a.margins.crossover_hz) {
-        Some(format!(
-            "D-term cutoff {fc:.0} Hz below {MIN_CUTOFF_OVER_CROSSOVER}× the {:.1} Hz crossover",
-            a.margins.crossover_hz
-        ))
     } else if a.worst.disk_alpha < floor - 1e-3 {
         Some(format!(
             "worst-case disk α {:.3} below the floor {floor:.3}",

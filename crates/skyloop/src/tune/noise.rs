@@ -86,6 +86,21 @@ impl GyroNoise {
             .unzip()
     }
 
+    /// The same spectra with the gyro's passed through `ratio` (S_gyro·|ratio(j2πf)|²: the gyro a
+    /// controller sees behind another gyro lowpass); the logged D term is kept as flown.
+    ///
+    /// # Errors
+    /// A ratio that cannot be evaluated on the spectrum's grid.
+    pub fn through(&self, ratio: &skyloop_lti::StateSpace) -> Result<GyroNoise> {
+        let ev = skyloop_lti::freqresp::FreqEvaluator::new(ratio)?;
+        let mut out = self.clone();
+        for (s, f) in out.gyro.density.iter_mut().zip(&self.gyro.freq_hz) {
+            let h = ev.eval(skyloop_lti::c64::new(0.0, 2.0 * std::f64::consts::PI * f))?[(0, 0)];
+            *s *= h.norm_sqr();
+        }
+        Ok(out)
+    }
+
     /// Three bands of equal width in octaves across the noise band, Hz.
     pub fn sub_bands(&self) -> Vec<(f64, f64)> {
         let (lo, hi) = self.band_hz;

@@ -198,7 +198,7 @@ fn noise_and_filter_sections(rep: &mut Report, out: &LogTuneOutcome) {
         let why = out.filter_changes.first().map(|c| c.reason.clone()).unwrap_or_default();
         rep.section("Filters").figure(
             fig,
-            format!("The D-term filter chain flown and proposed (--tune-filters): {text}. Why: {why}."),
+            format!("The gyro lowpass and D-term chains flown (dashed) and proposed (--tune-filters; a changed gyro lowpass is de-embedded from the identified plant: P·G_new/G_flown): {text}. Why: {why}."),
         );
     }
 }
@@ -419,25 +419,35 @@ fn verdict_section(rep: &mut Report, out: &LogTuneOutcome) {
     }
 }
 
-/// The D-term chain's gain and phase, flown against proposed (None without filter changes).
+/// The gyro and D-term lowpass chains' gain and phase, flown against proposed (None without
+/// filter changes).
 fn filter_figure(out: &LogTuneOutcome) -> Option<skyloop_plot::figure::Figure> {
-    use crate::tune::filter_tuning::{dterm_response, proposed_filters};
+    use crate::tune::filter_tuning::chain_response;
     use skyloop_plot::figure::{Figure, Panel, Series};
-    let flown = &out.live.as_ref()?.flown;
-    let proposed = proposed_filters(flown, &out.filter_changes)?;
+    let pf = out.proposed_filters.as_ref()?;
     let f: Vec<f64> = (0..300).map(|k| 10f64.powf(0.5 + 2.3 * f64::from(k) / 299.0)).collect();
-    let resp = |g| f.iter().map(|&x| dterm_response(g, x)).collect::<Vec<_>>();
-    let (a, b) = (resp(flown), resp(&proposed));
     let mut gain = Panel::frequency("gain [dB]");
     let mut phase = Panel::frequency("phase [deg]");
-    for (label, r, c) in [("flown", &a, 0), ("proposed", &b, 1)] {
-        gain.series
-            .push(Series::line(label, f.clone(), r.iter().map(|x| x.0).collect()).colored(c));
-        phase
-            .series
-            .push(Series::line(label, f.clone(), r.iter().map(|x| x.1).collect()).colored(c));
+    let chains = [("gyro lowpass", &pf.gyro, 2), ("D-term chain", &pf.dterm, 0)];
+    for (what, (a, b), c) in chains
+        .into_iter()
+        .filter(|(_, (a, b), _)| !(a.is_empty() && b.is_empty()))
+    {
+        for (when, chain, dashed) in [("flown", a, true), ("proposed", b, false)] {
+            let r: Vec<(f64, f64)> = f.iter().map(|&x| chain_response(chain, x)).collect();
+            let label = format!("{what}, {when}");
+            let mk = |y: Vec<f64>| {
+                if dashed {
+                    Series::dashed(label.clone(), f.clone(), y).colored(c)
+                } else {
+                    Series::line(label.clone(), f.clone(), y).colored(c)
+                }
+            };
+            gain.series.push(mk(r.iter().map(|x| x.0).collect()));
+            phase.series.push(mk(r.iter().map(|x| x.1).collect()));
+        }
     }
-    Some(Figure::new("D-term filter chain", vec![gain, phase]))
+    Some(Figure::new("Filter chains, flown and proposed", vec![gain, phase]))
 }
 
 /// The noise spectra in dB: gyro, predicted PID output of both tunes, the logged D term.
