@@ -318,6 +318,22 @@ fn tune_from_a_px4_high_rate_log_rates_the_flown_tune_and_prints_param_set_lines
             "{lines:?}"
         );
     }
+    // `--tune-filters`: IMU_GYRO_CUTOFF is off here, so only IMU_DGYRO_CUTOFF may move, by its
+    // own `param set` line, never below 1.5× the crossover, within the noise budget.
+    req.tune_filters = true;
+    let out = tune_from_log_bytes(&req, &bytes).unwrap();
+    let lines = &out.proposed.cli;
+    eprintln!("--tune-filters: {}; {lines:?}", out.verdict.text);
+    let xo = out.proposed_analysis.margins.crossover_hz;
+    for c in &out.filter_changes {
+        assert_eq!(c.name, "IMU_DGYRO_CUTOFF");
+        assert!(
+            lines.contains(&format!("param set IMU_DGYRO_CUTOFF {}", c.proposed_hz)),
+            "{lines:?}"
+        );
+        assert!(c.proposed_hz >= 1.5 * xo && c.reason.contains("every axis"), "{c:?}");
+    }
+    assert!(out.noise.as_ref().is_none_or(|n| n.ratio() <= req.noise_budget + 1e-9));
 }
 
 #[test]

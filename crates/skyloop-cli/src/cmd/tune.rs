@@ -54,8 +54,10 @@ pub struct Args {
     /// Keep the feedforward (Betaflight F, PX4 FF) as flown (from a log) or at the firmware's default, instead of fitting it to the tuned loop.
     #[arg(long)]
     pub keep_feedforward: bool,
-    /// With LOG (Betaflight): tune the D-term lowpass cutoffs beside P, I, D (scaled ×0.8–1.75,
-    /// never below 1.5× the crossover, no noise band over the budget), printing their `set` lines.
+    /// With LOG: tune the gyro lowpass (×0.8–1.5, de-embedded from the identified plant) and the
+    /// D-term lowpass cutoffs (×0.8–1.75) beside P, I, D, for Betaflight, INAV, PX4 and ArduPilot
+    /// (never below 1.5× the crossover, never raised above the log's Nyquist frequency, no noise
+    /// band over the budget), printing the firmware's lines for them.
     #[arg(long)]
     pub tune_filters: bool,
     /// Optimizer starts (1..=64).

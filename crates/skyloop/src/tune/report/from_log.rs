@@ -195,7 +195,9 @@ fn noise_and_filter_sections(rep: &mut Report, out: &LogTuneOutcome) {
             .map(|c| format!("{} {} → {} Hz", c.name, c.flown_hz, c.proposed_hz))
             .collect::<Vec<_>>()
             .join(", ");
-        let why = out.filter_changes.first().map(|c| c.reason.clone()).unwrap_or_default();
+        let mut reasons: Vec<&str> = out.filter_changes.iter().map(|c| c.reason.as_str()).collect();
+        reasons.dedup();
+        let why = reasons.join(" / ");
         rep.section("Filters").figure(
             fig,
             format!("The gyro lowpass and D-term chains flown (dashed) and proposed (--tune-filters; a changed gyro lowpass is de-embedded from the identified plant: P·G_new/G_flown): {text}. Why: {why}."),
