@@ -8,6 +8,8 @@
 //! no moved cutoff below 1.5× the crossover, the predicted noise within the budget.
 #![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
+#[path = "common/ardupilot_log.rs"]
+mod ardupilot_log;
 #[path = "common/loop_margins.rs"]
 #[allow(dead_code)] // `fitted` is for the identification tests
 mod common;
@@ -18,7 +20,6 @@ use skyloop::lti::c64;
 use skyloop::tune::log::{tune_from_log_bytes, LogTuneRequest};
 use skyloop::tune::Firmware;
 use std::f64::consts::{PI, SQRT_2};
-use writer::{Writer, V};
 
 const K: f64 = 6000.0; // deg/s² per unit of RATE.ROut
 const TAU: f64 = 0.03; // s
@@ -41,11 +42,7 @@ fn flight() -> Vec<(u64, f64, f64, f64)> {
     let (mut rate, mut acc) = (0.0f64, 0.0f64);
     let (mut g1, mut g2) = (0.0f64, 0.0f64); // the gyro biquad's states
     let (mut integ, mut prev_e, mut dfilt) = (0.0f64, 0.0f64, 0.0f64);
-    let mut seed = 987_654_321u64;
-    let mut rnd = || {
-        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-    };
+    let mut rnd = ardupilot_log::lcg(987_654_321u64);
     let mut des = 0.0;
     let mut out = Vec::new();
     let mut u = 0.0;
@@ -79,20 +76,9 @@ fn flight() -> Vec<(u64, f64, f64, f64)> {
 }
 
 fn log_bytes() -> Vec<u8> {
-    let mut w = Writer::new();
-    w.define_units();
-    w.define(133, "MSG", "QZ", "TimeUS,Message");
-    w.define(135, "RATE", "Qfffffffff", "TimeUS,RDes,R,ROut,PDes,P,POut,YDes,Y,YOut");
-    w.define(136, "CTUN", "Qf", "TimeUS,ThO");
-    w.define(137, "PARM", "QNf", "TimeUS,Name,Value");
-    w.units(0, 135, "skkk-kk-kk", "F000000000");
-    w.units(0, 136, "s-", "F0");
-    w.msg("UNIT", &[V::I(0), V::N(f64::from(b's')), V::T("s".into())]);
-    w.msg("MULT", &[V::I(0), V::N(f64::from(b'F')), V::N(1e-6)]);
-    w.msg("MSG", &[V::I(100), V::T("ArduCopter V4.5.7 (2a3dc4b7)".into())]);
     let (kp, ki, kd) = FLOWN_PER_DEG;
     let per_rad = 180.0 / PI;
-    for (name, v) in [
+    let params = [
         ("ATC_RAT_RLL_P", kp * per_rad),
         ("ATC_RAT_RLL_I", ki * per_rad),
         ("ATC_RAT_RLL_D", kd * per_rad),
@@ -102,31 +88,8 @@ fn log_bytes() -> Vec<u8> {
         ("ATC_RAT_RLL_FLTD", FLTD_HZ),
         ("INS_GYRO_FILTER", GYRO_HZ),
         ("SCHED_LOOP_RATE", LOOP_HZ),
-    ] {
-        w.msg("PARM", &[V::I(200), V::T(name.into()), V::N(v)]);
-    }
-    for (k, (t, des, r, u)) in flight().into_iter().enumerate() {
-        let z = V::N(0.0);
-        w.msg(
-            "RATE",
-            &[
-                V::I(t.into()),
-                V::N(des),
-                V::N(r),
-                V::N(u),
-                z.clone(),
-                z.clone(),
-                z.clone(),
-                z.clone(),
-                z.clone(),
-                z,
-            ],
-        );
-        if k % 40 == 0 {
-            w.msg("CTUN", &[V::I(t.into()), V::N(0.45)]);
-        }
-    }
-    w.bytes
+    ];
+    ardupilot_log::rate_log(&params, &flight(), 1)
 }
 
 /// (crossover Hz, phase margin deg) of the true loop with gains per rad/s and the two cutoffs, in

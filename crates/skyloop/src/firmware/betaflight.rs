@@ -15,7 +15,7 @@
 //! Not modelled: TPA, anti-gravity, I-term relax, d_min's dynamic D (a flown tune with d_min is
 //! analysed at D = d_min by [`crate::tune::log`]), feedforward smoothing.
 
-use super::filter_settings::{FilterSetting, FilterSettings, Knob, LineStyle};
+use super::filter_settings::{from_header_stages, FilterSettings, HeaderStage, Knob};
 use super::filters::{
     static_notches, FilterChain, Path, RawGyroTap, Shape, Stage, StageKind, ThrottleCurve, STAGE_NAMES,
 };
@@ -24,7 +24,7 @@ use crate::error::{Error, Result};
 use serde::Serialize;
 use skyloop_lti::StateSpace;
 use skyloop_robust::structured::blocks::Block;
-use skyloop_sysid::logs::tuning::{BetaflightTuning, Lowpass as HeaderLowpass, Rates};
+use skyloop_sysid::logs::tuning::{BetaflightTuning, Rates};
 use skyloop_sysid::logs::{Channel, Log};
 
 /// `PTERM_SCALE` of Betaflight's pid.h.
@@ -316,7 +316,7 @@ fn names_4_3(b: &BetaflightTuning) -> bool {
 pub fn filter_settings(b: &BetaflightTuning) -> FilterSettings {
     let v43 = names_4_3(b);
     // (header stage, knob, static name, dynamic min name, dynamic max name)
-    let table: [(&Option<HeaderLowpass>, Knob, &str, &str, &str); 4] = if v43 {
+    let table: [HeaderStage; 4] = if v43 {
         [
             (
                 &b.gyro_lowpass,
@@ -355,34 +355,7 @@ pub fn filter_settings(b: &BetaflightTuning) -> FilterSettings {
             (&b.dterm_lowpass2, Knob::Dterm, "dterm_lowpass2_hz", "", ""),
         ]
     };
-    let mut settings = Vec::new();
-    let mut gyro = Vec::new();
-    for (l, knob, stat, dmin, dmax) in table {
-        let Some(l) = l.as_ref().filter(|l| l.cutoff_hz > 0.0 || l.dynamic_hz.is_some()) else {
-            continue;
-        };
-        let set = |name: &str, flown_hz: f64| FilterSetting {
-            name: name.to_string(),
-            knob,
-            flown_hz,
-            shared: true,
-        };
-        match l.dynamic_hz {
-            Some((lo, hi)) if !dmin.is_empty() => {
-                settings.push(set(dmin, lo));
-                settings.push(set(dmax, hi));
-            }
-            _ => settings.push(set(stat, l.cutoff_hz)),
-        }
-        if knob == Knob::Gyro {
-            gyro.extend(super::header_lowpass(l, &mut Vec::new(), stat));
-        }
-    }
-    FilterSettings {
-        settings,
-        gyro,
-        style: LineStyle::Set,
-    }
+    from_header_stages(&table)
 }
 
 impl Filters {

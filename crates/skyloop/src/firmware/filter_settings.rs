@@ -147,6 +147,49 @@ impl FilterSettings {
     }
 }
 
+/// One header lowpass stage and the names that set it: (stage, knob, static-cutoff name, dynamic
+/// min name, dynamic max name; the dynamic names empty when the firmware has none for it).
+pub(crate) type HeaderStage<'a> = (
+    &'a Option<skyloop_sysid::logs::tuning::Lowpass>,
+    Knob,
+    &'a str,
+    &'a str,
+    &'a str,
+);
+
+/// The settings of a header's lowpass stages (Betaflight's and INAV's `set` names): a stage that is
+/// on is set by its static cutoff, or by its range's two ends when it follows throttle.
+pub(crate) fn from_header_stages(table: &[HeaderStage]) -> FilterSettings {
+    let mut settings = Vec::new();
+    let mut gyro = Vec::new();
+    for &(l, knob, stat, dmin, dmax) in table {
+        let Some(l) = l.as_ref().filter(|l| l.cutoff_hz > 0.0 || l.dynamic_hz.is_some()) else {
+            continue;
+        };
+        let set = |name: &str, flown_hz: f64| FilterSetting {
+            name: name.to_string(),
+            knob,
+            flown_hz,
+            shared: true,
+        };
+        match l.dynamic_hz {
+            Some((lo, hi)) if !dmin.is_empty() => {
+                settings.push(set(dmin, lo));
+                settings.push(set(dmax, hi));
+            }
+            _ => settings.push(set(stat, l.cutoff_hz)),
+        }
+        if knob == Knob::Gyro {
+            gyro.extend(super::header_lowpass(l, &mut Vec::new(), stat));
+        }
+    }
+    FilterSettings {
+        settings,
+        gyro,
+        style: LineStyle::Set,
+    }
+}
+
 /// G_new(s)/G_flown(s) of two lowpass chains whose stages pair up kind for kind (the same chain
 /// with other cutoffs): biproper, unit gain at DC; None when they are the same.
 ///

@@ -18,7 +18,7 @@
 //! I-term relax, D-boost, the yaw P lowpass (`yaw_lpf_hz`), the Smith predictor and the gyro filters
 //! (inside a plant identified from the logged gyro).
 
-use super::filter_settings::{FilterSetting, FilterSettings, Knob, LineStyle};
+use super::filter_settings::{from_header_stages, FilterSettings, HeaderStage, Knob};
 use super::filters::{static_notches, FilterChain, Path, Shape, Stage, StageKind};
 use super::{chain, derivative_rolloff, Lowpass};
 use crate::error::{Error, Result};
@@ -201,9 +201,7 @@ pub fn filter_settings(t: &InavTuning, log: &skyloop_sysid::logs::Log) -> Filter
     } else {
         "gyro_lpf_hz"
     };
-    let mut settings = Vec::new();
-    let mut gyro = Vec::new();
-    let table = [
+    let table: [HeaderStage; 3] = [
         (
             &t.gyro_lowpass,
             Knob::Gyro,
@@ -214,32 +212,7 @@ pub fn filter_settings(t: &InavTuning, log: &skyloop_sysid::logs::Log) -> Filter
         (&t.dterm_lowpass, Knob::Dterm, "dterm_lpf_hz", "", ""),
         (&t.dterm_lowpass2, Knob::Dterm, "dterm_lpf2_hz", "", ""),
     ];
-    for (l, knob, stat, dmin, dmax) in table {
-        let Some(l) = l.as_ref().filter(|l| l.cutoff_hz > 0.0 || l.dynamic_hz.is_some()) else {
-            continue;
-        };
-        let set = |name: &str, flown_hz: f64| FilterSetting {
-            name: name.to_string(),
-            knob,
-            flown_hz,
-            shared: true,
-        };
-        match l.dynamic_hz {
-            Some((lo, hi)) if !dmin.is_empty() => {
-                settings.push(set(dmin, lo));
-                settings.push(set(dmax, hi));
-            }
-            _ => settings.push(set(stat, l.cutoff_hz)),
-        }
-        if knob == Knob::Gyro {
-            gyro.extend(super::header_lowpass(l, &mut Vec::new(), stat));
-        }
-    }
-    FilterSettings {
-        settings,
-        gyro,
-        style: LineStyle::Set,
-    }
+    from_header_stages(&table)
 }
 
 /// Reads the flown tune of `axis` from an INAV header.

@@ -1,0 +1,49 @@
+//! A simulated ArduCopter roll rate loop written as a DataFlash log: PARM messages, RATE (the
+//! desired rate, the achieved rate, the output) and CTUN (throttle), with the DataFlash writer the
+//! reader's own tests use.
+
+use super::writer::{Writer, V};
+
+/// One control step: (time µs, desired rate, logged rate, output), rates in deg/s.
+pub type Step = (u64, f64, f64, f64);
+
+/// The log of `steps` with the parameters `params`, RATE written every `every`-th step and CTUN
+/// every 40th.
+pub fn rate_log(params: &[(&str, f64)], steps: &[Step], every: usize) -> Vec<u8> {
+    let mut w = Writer::new();
+    w.define_units();
+    w.define(133, "MSG", "QZ", "TimeUS,Message");
+    w.define(135, "RATE", "Qfffffffff", "TimeUS,RDes,R,ROut,PDes,P,POut,YDes,Y,YOut");
+    w.define(136, "CTUN", "Qf", "TimeUS,ThO");
+    w.define(137, "PARM", "QNf", "TimeUS,Name,Value");
+    w.units(0, 135, "skkk-kk-kk", "F000000000");
+    w.units(0, 136, "s-", "F0");
+    w.msg("UNIT", &[V::I(0), V::N(f64::from(b's')), V::T("s".into())]);
+    w.msg("MULT", &[V::I(0), V::N(f64::from(b'F')), V::N(1e-6)]);
+    w.msg("MSG", &[V::I(100), V::T("ArduCopter V4.5.7 (2a3dc4b7)".into())]);
+    for (name, v) in params {
+        w.msg("PARM", &[V::I(200), V::T((*name).into()), V::N(*v)]);
+    }
+    for (k, &(t, des, r, u)) in steps.iter().enumerate() {
+        if k % every != 0 {
+            continue;
+        }
+        let mut fields = vec![V::I(t.into()), V::N(des), V::N(r), V::N(u)];
+        fields.extend((0..6).map(|_| V::N(0.0)));
+        w.msg("RATE", &fields);
+        if k % 40 == 0 {
+            w.msg("CTUN", &[V::I(t.into()), V::N(0.45)]);
+        }
+    }
+    w.bytes
+}
+
+/// A reproducible uniform random number in [−0.5, 0.5) per call (an LCG, so the flights are the
+/// same on every machine).
+pub fn lcg(seed: u64) -> impl FnMut() -> f64 {
+    let mut s = seed;
+    move || {
+        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    }
+}
