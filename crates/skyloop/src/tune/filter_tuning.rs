@@ -80,9 +80,9 @@ impl GyroVariant {
     }
 }
 
-/// The variant of `scale.gyro` among `variants` (the first, the flown one, when absent).
+/// The variant of `scale.gyro` among `variants` (None when it was not scored).
 pub fn variant_of(variants: &[GyroVariant], scale: Scale) -> Option<&GyroVariant> {
-    variants.iter().find(|v| v.k == scale.gyro).or(variants.first())
+    variants.iter().find(|v| v.k == scale.gyro)
 }
 
 /// Adds the candidates of every pair of filter factors to `ranked`/`all` (found with the flown

@@ -1015,6 +1015,11 @@ pub(crate) fn noise_of(
     };
     let spectra = noise::Spectra {
         gyro: w.iter().map(|v| v / df).collect(),
+        gyro_proposed: if std::ptr::eq(gn, gn_proposed) {
+            Vec::new()
+        } else {
+            gn_proposed.band_weights(all).1.iter().map(|v| v / df).collect()
+        },
         flown: per_f(flown, gn)?,
         proposed: per_f(proposed, gn_proposed)?,
         dterm: gn
@@ -1191,12 +1196,17 @@ struct Plants<'a> {
 }
 
 impl Plants<'_> {
+    /// The variant of a changed gyro lowpass (None at the flown one).
+    fn changed(&self, scale: Scale) -> Option<&GyroVariant> {
+        variant_of(self.variants, scale).filter(|v| v.ratio.is_some())
+    }
+
     fn held_for(&self, scale: Scale) -> &[StateSpace] {
-        variant_of(self.variants, scale).map_or(self.held, |v| &v.held)
+        self.changed(scale).map_or(self.held, |v| &v.held)
     }
 
     fn noise_for<'g>(&'g self, gn: &'g noise::GyroNoise, scale: Scale) -> &'g noise::GyroNoise {
-        variant_of(self.variants, scale).map_or(gn, |v| &v.noise)
+        self.changed(scale).map_or(gn, |v| &v.noise)
     }
 }
 

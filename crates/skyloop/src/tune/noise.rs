@@ -138,6 +138,8 @@ pub struct Spectra {
     pub freq_hz: Vec<f64>,
     /// Gyro PSD, (gyro unit)²/Hz.
     pub gyro: Vec<f64>,
+    /// The gyro PSD behind the proposal's gyro lowpass (empty when the proposal keeps the flown one).
+    pub gyro_proposed: Vec<f64>,
     /// Predicted PID-output PSD of the flown tune.
     pub flown: Vec<f64>,
     /// Predicted PID-output PSD of the proposal.
@@ -153,7 +155,8 @@ impl NoiseReport {
     }
 
     /// `{flown, proposed, ratio, band_hz, unit, bands: [{band_hz, flown, proposed, ratio}], dterm_check,
-    /// budget, spectra}`.
+    /// budget, spectra: {freq_hz, gyro_psd, gyro_proposed_psd, flown_output_psd,
+    /// proposed_output_psd, dterm_psd}}`.
     pub fn to_json(&self) -> Value {
         json!({
             "flown": self.flown,
@@ -170,6 +173,7 @@ impl NoiseReport {
             "spectra": {
                 "freq_hz": self.spectra.freq_hz,
                 "gyro_psd": self.spectra.gyro,
+                "gyro_proposed_psd": self.spectra.gyro_proposed,
                 "flown_output_psd": self.spectra.flown,
                 "proposed_output_psd": self.spectra.proposed,
                 "dterm_psd": self.spectra.dterm,

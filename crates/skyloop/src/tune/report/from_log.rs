@@ -461,6 +461,16 @@ fn noise_figure(n: &NoiseReport) -> skyloop_plot::figure::Figure {
     panel
         .series
         .push(Series::line("gyro (logged)", sp.freq_hz.clone(), db(&sp.gyro)).colored(2));
+    if !sp.gyro_proposed.is_empty() {
+        panel.series.push(
+            Series::dashed(
+                "gyro behind the proposed gyro lowpass (predicted)",
+                sp.freq_hz.clone(),
+                db(&sp.gyro_proposed),
+            )
+            .colored(2),
+        );
+    }
     panel
         .series
         .push(Series::line("PID output, flown (predicted)", sp.freq_hz.clone(), db(&sp.flown)).colored(0));
@@ -488,7 +498,7 @@ fn noise_figure(n: &NoiseReport) -> skyloop_plot::figure::Figure {
     if sp.dterm.len() == sp.freq_hz.len() {
         panel
             .series
-            .push(Series::line("D term, flown (logged)", sp.freq_hz.clone(), db(&sp.dterm)).colored(3));
+            .push(Series::line("D term, flown (logged)", sp.freq_hz.clone(), db(&sp.dterm)).colored(4));
     }
     Figure::new("Noise: the logged gyro and the PID output it makes", vec![panel])
 }
