@@ -457,7 +457,31 @@ fn header_stage(req: &LogTuneRequest, idn: &Identified, notes: &mut Vec<String>)
             "--tune-filters: the filters are left as flown (the log states no gyro or D-term lowpass cutoff)".into(),
         );
     }
+    if req.tune_filters {
+        notes.extend(tracking_notches_note(&idn.log));
+    }
     Ok(Header { treq, filters, flown })
+}
+
+/// Why `--tune-filters` leaves a log's tracking notches (dynamic notch, RPM filter) as flown, None
+/// when it has none: they sit on peaks that move with throttle, the logged gyro is after them (so
+/// what they remove is seen only in a raw-gyro log whose flown chain reproduces the logged gyro),
+/// and the loop model is one operating point.
+fn tracking_notches_note(log: &Log) -> Option<String> {
+    use crate::firmware::filters::{flown_chain, StageKind};
+    let (chain, _) = flown_chain(log)?;
+    let names: Vec<String> = chain
+        .stages
+        .iter()
+        .filter(|s| matches!(s.kind, StageKind::DynamicNotch { .. } | StageKind::Rpm { .. }))
+        .map(|s| s.describe())
+        .collect();
+    (!names.is_empty()).then(|| {
+        format!(
+            "--tune-filters: {} left as flown: tracking notches follow peaks that move with throttle and act before the logged gyro; judge a change with `skyloop noise LOG --filters` on a log with the raw gyro (debug GYRO_SCALED) and eRPM",
+            names.join("; ")
+        )
+    })
 }
 
 /// Stage 3: the flown tune analysed on the identified plant (exact margins over the uncertainty
