@@ -862,3 +862,40 @@ fn tune_filters_changes_the_dterm_cutoff_within_the_rules() {
     );
     assert!((fc / xo - 1.0).abs() < 0.01, "crossover {fc} vs {xo}");
 }
+
+/// `--tune-filters` on every axis: a setting the axes share (Betaflight's gyro and D-term
+/// lowpasses) takes one value verified on every axis, so when an axis cannot be tuned (here roll
+/// and yaw, whose stick inputs do not identify the loop) the shared filters stay as flown, the
+/// tuned axis is proposed around them, and its notes say why.
+#[test]
+fn tune_filters_on_every_axis_leaves_shared_filters_as_flown_unless_all_agree() {
+    let log = format!("{}/../../testdata/logs/LOG00037.BFL", env!("CARGO_MANIFEST_DIR"));
+    let v = json(&[
+        "tune",
+        &log,
+        "--firmware",
+        "betaflight",
+        "--starts",
+        "2",
+        "--tune-filters",
+        "--json",
+    ]);
+    let pitch = &v["axes"]["pitch"];
+    assert_eq!(pitch["verdict"]["kind"], "propose", "{}", pitch["verdict"]);
+    assert_eq!(
+        pitch["filter_changes"].as_array().map(Vec::len),
+        Some(0),
+        "{}",
+        pitch["filter_changes"]
+    );
+    let notes = pitch["notes"].as_array().unwrap();
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.as_str().unwrap().contains("filter settings they share")),
+        "{notes:?}"
+    );
+    let cli = v["cli"].to_string();
+    assert!(!cli.contains("lowpass") && !cli.contains("lpf"), "{cli}");
+    assert!(v["axes"]["roll"]["error"].is_string());
+}

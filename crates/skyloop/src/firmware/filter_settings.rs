@@ -114,6 +114,16 @@ impl FilterSettings {
         self.settings.iter().any(|s| s.knob == knob)
     }
 
+    /// The same settings less those every axis shares (only a per-axis cutoff stays: ArduPilot's
+    /// `FLTD`); the gyro lowpass, always shared, is then not tunable.
+    pub fn per_axis_only(&self) -> FilterSettings {
+        FilterSettings {
+            settings: self.settings.iter().filter(|s| !s.shared).cloned().collect(),
+            gyro: Vec::new(),
+            style: self.style,
+        }
+    }
+
     /// The lines that load the settings `scale` changes.
     pub fn cli_lines(&self, scale: Scale) -> Vec<String> {
         self.settings

@@ -110,8 +110,12 @@ pub fn add_filter_candidates(
     let seen_hz = gn.band_hz.1;
     let mut unseen: Vec<(&str, f64)> = Vec::new();
     let flown_terms = flown_screen.noise_terms(flown.continuous());
-    let gyro_scales: &[f64] = if settings.gyro.is_empty() { &[1.0] } else { &GYRO_SCALES };
-    let dterm_scales: &[f64] = if flown.lowest_dterm_cutoff_hz().is_some() {
+    let gyro_scales: &[f64] = if settings.has(Knob::Gyro) && !settings.gyro.is_empty() {
+        &GYRO_SCALES
+    } else {
+        &[1.0]
+    };
+    let dterm_scales: &[f64] = if settings.has(Knob::Dterm) && flown.lowest_dterm_cutoff_hz().is_some() {
         &DTERM_SCALES
     } else {
         &[1.0]
@@ -251,6 +255,8 @@ pub struct FilterChange {
     pub name: String,
     /// "gyro" or "dterm".
     pub filter: &'static str,
+    /// True for a setting every axis shares (see [`crate::firmware::filter_settings::FilterSetting::shared`]).
+    pub shared: bool,
     /// Flown value, Hz.
     pub flown_hz: f64,
     /// Proposed value, Hz.
@@ -291,6 +297,7 @@ pub fn describe(
         .map(|s| FilterChange {
             name: s.name.clone(),
             filter: s.knob.name(),
+            shared: s.shared,
             flown_hz: s.flown_hz,
             proposed_hz: s.at(pf.scale),
             reason: if s.shared {

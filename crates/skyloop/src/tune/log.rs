@@ -74,8 +74,11 @@ pub struct LogTuneRequest {
     pub tune_feedforward: bool,
     /// Largest predicted motor-noise power of a proposal relative to the flown tune's.
     pub noise_budget: f64,
-    /// Tune the D-term lowpass cutoffs beside P, I, D ([`super::filter_tuning`]; Betaflight).
+    /// Tune the gyro and D-term lowpass cutoffs beside P, I, D ([`super::filter_tuning`]).
     pub tune_filters: bool,
+    /// With `tune_filters`: leave the settings every axis shares as flown (only a per-axis cutoff,
+    /// ArduPilot's `FLTD`, may move). [`tune_axes_from_log`] sets it when the axes disagree.
+    pub freeze_shared_filters: bool,
     /// Called with the axis and the name of each stage as it starts (no terminal I/O here: the CLI
     /// draws it).
     pub progress: Option<fn(Axis, &str)>,
@@ -101,6 +104,7 @@ impl LogTuneRequest {
             tune_feedforward: true,
             noise_budget: 1.25,
             tune_filters: false,
+            freeze_shared_filters: false,
             progress: None,
         }
     }
@@ -232,14 +236,65 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
 pub fn tune_axes_from_log(req: &LogTuneRequest, axes: &[Axis]) -> Result<Vec<Result<LogTuneOutcome>>> {
     check_sigma(req)?;
     let (log, derived) = crate::firmware::open_log(&req.log, req.session)?;
-    Ok(axes
+    let run = |req: &LogTuneRequest| -> Vec<Result<LogTuneOutcome>> {
+        axes.iter()
+            .map(|&axis| {
+                let r = LogTuneRequest { axis, ..req.clone() };
+                progress(&r, "identify");
+                tune_from_read_log(&r, log.clone(), derived.clone())
+            })
+            .collect()
+    };
+    let outs = run(req);
+    if !req.tune_filters || axes.len() < 2 {
+        return Ok(outs);
+    }
+    // A setting every axis shares (the gyro lowpass, most D-term lowpasses) can take one value
+    // only, verified on every axis: when the axes do not all propose the same one (or one cannot
+    // be tuned), those settings stay as flown and every axis is tuned again around them.
+    let choices: Vec<Scale> = outs.iter().map(shared_choice).collect();
+    if choices.iter().all(|c| *c == choices[0]) {
+        return Ok(outs);
+    }
+    let why = axes
         .iter()
-        .map(|&axis| {
-            let r = LogTuneRequest { axis, ..req.clone() };
-            progress(&r, "identify");
-            tune_from_read_log(&r, log.clone(), derived.clone())
+        .zip(&choices)
+        .map(|(a, c)| format!("{} gyro ×{} D-term ×{}", a.name(), c.gyro, c.dterm))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let frozen = LogTuneRequest {
+        freeze_shared_filters: true,
+        ..req.clone()
+    };
+    Ok(run(&frozen)
+        .into_iter()
+        .map(|r| {
+            r.map(|mut o| {
+                o.notes.push(format!(
+                    "--tune-filters: the axes proposed different values for the filter settings they share ({why}; an axis without a proposal counts as ×1): those stay as flown; tune one axis with --tune-filters, then the others on a log flown with its settings"
+                ));
+                o
+            })
         })
         .collect())
+}
+
+/// The factors an axis's proposal sets the shared filter settings to (×1 where it leaves them, or
+/// for an axis that failed or cannot be tuned).
+fn shared_choice(r: &Result<LogTuneOutcome>) -> Scale {
+    let Ok(o) = r else { return Scale::FLOWN };
+    let Some(pf) = o
+        .proposed_filters
+        .as_ref()
+        .filter(|_| o.verdict.kind == VerdictKind::Propose)
+    else {
+        return Scale::FLOWN;
+    };
+    let moved = |f: &str| o.filter_changes.iter().any(|c| c.shared && c.filter == f);
+    Scale {
+        gyro: if moved("gyro") { pf.scale.gyro } else { 1.0 },
+        dterm: if moved("dterm") { pf.scale.dterm } else { 1.0 },
+    }
 }
 
 /// [`tune_from_log`] on a log's bytes already in memory (a browser's dropped file); `req.log` only
@@ -636,8 +691,16 @@ fn propose_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, fl: &Flow
                     .flown
                     .as_ref()
                     .and_then(|f| f.filter_settings.as_ref())
-                    .filter(|d| req.tune_filters && !d.settings.is_empty());
-                let r = grid_proposal(req, g, cur, held, &gn, wn, fl.flight_setup.as_ref(), settings)?;
+                    .filter(|_| req.tune_filters)
+                    .map(|d| {
+                        if req.freeze_shared_filters {
+                            d.per_axis_only()
+                        } else {
+                            d.clone()
+                        }
+                    })
+                    .filter(|d| !d.settings.is_empty());
+                let r = grid_proposal(req, g, cur, held, &gn, wn, fl.flight_setup.as_ref(), settings.as_ref())?;
                 filter_changes = r.filter_changes;
                 proposed_filters = r.proposed_filters;
                 front_pts = r.front;
@@ -943,7 +1006,7 @@ impl LogTuneOutcome {
         v["filter_changes"] = json!(self
             .filter_changes
             .iter()
-            .map(|c| json!({"name": c.name, "filter": c.filter, "flown_hz": c.flown_hz, "proposed_hz": c.proposed_hz, "reason": c.reason}))
+            .map(|c| json!({"name": c.name, "filter": c.filter, "shared": c.shared, "flown_hz": c.flown_hz, "proposed_hz": c.proposed_hz, "reason": c.reason}))
             .collect::<Vec<_>>());
         v["filters_proposed"] = self
             .proposed_filters
