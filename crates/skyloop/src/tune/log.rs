@@ -1012,6 +1012,17 @@ impl LogTuneOutcome {
             .proposed_filters
             .as_ref()
             .map_or(Value::Null, ProposedFilters::to_json);
+        if let Some(pf) = self.proposed_filters.as_ref().filter(|p| p.gyro.0 != p.gyro.1) {
+            // The proposal's loop has the gyro lowpass changed inside the plant: say so where a
+            // verifier reads how to rebuild the loop.
+            v["loop"]["definition"] = json!(
+                "L = plant * G_new/G_flown * exp(-extra_delay_s*s) * feedback_controller: the loop the margins are computed for; G_flown and G_new are the gyro lowpass chains in loop.gyro_lowpass (the logged gyro is after the flown one, so the identified plant contains it), extra_delay_s the loop's sample and hold"
+            );
+            v["loop"]["gyro_lowpass"] = json!({
+                "flown": crate::firmware::filter_settings::chain_json(&pf.gyro.0),
+                "proposed": crate::firmware::filter_settings::chain_json(&pf.gyro.1),
+            });
+        }
         if let Some(n) = v["notes"].as_array_mut() {
             for x in &self.notes {
                 n.push(json!(x));
