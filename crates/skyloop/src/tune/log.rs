@@ -1200,7 +1200,9 @@ fn grid_proposal(
     };
     let (chosen, rejected) = verify_candidates(flown, cur, &ranked, &fs, &limits, &plants, wn, flight)?;
     let axis = req.axis.name();
-    let fr: Vec<(Value, Scores, f64)> = front(&all, &fs, &limits, 5)
+    // The front lists gain sets a pilot can type with the flown filters (its rows carry no filters).
+    let with_flown_filters: Vec<_> = all.iter().filter(|c| c.scale.is_flown()).cloned().collect();
+    let fr: Vec<(Value, Scores, f64)> = front(&with_flown_filters, &fs, &limits, 5)
         .into_iter()
         .map(|c| {
             (
