@@ -285,77 +285,192 @@ fn side_context<'a>(h: &Header, prev: Option<&'a [i64]>, last_main_time: i64, ho
     }
 }
 
-/// Decodes the frames of `data` (one session, after its header).
-pub fn decode(h: &Header, data: &[u8]) -> Decoded {
-    let defs = &h.defs;
-    let idx = |name: &str| defs.intra.iter().position(|f| f.name == name);
-    let (it_i, time_i) = (idx("loopIteration").unwrap_or(0), idx("time").unwrap_or(0));
-    let motor0 = idx("motor[0]");
-    let gps_time = defs.gps.iter().position(|f| f.name == "time");
-    let mut main = Rows::new(defs.intra.len());
-    let mut main_is_intra = Vec::new();
-    let mut slow = Rows::new(defs.slow.len());
-    let mut gps = Rows::new(defs.gps.len());
-    let mut stats = Stats {
-        corrupt: 0,
-        unanchored: 0,
-        implausible: 0,
-        gps_without_home: 0,
-        resumes: 0,
-        end: End::EndOfData,
-    };
-    // Bounded work and memory on hostile input: real logs hold well under 4 values per byte.
-    let budget = data.len().saturating_mul(8).max(1 << 16);
-    let mut stored = 0usize;
+/// One frame candidate as read, before the check that it is followed by a frame marker.
+struct Candidate {
+    /// Whether its bytes decoded.
+    parsed: Result<(), Bad>,
+    /// Offset of the first byte after it.
+    end: usize,
+    /// Whether the read window stopped short of the end of the data.
+    cut_by_window: bool,
+    /// Loop iteration and time (µs) of a logging-resume event.
+    resume: Option<(i64, i64)>,
+    /// Whether it is the log-end event.
+    log_end: bool,
+}
 
-    let mut prev: Option<Vec<i64>> = None;
-    let mut prev2: Option<Vec<i64>> = None;
-    let mut history_ok = false;
-    let mut anchor: Option<Anchor> = None;
-    // A rejected I-frame; a second one consistent with it starts a new timeline (a real gap).
-    let mut rejected_i: Option<Anchor> = None;
-    let mut last_main_time: i64 = 0;
-    let mut home: Option<[i64; 2]> = None;
-    let mut gps_prev: Option<Vec<i64>> = None;
-    let mut slow_pending: Option<Vec<i64>> = None;
-    let mut in_damage = false;
-    let mut raw = Vec::new();
+/// The decoding state of one session: the rows so far and what the next frames are checked against.
+struct Decoder<'a> {
+    h: &'a Header,
+    data: &'a [u8],
+    /// Columns of `loopIteration` and `time` in main rows (0 when absent).
+    it_i: usize,
+    time_i: usize,
+    /// Column of `motor[0]` in main rows.
+    motor0: Option<usize>,
+    /// Column of `time` in GPS rows.
+    gps_time: Option<usize>,
+    main: Rows,
+    main_is_intra: Vec<bool>,
+    slow: Rows,
+    gps: Rows,
+    stats: Stats,
+    /// Most values that may be stored.
+    budget: usize,
+    /// Values stored so far.
+    stored: usize,
+    prev: Option<Vec<i64>>,
+    prev2: Option<Vec<i64>>,
+    history_ok: bool,
+    anchor: Option<Anchor>,
+    /// A rejected I-frame; a second one consistent with it starts a new timeline (a real gap).
+    rejected_i: Option<Anchor>,
+    /// Time of the last trusted main frame, µs.
+    last_main_time: i64,
+    home: Option<[i64; 2]>,
+    gps_prev: Option<Vec<i64>>,
+    slow_pending: Option<Vec<i64>>,
+    in_damage: bool,
+    /// The current frame's values: encoded after reading, decoded after the predictors.
+    raw: Vec<i64>,
+}
 
-    let is_marker = |b: u8| match b {
-        b'I' | b'E' => true,
-        b'P' => !defs.inter.is_empty(),
-        b'S' => !defs.slow.is_empty(),
-        b'G' => !defs.gps.is_empty(),
-        b'H' => !defs.home.is_empty(),
-        _ => false,
-    };
-
-    let mut pos = 0usize;
-    while pos < data.len() {
-        let marker = data[pos];
-        if !is_marker(marker) {
-            if !in_damage {
-                stats.corrupt += 1;
-                in_damage = true;
-                history_ok = false;
-            }
-            pos += 1;
-            continue;
+impl<'a> Decoder<'a> {
+    /// An empty decoder for `data`, with the column indices and value budget it needs.
+    fn new(h: &'a Header, data: &'a [u8]) -> Decoder<'a> {
+        let defs = &h.defs;
+        let idx = |name: &str| defs.intra.iter().position(|f| f.name == name);
+        Decoder {
+            h,
+            data,
+            it_i: idx("loopIteration").unwrap_or(0),
+            time_i: idx("time").unwrap_or(0),
+            motor0: idx("motor[0]"),
+            gps_time: defs.gps.iter().position(|f| f.name == "time"),
+            main: Rows::new(defs.intra.len()),
+            main_is_intra: Vec::new(),
+            slow: Rows::new(defs.slow.len()),
+            gps: Rows::new(defs.gps.len()),
+            stats: Stats {
+                corrupt: 0,
+                unanchored: 0,
+                implausible: 0,
+                gps_without_home: 0,
+                resumes: 0,
+                end: End::EndOfData,
+            },
+            // Bounded work and memory on hostile input: real logs hold well under 4 values per byte.
+            budget: data.len().saturating_mul(8).max(1 << 16),
+            stored: 0,
+            prev: None,
+            prev2: None,
+            history_ok: false,
+            anchor: None,
+            rejected_i: None,
+            last_main_time: 0,
+            home: None,
+            gps_prev: None,
+            slow_pending: None,
+            in_damage: false,
+            raw: Vec::new(),
         }
-        let start = pos;
-        // A trusted frame is at most MAX_FRAME_LEN bytes, so no read needs to look further: this
-        // bounds the work spent at each candidate marker while resynchronising through damage.
-        let window = data.len().min(start + MAX_FRAME_LEN + 1);
-        let cut_by_window = window < data.len();
-        let mut c = Cursor::new(&data[..window], pos + 1);
-        let frame_defs: &[FieldDef] = match marker {
+    }
+
+    /// Whether byte `b` can start a frame of a kind this header defines.
+    fn is_marker(&self, b: u8) -> bool {
+        let defs = &self.h.defs;
+        match b {
+            b'I' | b'E' => true,
+            b'P' => !defs.inter.is_empty(),
+            b'S' => !defs.slow.is_empty(),
+            b'G' => !defs.gps.is_empty(),
+            b'H' => !defs.home.is_empty(),
+            _ => false,
+        }
+    }
+
+    /// The field layout of frames that start with `marker` (empty for events).
+    fn frame_defs(&self, marker: u8) -> &'a [FieldDef] {
+        let defs = &self.h.defs;
+        match marker {
             b'I' => &defs.intra,
             b'P' => &defs.inter,
             b'S' => &defs.slow,
             b'G' => &defs.gps,
             b'H' => &defs.home,
             _ => &[],
+        }
+    }
+
+    /// Handles the byte at `pos`; the offset to go on at, or `None` when decoding ends.
+    fn step(&mut self, pos: usize) -> Option<usize> {
+        let data = self.data;
+        let marker = data[pos];
+        if !self.is_marker(marker) {
+            if !self.in_damage {
+                self.stats.corrupt += 1;
+                self.in_damage = true;
+                self.history_ok = false;
+            }
+            return Some(pos + 1);
+        }
+        let start = pos;
+        let frame = self.read_candidate(marker, start);
+        let end = frame.end;
+        let framed = match frame.parsed {
+            Err(Bad::Truncated) if frame.cut_by_window => false,
+            Err(Bad::Truncated) => {
+                self.stats.end = End::Truncated;
+                return None;
+            }
+            Err(Bad::Corrupt) => false,
+            Ok(()) => end - start <= MAX_FRAME_LEN && (frame.log_end || end >= data.len() || self.is_marker(data[end])),
         };
+        if !framed {
+            // Not a frame after all: look for the next marker from the byte after this one.
+            if !self.in_damage {
+                self.stats.corrupt += 1;
+                self.in_damage = true;
+            }
+            self.history_ok = false;
+            return Some(start + 1);
+        }
+        self.in_damage = false;
+        if frame.log_end {
+            self.stats.end = End::LogEnd;
+            return None;
+        }
+        if let Some((iteration, time)) = frame.resume {
+            self.stats.resumes += 1;
+            self.anchor = Some(Anchor {
+                iteration,
+                time,
+                inclusive: true,
+            });
+            return Some(end);
+        }
+        if self.stored.saturating_add(self.raw.len()) > self.budget {
+            self.stats.end = End::Budget;
+            return None;
+        }
+        match marker {
+            b'I' | b'P' => self.main_frame(marker == b'I'),
+            b'S' => self.slow_frame(),
+            b'H' => self.home_frame(),
+            b'G' => self.gps_frame(),
+            _ => {}
+        }
+        Some(end)
+    }
+
+    /// Reads the frame or event that starts with `marker` at `start` (field values into `raw`).
+    fn read_candidate(&mut self, marker: u8, start: usize) -> Candidate {
+        let data = self.data;
+        // A trusted frame is at most MAX_FRAME_LEN bytes, so no read needs to look further: this
+        // bounds the work spent at each candidate marker while resynchronising through damage.
+        let window = data.len().min(start + MAX_FRAME_LEN + 1);
+        let cut_by_window = window < data.len();
+        let mut c = Cursor::new(&data[..window], start + 1);
         let mut resume = None;
         let mut log_end = false;
         let parsed = if marker == b'E' {
@@ -371,151 +486,154 @@ pub fn decode(h: &Header, data: &[u8]) -> Decoded {
                 Err(EventEnd::Bad(b)) => Err(b),
             }
         } else {
-            read_raw(&mut c, frame_defs, &mut raw)
+            read_raw(&mut c, self.frame_defs(marker), &mut self.raw)
         };
-        let end = c.pos();
-        let framed = match parsed {
-            Err(Bad::Truncated) if cut_by_window => false,
-            Err(Bad::Truncated) => {
-                stats.end = End::Truncated;
-                break;
-            }
-            Err(Bad::Corrupt) => false,
-            Ok(()) => end - start <= MAX_FRAME_LEN && (log_end || end >= data.len() || is_marker(data[end])),
-        };
-        if !framed {
-            // Not a frame after all: look for the next marker from the byte after this one.
-            if !in_damage {
-                stats.corrupt += 1;
-                in_damage = true;
-            }
-            history_ok = false;
-            pos = start + 1;
-            continue;
-        }
-        in_damage = false;
-        pos = end;
-        if log_end {
-            stats.end = End::LogEnd;
-            break;
-        }
-        if let Some((iteration, time)) = resume {
-            stats.resumes += 1;
-            anchor = Some(Anchor {
-                iteration,
-                time,
-                inclusive: true,
-            });
-            continue;
-        }
-        if stored.saturating_add(raw.len()) > budget {
-            stats.end = End::Budget;
-            break;
-        }
-        match marker {
-            b'I' | b'P' => {
-                let intra = marker == b'I';
-                if !intra && !history_ok {
-                    stats.unanchored += 1;
-                    continue;
-                }
-                let skipped = match (intra, anchor) {
-                    (false, Some(a)) => h.skipped_after(a.iteration),
-                    _ => 0,
-                };
-                let ctx = Context {
-                    prev: if intra { None } else { prev.as_deref() },
-                    prev2: if intra { None } else { prev2.as_deref() },
-                    skipped,
-                    minthrottle: h.minthrottle,
-                    min_motor: h.min_motor,
-                    vbatref: h.vbatref,
-                    last_main_time,
-                    motor0,
-                    home,
-                };
-                if apply_predictors(frame_defs, &mut raw, &ctx).is_err() {
-                    stats.corrupt += 1;
-                    history_ok = false;
-                    continue;
-                }
-                let here = Anchor {
-                    iteration: raw[it_i],
-                    time: raw[time_i],
-                    inclusive: false,
-                };
-                let ok = anchor.is_none_or(|a| a.admits(here.iteration, here.time));
-                // Two consecutive I-frames consistent with each other but not with the anchor: the
-                // timeline really moved (a gap without a resume event); follow it.
-                let restart = !ok && intra && rejected_i.is_some_and(|r| r.admits(here.iteration, here.time));
-                if !ok && !restart {
-                    stats.implausible += 1;
-                    history_ok = false;
-                    if intra {
-                        rejected_i = Some(here);
-                    }
-                    continue;
-                }
-                rejected_i = None;
-                anchor = Some(here);
-                last_main_time = here.time;
-                history_ok = true;
-                if intra {
-                    prev2 = Some(raw.clone());
-                    prev = Some(raw.clone());
-                } else {
-                    prev2 = prev.take();
-                    prev = Some(raw.clone());
-                }
-                main.push(here.time, &raw);
-                main_is_intra.push(intra);
-                stored += raw.len();
-                if let Some(s) = slow_pending.take() {
-                    slow.push(here.time, &s);
-                    stored += s.len();
-                }
-            }
-            b'S' => {
-                let ctx = side_context(h, None, last_main_time, home);
-                if apply_predictors(frame_defs, &mut raw, &ctx).is_err() {
-                    stats.corrupt += 1;
-                    continue;
-                }
-                if main.is_empty() {
-                    // Shown from the first main frame on.
-                    slow_pending = Some(raw.clone());
-                } else {
-                    slow.push(last_main_time, &raw);
-                    stored += raw.len();
-                }
-            }
-            b'H' => {
-                let ctx = side_context(h, None, last_main_time, None);
-                if apply_predictors(frame_defs, &mut raw, &ctx).is_ok() && raw.len() >= 2 {
-                    home = Some([raw[0], raw[1]]);
-                }
-            }
-            b'G' => {
-                let ctx = side_context(h, gps_prev.as_deref(), last_main_time, home);
-                match apply_predictors(frame_defs, &mut raw, &ctx) {
-                    Ok(()) => {
-                        let t = gps_time.map_or(last_main_time, |i| raw[i]);
-                        gps.push(t, &raw);
-                        stored += raw.len();
-                        gps_prev = Some(raw.clone());
-                    }
-                    Err(Missing::Home) => stats.gps_without_home += 1,
-                    Err(Missing::Motor0) => stats.corrupt += 1,
-                }
-            }
-            _ => {}
+        Candidate {
+            parsed,
+            end: c.pos(),
+            cut_by_window,
+            resume,
+            log_end,
         }
     }
-    Decoded {
-        main,
-        main_is_intra,
-        slow,
-        gps,
-        stats,
+
+    /// Decodes the I- or P-frame in `raw` and keeps it if it continues the timeline.
+    fn main_frame(&mut self, intra: bool) {
+        if !intra && !self.history_ok {
+            self.stats.unanchored += 1;
+            return;
+        }
+        let skipped = match (intra, self.anchor) {
+            (false, Some(a)) => self.h.skipped_after(a.iteration),
+            _ => 0,
+        };
+        let ctx = Context {
+            prev: if intra { None } else { self.prev.as_deref() },
+            prev2: if intra { None } else { self.prev2.as_deref() },
+            skipped,
+            minthrottle: self.h.minthrottle,
+            min_motor: self.h.min_motor,
+            vbatref: self.h.vbatref,
+            last_main_time: self.last_main_time,
+            motor0: self.motor0,
+            home: self.home,
+        };
+        let defs = self.frame_defs(if intra { b'I' } else { b'P' });
+        if apply_predictors(defs, &mut self.raw, &ctx).is_err() {
+            self.stats.corrupt += 1;
+            self.history_ok = false;
+            return;
+        }
+        let here = Anchor {
+            iteration: self.raw[self.it_i],
+            time: self.raw[self.time_i],
+            inclusive: false,
+        };
+        if self.admits_main(here, intra) {
+            self.keep_main(here, intra);
+        }
     }
+
+    /// Whether a main frame at `here` continues the timeline; counts and remembers it when not.
+    fn admits_main(&mut self, here: Anchor, intra: bool) -> bool {
+        let ok = self.anchor.is_none_or(|a| a.admits(here.iteration, here.time));
+        // Two consecutive I-frames consistent with each other but not with the anchor: the
+        // timeline really moved (a gap without a resume event); follow it.
+        let restart = !ok && intra && self.rejected_i.is_some_and(|r| r.admits(here.iteration, here.time));
+        if !ok && !restart {
+            self.stats.implausible += 1;
+            self.history_ok = false;
+            if intra {
+                self.rejected_i = Some(here);
+            }
+            return false;
+        }
+        true
+    }
+
+    /// Stores the trusted main frame in `raw` (and a slow frame waiting for it) and moves the anchor to `here`.
+    fn keep_main(&mut self, here: Anchor, intra: bool) {
+        let raw = &self.raw;
+        self.rejected_i = None;
+        self.anchor = Some(here);
+        self.last_main_time = here.time;
+        self.history_ok = true;
+        if intra {
+            self.prev2 = Some(raw.clone());
+            self.prev = Some(raw.clone());
+        } else {
+            self.prev2 = self.prev.take();
+            self.prev = Some(raw.clone());
+        }
+        self.main.push(here.time, raw);
+        self.main_is_intra.push(intra);
+        self.stored += raw.len();
+        if let Some(s) = self.slow_pending.take() {
+            self.slow.push(here.time, &s);
+            self.stored += s.len();
+        }
+    }
+
+    /// Decodes the slow (S) frame in `raw` and stores it at the last main frame's time.
+    fn slow_frame(&mut self) {
+        let ctx = side_context(self.h, None, self.last_main_time, self.home);
+        if apply_predictors(self.frame_defs(b'S'), &mut self.raw, &ctx).is_err() {
+            self.stats.corrupt += 1;
+            return;
+        }
+        if self.main.is_empty() {
+            // Shown from the first main frame on.
+            self.slow_pending = Some(self.raw.clone());
+        } else {
+            self.slow.push(self.last_main_time, &self.raw);
+            self.stored += self.raw.len();
+        }
+    }
+
+    /// Decodes the GPS home (H) frame in `raw` and takes its first two fields as the home position.
+    fn home_frame(&mut self) {
+        let ctx = side_context(self.h, None, self.last_main_time, None);
+        if apply_predictors(self.frame_defs(b'H'), &mut self.raw, &ctx).is_ok() && self.raw.len() >= 2 {
+            self.home = Some([self.raw[0], self.raw[1]]);
+        }
+    }
+
+    /// Decodes the GPS (G) frame in `raw` and stores it at its own `time` (else the last main frame's).
+    fn gps_frame(&mut self) {
+        let ctx = side_context(self.h, self.gps_prev.as_deref(), self.last_main_time, self.home);
+        match apply_predictors(self.frame_defs(b'G'), &mut self.raw, &ctx) {
+            Ok(()) => {
+                let t = self.gps_time.map_or(self.last_main_time, |i| self.raw[i]);
+                self.gps.push(t, &self.raw);
+                self.stored += self.raw.len();
+                self.gps_prev = Some(self.raw.clone());
+            }
+            Err(Missing::Home) => self.stats.gps_without_home += 1,
+            Err(Missing::Motor0) => self.stats.corrupt += 1,
+        }
+    }
+
+    /// The rows and statistics decoded.
+    fn finish(self) -> Decoded {
+        Decoded {
+            main: self.main,
+            main_is_intra: self.main_is_intra,
+            slow: self.slow,
+            gps: self.gps,
+            stats: self.stats,
+        }
+    }
+}
+
+/// Decodes the frames of `data` (one session, after its header).
+pub fn decode(h: &Header, data: &[u8]) -> Decoded {
+    let mut d = Decoder::new(h, data);
+    let mut pos = 0usize;
+    while pos < data.len() {
+        match d.step(pos) {
+            Some(next) => pos = next,
+            None => break,
+        }
+    }
+    d.finish()
 }

@@ -179,6 +179,55 @@ fn firmware_of(revision: &str, kind: &str) -> Firmware {
 
 /// Reads the header of the session that starts at `session[0]`.
 pub fn parse(session: &[u8]) -> Result<Header, HeaderError> {
+    let (raw, pos) = read_lines(session)?;
+    let get = |k: &str| last_value(&raw, k);
+
+    let data_version = data_version_of(get("Data version"))?;
+    let firmware_type = get("Firmware type").unwrap_or("").trim().to_string();
+    let firmware_revision = get("Firmware revision").unwrap_or("").trim().to_string();
+    let firmware = firmware_of(&firmware_revision, &firmware_type);
+
+    let i_interval = get("I interval").and_then(parse_int).unwrap_or(32);
+    if !(1..=65535).contains(&i_interval) {
+        return Err(HeaderError::Invalid(format!(
+            "header 'I interval' is {i_interval}; 1 to 65535 is allowed"
+        )));
+    }
+    let (p_num, p_denom) = p_interval_of(get("P interval"))?;
+
+    let defs = frame_defs_of(&raw)?;
+    check_field_ids(&defs)?;
+    check_main_fields(&defs, data_version)?;
+
+    let motor_output = get("motorOutput").and_then(|v| v.split(',').next().and_then(parse_int));
+    Ok(Header {
+        data_version,
+        firmware_type,
+        firmware_revision,
+        firmware,
+        i_interval: i_interval as u32,
+        p_num,
+        p_denom,
+        minthrottle: get("minthrottle").and_then(parse_int).unwrap_or(1150),
+        min_motor: motor_output.unwrap_or(0),
+        vbatref: get("vbatref").and_then(parse_int).unwrap_or(4095),
+        gyro_scale: get("gyro_scale")
+            .or_else(|| get("gyro.scale"))
+            .and_then(hex_float)
+            .unwrap_or(1.0),
+        acc_1g: get("acc_1G").and_then(parse_int).filter(|&a| a > 0).map(|a| a as f64),
+        vbat_scale: get("vbat_scale")
+            .or_else(|| get("vbatscale"))
+            .and_then(parse_int)
+            .map(|v| v as f64),
+        defs,
+        data_start: pos,
+        lines: raw,
+    })
+}
+
+/// The `H name:value` lines at the start of `session` (name trimmed) and the offset just after them.
+fn read_lines(session: &[u8]) -> Result<(Vec<(String, String)>, usize), HeaderError> {
     let mut raw: Vec<(String, String)> = Vec::new();
     let mut pos = 0;
     // The header ends at the first line that does not start with 'H ' (the first frame's marker).
@@ -195,50 +244,51 @@ pub fn parse(session: &[u8]) -> Result<Header, HeaderError> {
             raw.push((k.trim().to_string(), v.to_string()));
         }
     }
-    let get = |k: &str| raw.iter().rev().find(|(name, _)| name == k).map(|(_, v)| v.as_str());
+    Ok((raw, pos))
+}
 
-    let data_version = match get("Data version") {
-        None => 2,
+/// The value of the last header line named `key`.
+fn last_value<'a>(lines: &'a [(String, String)], key: &str) -> Option<&'a str> {
+    lines
+        .iter()
+        .rev()
+        .find(|(name, _)| name == key)
+        .map(|(_, v)| v.as_str())
+}
+
+/// The `Data version` header's value (2 when absent; only 1 and 2 are accepted).
+fn data_version_of(value: Option<&str>) -> Result<u32, HeaderError> {
+    match value {
+        None => Ok(2),
         Some(v) => match v.trim().parse::<u32>() {
-            Ok(x @ 1..=2) => x,
-            _ => {
-                return Err(HeaderError::Invalid(format!(
-                    "header 'Data version' is '{}'; versions 1 and 2 are known",
-                    v.trim()
-                )))
-            }
+            Ok(x @ 1..=2) => Ok(x),
+            _ => Err(HeaderError::Invalid(format!(
+                "header 'Data version' is '{}'; versions 1 and 2 are known",
+                v.trim()
+            ))),
         },
-    };
-    let firmware_type = get("Firmware type").unwrap_or("").trim().to_string();
-    let firmware_revision = get("Firmware revision").unwrap_or("").trim().to_string();
-    let firmware = firmware_of(&firmware_revision, &firmware_type);
-
-    let i_interval = get("I interval").and_then(parse_int).unwrap_or(32);
-    if !(1..=65535).contains(&i_interval) {
-        return Err(HeaderError::Invalid(format!(
-            "header 'I interval' is {i_interval}; 1 to 65535 is allowed"
-        )));
     }
-    // "P interval" is "num/denom" (Betaflight 3.x, INAV) or just the denominator (Betaflight 4.x).
-    let (p_num, p_denom) = match get("P interval") {
-        None => (1, 1),
-        Some(v) => {
-            let parsed = match v.split_once('/') {
-                Some((n, d)) => parse_int(n).zip(parse_int(d)),
-                None => parse_int(v).map(|d| (1, d)),
-            };
-            match parsed {
-                Some((n, d)) if (1..=65535).contains(&d) && (1..=d).contains(&n) => (n as u32, d as u32),
-                _ => {
-                    return Err(HeaderError::Invalid(format!(
-                        "header 'P interval' is '{}'; N or n/N with 1 <= n <= N <= 65535 is allowed",
-                        v.trim()
-                    )))
-                }
-            }
-        }
-    };
+}
 
+/// The `P interval` header's value as (num, denom) ((1, 1) when absent).
+fn p_interval_of(value: Option<&str>) -> Result<(u32, u32), HeaderError> {
+    // "P interval" is "num/denom" (Betaflight 3.x, INAV) or just the denominator (Betaflight 4.x).
+    let Some(v) = value else { return Ok((1, 1)) };
+    let parsed = match v.split_once('/') {
+        Some((n, d)) => parse_int(n).zip(parse_int(d)),
+        None => parse_int(v).map(|d| (1, d)),
+    };
+    match parsed {
+        Some((n, d)) if (1..=65535).contains(&d) && (1..=d).contains(&n) => Ok((n as u32, d as u32)),
+        _ => Err(HeaderError::Invalid(format!(
+            "header 'P interval' is '{}'; N or n/N with 1 <= n <= N <= 65535 is allowed",
+            v.trim()
+        ))),
+    }
+}
+
+/// The field layouts of every frame type, with P-frames given the I-frame names and signedness.
+fn frame_defs_of(lines: &[(String, String)]) -> Result<FrameDefs, HeaderError> {
     let mut defs = FrameDefs::default();
     for (kind, slot) in [
         ('I', &mut defs.intra),
@@ -247,51 +297,9 @@ pub fn parse(session: &[u8]) -> Result<Header, HeaderError> {
         ('G', &mut defs.gps),
         ('H', &mut defs.home),
     ] {
-        let key = |p: &str| format!("Field {kind} {p}");
-        let names: Vec<String> = match get(&key("name")) {
-            Some(v) => v.split(',').map(|s| s.trim().to_string()).collect(),
-            // P-frames share the I-frame names.
-            None if kind == 'P' && get(&key("predictor")).is_some() => Vec::new(),
-            None => continue,
-        };
-        let predictors = match get(&key("predictor")) {
-            Some(v) => list_of_u8(v, &key("predictor"), "a predictor number 0 to 11")?,
-            None => {
-                return Err(HeaderError::Invalid(format!(
-                    "header '{}' is missing",
-                    key("predictor")
-                )))
-            }
-        };
-        let encodings = match get(&key("encoding")) {
-            Some(v) => list_of_u8(v, &key("encoding"), "an encoding number 0 to 10")?,
-            None => return Err(HeaderError::Invalid(format!("header '{}' is missing", key("encoding")))),
-        };
-        let signed = match get(&key("signed")) {
-            Some(v) => list_of_u8(v, &key("signed"), "0 or 1")?,
-            None => Vec::new(),
-        };
-        let n = if names.is_empty() {
-            predictors.len()
-        } else {
-            names.len()
-        };
-        if n == 0 || n > MAX_FIELDS || predictors.len() != n || encodings.len() != n {
-            return Err(HeaderError::Invalid(format!(
-                "{kind}-frame headers list {} names, {} predictors and {} encodings; equal counts of 1 to {MAX_FIELDS} are required",
-                names.len(),
-                predictors.len(),
-                encodings.len()
-            )));
+        if let Some(fields) = field_defs_of(lines, kind)? {
+            *slot = fields;
         }
-        *slot = (0..n)
-            .map(|i| FieldDef {
-                name: names.get(i).cloned().unwrap_or_default(),
-                signed: signed.get(i).is_some_and(|&s| s != 0),
-                predictor: predictors[i],
-                encoding: encodings[i],
-            })
-            .collect();
     }
     if defs.intra.is_empty() {
         return Err(HeaderError::Invalid(
@@ -311,6 +319,63 @@ pub fn parse(session: &[u8]) -> Result<Header, HeaderError> {
             p.signed = i.signed;
         }
     }
+    Ok(defs)
+}
+
+/// The fields of frame type `kind` from its `Field <kind> ...` headers (`None` when it has none).
+fn field_defs_of(lines: &[(String, String)], kind: char) -> Result<Option<Vec<FieldDef>>, HeaderError> {
+    let get = |k: &str| last_value(lines, k);
+    let key = |p: &str| format!("Field {kind} {p}");
+    let names: Vec<String> = match get(&key("name")) {
+        Some(v) => v.split(',').map(|s| s.trim().to_string()).collect(),
+        // P-frames share the I-frame names.
+        None if kind == 'P' && get(&key("predictor")).is_some() => Vec::new(),
+        None => return Ok(None),
+    };
+    let predictors = match get(&key("predictor")) {
+        Some(v) => list_of_u8(v, &key("predictor"), "a predictor number 0 to 11")?,
+        None => {
+            return Err(HeaderError::Invalid(format!(
+                "header '{}' is missing",
+                key("predictor")
+            )))
+        }
+    };
+    let encodings = match get(&key("encoding")) {
+        Some(v) => list_of_u8(v, &key("encoding"), "an encoding number 0 to 10")?,
+        None => return Err(HeaderError::Invalid(format!("header '{}' is missing", key("encoding")))),
+    };
+    let signed = match get(&key("signed")) {
+        Some(v) => list_of_u8(v, &key("signed"), "0 or 1")?,
+        None => Vec::new(),
+    };
+    let n = if names.is_empty() {
+        predictors.len()
+    } else {
+        names.len()
+    };
+    if n == 0 || n > MAX_FIELDS || predictors.len() != n || encodings.len() != n {
+        return Err(HeaderError::Invalid(format!(
+            "{kind}-frame headers list {} names, {} predictors and {} encodings; equal counts of 1 to {MAX_FIELDS} are required",
+            names.len(),
+            predictors.len(),
+            encodings.len()
+        )));
+    }
+    Ok(Some(
+        (0..n)
+            .map(|i| FieldDef {
+                name: names.get(i).cloned().unwrap_or_default(),
+                signed: signed.get(i).is_some_and(|&s| s != 0),
+                predictor: predictors[i],
+                encoding: encodings[i],
+            })
+            .collect(),
+    ))
+}
+
+/// Refuses a field whose predictor or encoding number the decoder does not know.
+fn check_field_ids(defs: &FrameDefs) -> Result<(), HeaderError> {
     for (kind, list) in [
         ('I', &defs.intra),
         ('P', &defs.inter),
@@ -344,6 +409,11 @@ pub fn parse(session: &[u8]) -> Result<Header, HeaderError> {
             }
         }
     }
+    Ok(())
+}
+
+/// Refuses main frames that data version 1 cannot encode or that lack `loopIteration` or `time`.
+fn check_main_fields(defs: &FrameDefs, data_version: u32) -> Result<(), HeaderError> {
     if data_version < 2 && defs.inter.iter().any(|f| f.encoding == enc::TAG8_4S16) {
         return Err(HeaderError::Invalid(
             "data version 1 with TAG8_4S16 fields (Cleanflight before 2015) is not supported; data version 2 is".into(),
@@ -356,32 +426,7 @@ pub fn parse(session: &[u8]) -> Result<Header, HeaderError> {
             )));
         }
     }
-
-    let motor_output = get("motorOutput").and_then(|v| v.split(',').next().and_then(parse_int));
-    Ok(Header {
-        data_version,
-        firmware_type,
-        firmware_revision,
-        firmware,
-        i_interval: i_interval as u32,
-        p_num,
-        p_denom,
-        minthrottle: get("minthrottle").and_then(parse_int).unwrap_or(1150),
-        min_motor: motor_output.unwrap_or(0),
-        vbatref: get("vbatref").and_then(parse_int).unwrap_or(4095),
-        gyro_scale: get("gyro_scale")
-            .or_else(|| get("gyro.scale"))
-            .and_then(hex_float)
-            .unwrap_or(1.0),
-        acc_1g: get("acc_1G").and_then(parse_int).filter(|&a| a > 0).map(|a| a as f64),
-        vbat_scale: get("vbat_scale")
-            .or_else(|| get("vbatscale"))
-            .and_then(parse_int)
-            .map(|v| v as f64),
-        defs,
-        data_start: pos,
-        lines: raw,
-    })
+    Ok(())
 }
 
 impl Header {
