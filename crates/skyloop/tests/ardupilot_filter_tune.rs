@@ -17,8 +17,7 @@ mod common;
 mod writer;
 
 use skyloop::lti::c64;
-use skyloop::tune::log::{tune_from_log_bytes, LogTuneRequest};
-use skyloop::tune::Firmware;
+use skyloop::tune::log::tune_from_log_bytes;
 use std::f64::consts::{PI, SQRT_2};
 
 const K: f64 = 6000.0; // deg/s² per unit of RATE.ROut
@@ -109,12 +108,7 @@ fn true_margins(p: f64, i: f64, d: f64, gyro_hz: f64, fltd_hz: f64) -> (f64, f64
 
 #[test]
 fn gyro_and_dterm_cutoffs_tuned_on_an_ardupilot_log_hold_on_the_true_loop() {
-    let mut req = LogTuneRequest::new(
-        "sim-filters.bin".into(),
-        skyloop::firmware::betaflight::Axis::Roll,
-        Firmware::Ardupilot,
-    );
-    req.starts = 2;
+    let mut req = ardupilot_log::roll_request("sim-filters.bin");
     req.tune_filters = true;
     // A pilot who accepts more motor noise for pace (`--noise-budget 3`): the phase a low gyro
     // lowpass costs is then worth buying back.

@@ -14,8 +14,7 @@ mod ardupilot_log;
 mod writer;
 
 use skyloop::identify::{identify_bytes, IdentifyRequest};
-use skyloop::tune::log::{tune_from_log_bytes, LogTuneRequest};
-use skyloop::tune::Firmware;
+use skyloop::tune::log::tune_from_log_bytes;
 use std::f64::consts::PI;
 #[path = "common/loop_margins.rs"]
 mod common;
@@ -135,12 +134,7 @@ fn true_margins(p: f64, i: f64, d: f64) -> (f64, f64) {
 
 #[test]
 fn tune_from_an_ardupilot_log_rates_the_flown_tune_and_prints_param_set_lines() {
-    let mut req = LogTuneRequest::new(
-        "sim-copter.bin".into(),
-        skyloop::firmware::betaflight::Axis::Roll,
-        Firmware::Ardupilot,
-    );
-    req.starts = 2;
+    let req = ardupilot_log::roll_request("sim-copter.bin");
     let out = tune_from_log_bytes(&req, &log_bytes(1)).unwrap();
     let cur = out.current.as_ref().expect("the flown ATC_RAT_RLL_* are read");
     let (kp, ki, kd) = FLOWN_PER_DEG;

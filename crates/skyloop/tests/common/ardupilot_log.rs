@@ -47,3 +47,14 @@ pub fn lcg(seed: u64) -> impl FnMut() -> f64 {
         (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
     }
 }
+
+/// A roll tune request for the simulated log `name`, with two optimizer starts (the tests' pace).
+pub fn roll_request(name: &str) -> skyloop::tune::log::LogTuneRequest {
+    let mut req = skyloop::tune::log::LogTuneRequest::new(
+        name.into(),
+        skyloop::firmware::betaflight::Axis::Roll,
+        skyloop::tune::Firmware::Ardupilot,
+    );
+    req.starts = 2;
+    req
+}
