@@ -864,14 +864,22 @@ fn realize_section(num: &Poly, den: Den) -> Result<StateSpace> {
     StateSpace::new(a, b, c, one(dd), 0.0)
 }
 
-/// The state-space model of a proper factored value: roots of every factor, common roots
-/// cancelled, zeros paired with poles into first- and second-order sections, the gain spread evenly
-/// over the sections, and the sections chained by [`series_upper`].
-fn realize_fact(f: &Fact) -> Result<StateSpace> {
-    let one = |x: f64| Mat::from_fn(1, 1, |_, _| x);
-    if f.k == 0.0 {
-        return StateSpace::gain(one(0.0), 0.0);
-    }
+/// A factored value's total gain, with every factor's leading coefficient folded in, and its roots.
+struct FactRoots {
+    /// Whether the total gain is negative.
+    negative: bool,
+    /// Natural logarithm of the total gain's magnitude.
+    log_k: f64,
+    /// The total gain as a plain product (may over- or underflow).
+    k_lin: f64,
+    /// Roots of the numerator factors.
+    zeros: Vec<Root>,
+    /// Roots of the denominator factors.
+    poles: Vec<Root>,
+}
+
+/// Roots of every factor of `f` and the total gain (its `k` times the factors' leading coefficients).
+fn fact_roots(f: &Fact) -> Result<FactRoots> {
     // The gain as sign and natural logarithm: the product of the factors' leading coefficients
     // may leave the floating-point range ((1e-200·s + 1)² has 1e-400) while the realization, whose
     // sections are each scaled near unit gain, does not.
@@ -887,14 +895,24 @@ fn realize_fact(f: &Fact) -> Result<StateSpace> {
         log_k += sign * lead.abs().ln();
         k_lin = if sign > 0.0 { k_lin * lead } else { k_lin / lead };
     }
-    let out_of_range = |log_k: f64| {
-        LtiError::InvalidArgument(format!(
-            "the expression's gain e^{log_k:.4} is out of the floating-point range"
-        ))
-    };
-    if !log_k.is_finite() {
-        return Err(out_of_range(log_k));
-    }
+    Ok(FactRoots {
+        negative,
+        log_k,
+        k_lin,
+        zeros: z,
+        poles: p,
+    })
+}
+
+/// The error for a total gain `e^log_k` outside the floating-point range.
+fn gain_out_of_range(log_k: f64) -> LtiError {
+    LtiError::InvalidArgument(format!(
+        "the expression's gain e^{log_k:.4} is out of the floating-point range"
+    ))
+}
+
+/// Removes from `p` the roots shared with `z`; returns the zeros left.
+fn cancel_common_roots(z: Vec<Root>, p: &mut Vec<Root>) -> Vec<Root> {
     // Cancel roots shared by numerator and denominator (to 1e-10 relative, as tf_to_ss does).
     let mut zk = Vec::new();
     for r in z {
@@ -908,10 +926,31 @@ fn realize_fact(f: &Fact) -> Result<StateSpace> {
             None => zk.push(r),
         }
     }
-    let mut z = zk;
-    // Pair zeros with poles: complex zero pairs need a second-order denominator (a complex pole
-    // pair, else two real poles); real zeros take a real pole, else share a second-order one.
-    let mut sections: Vec<(Poly, Den)> = Vec::new();
+    zk
+}
+
+/// Removes and returns the real pole whose magnitude is nearest `m` (rad/s).
+fn take_nearest_real(reals: &mut Vec<f64>, m: f64) -> Option<f64> {
+    let i = reals
+        .iter()
+        .enumerate()
+        .min_by(|a, b| (a.1.abs() - m).abs().total_cmp(&(b.1.abs() - m).abs()))
+        .map(|(i, _)| i)?;
+    Some(reals.remove(i))
+}
+
+/// Removes and returns the complex pole pair (σ, ω) whose magnitude is nearest `m` (rad/s).
+fn take_nearest_pair(pairs: &mut Vec<(f64, f64)>, m: f64) -> Option<(f64, f64)> {
+    let i = (0..pairs.len()).min_by(|&a, &b| {
+        (pairs[a].0.hypot(pairs[a].1) - m)
+            .abs()
+            .total_cmp(&(pairs[b].0.hypot(pairs[b].1) - m).abs())
+    })?;
+    Some(pairs.remove(i))
+}
+
+/// The poles by increasing magnitude, split into real poles and complex pairs (σ, ω).
+fn split_poles(mut p: Vec<Root>) -> (Vec<f64>, Vec<(f64, f64)>) {
     let mut reals: Vec<f64> = Vec::new();
     let mut pairs: Vec<(f64, f64)> = Vec::new();
     p.sort_by(|a, b| a.mag().total_cmp(&b.mag()));
@@ -922,22 +961,15 @@ fn realize_fact(f: &Fact) -> Result<StateSpace> {
             reals.push(r.re);
         }
     }
-    let take_nearest_real = |reals: &mut Vec<f64>, m: f64| -> Option<f64> {
-        let i = reals
-            .iter()
-            .enumerate()
-            .min_by(|a, b| (a.1.abs() - m).abs().total_cmp(&(b.1.abs() - m).abs()))
-            .map(|(i, _)| i)?;
-        Some(reals.remove(i))
-    };
-    let take_nearest_pair = |pairs: &mut Vec<(f64, f64)>, m: f64| -> Option<(f64, f64)> {
-        let i = (0..pairs.len()).min_by(|&a, &b| {
-            (pairs[a].0.hypot(pairs[a].1) - m)
-                .abs()
-                .total_cmp(&(pairs[b].0.hypot(pairs[b].1) - m).abs())
-        })?;
-        Some(pairs.remove(i))
-    };
+    (reals, pairs)
+}
+
+/// First- and second-order sections pairing the zeros `z` with the poles `p`; improper if a zero is left.
+fn pair_sections(mut z: Vec<Root>, p: Vec<Root>) -> Result<Vec<(Poly, Den)>> {
+    // Pair zeros with poles: complex zero pairs need a second-order denominator (a complex pole
+    // pair, else two real poles); real zeros take a real pole, else share a second-order one.
+    let mut sections: Vec<(Poly, Den)> = Vec::new();
+    let (mut reals, mut pairs) = split_poles(p);
     z.sort_by_key(|r| std::cmp::Reverse(r.degree()));
     let mut pending_real_zero: Option<Root> = None;
     let mut open_quadratics: Vec<(Poly, Den)> = Vec::new();
@@ -979,38 +1011,54 @@ fn realize_fact(f: &Fact) -> Result<StateSpace> {
     for (s, w) in pairs {
         sections.push((Poly::one(), Den::Pair(s, w)));
     }
-    if sections.is_empty() {
-        let k = if k_lin.is_finite() && k_lin != 0.0 {
-            k_lin
-        } else if negative {
-            -log_k.exp()
-        } else {
-            log_k.exp()
-        };
-        if !k.is_finite() || k == 0.0 {
-            return Err(out_of_range(log_k));
-        }
-        return StateSpace::gain(one(k), 0.0);
+    Ok(sections)
+}
+
+/// The static gain of a value with no sections left: the plain product where it is usable.
+fn constant_gain(k_lin: f64, negative: bool, log_k: f64) -> Result<StateSpace> {
+    let k = if k_lin.is_finite() && k_lin != 0.0 {
+        k_lin
+    } else if negative {
+        -log_k.exp()
+    } else {
+        log_k.exp()
+    };
+    if !k.is_finite() || k == 0.0 {
+        return Err(gain_out_of_range(log_k));
     }
+    StateSpace::gain(Mat::from_fn(1, 1, |_, _| k), 0.0)
+}
+
+/// A section's gain magnitude at its corner frequency (else at 2× it, else at 1 rad/s); 1 if none is usable.
+fn section_gain(num: &Poly, den: &Den) -> f64 {
+    let w0 = if den.mag() > 0.0 && den.mag().is_finite() {
+        den.mag()
+    } else {
+        1.0
+    };
+    let mut g = 0.0;
+    for w in [w0, 2.0 * w0, 1.0] {
+        let s = c64::new(0.0, w);
+        let v = (num.eval(s) / den.poly().eval(s)).norm();
+        if v > 0.0 && v.is_finite() {
+            g = v;
+            break;
+        }
+    }
+    if g > 0.0 {
+        g
+    } else {
+        1.0
+    }
+}
+
+/// The sections realized and chained, with the total gain `±e^log_k` spread evenly over them.
+fn realize_sections(sections: &[(Poly, Den)], mut log_k: f64, negative: bool) -> Result<StateSpace> {
     // Each section scaled to unit gain at its own corner frequency, the total gain spread evenly
     // (in logarithms, so 1e±300 gains neither overflow nor leave one section with all of it).
     let mut models = Vec::with_capacity(sections.len());
-    for (num, den) in &sections {
-        let w0 = if den.mag() > 0.0 && den.mag().is_finite() {
-            den.mag()
-        } else {
-            1.0
-        };
-        let mut g = 0.0;
-        for w in [w0, 2.0 * w0, 1.0] {
-            let s = c64::new(0.0, w);
-            let v = (num.eval(s) / den.poly().eval(s)).norm();
-            if v > 0.0 && v.is_finite() {
-                g = v;
-                break;
-            }
-        }
-        let g = if g > 0.0 { g } else { 1.0 };
+    for (num, den) in sections {
+        let g = section_gain(num, den);
         log_k += g.ln();
         models.push((realize_section(num, *den)?, g));
     }
@@ -1022,7 +1070,7 @@ fn realize_fact(f: &Fact) -> Result<StateSpace> {
             f = -f;
         }
         if !f.is_finite() || f == 0.0 {
-            return Err(out_of_range(log_k));
+            return Err(gain_out_of_range(log_k));
         }
         // Split the factor between B and C so both stay balanced.
         let h = f.abs().sqrt();
@@ -1032,6 +1080,31 @@ fn realize_fact(f: &Fact) -> Result<StateSpace> {
         scaled.push(m);
     }
     chain(&scaled)
+}
+
+/// The state-space model of a proper factored value: roots of every factor, common roots
+/// cancelled, zeros paired with poles into first- and second-order sections, the gain spread evenly
+/// over the sections, and the sections chained by [`series_upper`].
+fn realize_fact(f: &Fact) -> Result<StateSpace> {
+    if f.k == 0.0 {
+        return StateSpace::gain(Mat::from_fn(1, 1, |_, _| 0.0), 0.0);
+    }
+    let FactRoots {
+        negative,
+        log_k,
+        k_lin,
+        zeros,
+        mut poles,
+    } = fact_roots(f)?;
+    if !log_k.is_finite() {
+        return Err(gain_out_of_range(log_k));
+    }
+    let zeros = cancel_common_roots(zeros, &mut poles);
+    let sections = pair_sections(zeros, poles)?;
+    if sections.is_empty() {
+        return constant_gain(k_lin, negative, log_k);
+    }
+    realize_sections(&sections, log_k, negative)
 }
 
 /// The series connection u → m[0] → m[1] → … → y of SISO sections, assembled in one pass (O(n²)

@@ -188,19 +188,32 @@ enum Outcome {
     Malformed(String),
 }
 
-/// Reads a ULog file's bytes; `source` names it in messages.
-pub fn read_bytes(bytes: &[u8], source: &str) -> Result<Log> {
-    let source = source.to_string();
+/// What the parser's callbacks collect: one builder per topic instance, and the file's counts.
+#[derive(Default)]
+struct Collected {
+    builders: Vec<Builder>,
+    /// Data messages shorter than their format, skipped.
+    short: usize,
+    /// Logger dropouts reported in the file, ms.
+    dropouts_ms: u64,
+    settings: Vec<(String, String)>,
+}
+
+/// Runs px4-ulog over the guard's safe ranges of `bytes`, collecting into `c`; the outer `Err` is
+/// a parser panic, the inner `Err` the parser's reason for refusing the header or definitions.
+fn parse_records(bytes: &[u8], c: &mut Collected) -> std::thread::Result<std::result::Result<Outcome, String>> {
+    let Collected {
+        builders,
+        short,
+        dropouts_ms,
+        settings,
+    } = c;
     let mut by_key: HashMap<(String, u8), usize> = HashMap::new();
     let mut by_msg_id: HashMap<u16, usize> = HashMap::new();
-    let mut builders: Vec<Builder> = Vec::new();
-    let mut short = 0usize;
-    let mut dropouts_ms = 0u64;
-    let mut settings: Vec<(String, String)> = Vec::new();
     let safe = guard::safe_ranges(bytes);
     // The guard keeps px4-ulog away from every record it is known to panic on; catch_unwind stays as
     // a last line of defence (its panic message would still reach stderr, hence the guard).
-    let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         let mut on_data = |msg: &DataMessage| {
             let idx = *by_msg_id.entry(msg.msg_id).or_insert_with(|| {
                 let key = (msg.flattened_format.message_name.clone(), msg.multi_id.value());
@@ -210,10 +223,10 @@ pub fn read_bytes(bytes: &[u8], source: &str) -> Result<Log> {
                 })
             });
             if !builders[idx].push(msg) {
-                short += 1;
+                *short += 1;
             }
         };
-        let mut on_dropout = |d: &DropoutMessage| dropouts_ms += u64::from(d.duration_ms);
+        let mut on_dropout = |d: &DropoutMessage| *dropouts_ms += u64::from(d.duration_ms);
         let mut on_param = |p: &ParameterMessage| {
             settings.push(match p {
                 ParameterMessage::Float(k, v, _) => (k.to_string(), v.to_string()),
@@ -242,16 +255,11 @@ pub fn read_bytes(bytes: &[u8], source: &str) -> Result<Log> {
             None if parser.has_leftover() => Outcome::Truncated,
             None => Outcome::Complete,
         })
-    }));
-    let completeness = match run {
-        Ok(Ok(c)) => c,
-        Ok(Err(e)) => return Err(SysidError::Log(format!("{source}: not a readable ULog file: {e}"))),
-        Err(_) => {
-            return Err(SysidError::Log(format!(
-                "{source}: the ULog parser failed on corrupt data"
-            )))
-        }
-    };
+    }))
+}
+
+/// Refuses a file shorter than its 16-byte header or without any data message.
+fn check_has_data(bytes: &[u8], builders: &[Builder], completeness: &Outcome, source: &str) -> Result<()> {
     if bytes.len() < 16 {
         return Err(SysidError::Log(format!(
             "{source}: not a readable ULog file: {} bytes, fewer than its 16-byte file header",
@@ -259,22 +267,34 @@ pub fn read_bytes(bytes: &[u8], source: &str) -> Result<Log> {
         )));
     }
     if builders.is_empty() {
-        let why = match &completeness {
+        let why = match completeness {
             Outcome::Malformed(why) => format!("corrupt before any data ({why})"),
             Outcome::Truncated => "it ends inside its definitions, before any data message".to_string(),
             Outcome::Complete => "it holds no data messages".to_string(),
         };
         return Err(SysidError::Log(format!("{source}: not a readable ULog file: {why}")));
     }
-    let header_us = header_timestamp_us(bytes);
-    let span = data_span(&builders, header_us)
-        .ok_or_else(|| SysidError::Log(format!("{source}: no data message carries a time stamp (all are zero)")))?;
-    let (t0, t_end) = span;
-    let mut notes = Vec::new();
-    let mut groups = Vec::with_capacity(builders.len());
-    let mut last_t = 0.0f64;
-    let mut stale = 0usize;
-    let mut stale_topics: Vec<String> = Vec::new();
+    Ok(())
+}
+
+/// The topics' groups trimmed to the data span, and what was left out.
+#[derive(Default)]
+struct Trimmed {
+    groups: Vec<Group>,
+    /// The latest kept sample time, s from the span's start.
+    last_t: f64,
+    /// Messages left out (not live or outside the span).
+    stale: usize,
+    /// Topics all of whose messages were left out.
+    stale_topics: Vec<String>,
+}
+
+/// Keeps each topic's live messages within the span `t0..=t_end` (µs), timed in s from `t0`.
+fn trim_to_span(builders: Vec<Builder>, t0: u64, t_end: u64) -> Trimmed {
+    let mut out = Trimmed {
+        groups: Vec::with_capacity(builders.len()),
+        ..Trimmed::default()
+    };
     for b in builders {
         let name = if b.multi == 0 {
             b.name.clone()
@@ -287,10 +307,10 @@ pub fn read_bytes(bytes: &[u8], source: &str) -> Result<Log> {
             .map(|(live, &t)| live && t >= t0 && t <= t_end)
             .collect();
         let kept = keep.iter().filter(|&&k| k).count();
-        stale += b.time_us.len() - kept;
+        out.stale += b.time_us.len() - kept;
         if kept == 0 {
             if !b.time_us.is_empty() {
-                stale_topics.push(name);
+                out.stale_topics.push(name);
             }
             continue;
         }
@@ -302,7 +322,7 @@ pub fn read_bytes(bytes: &[u8], source: &str) -> Result<Log> {
             .filter(|(_, &k)| k)
             .map(|(&t, _)| (t - t0) as f64 * 1e-6)
             .collect();
-        last_t = last_t.max(time_s.last().copied().unwrap_or(0.0));
+        out.last_t = out.last_t.max(time_s.last().copied().unwrap_or(0.0));
         let channels = b
             .names
             .into_iter()
@@ -312,24 +332,34 @@ pub fn read_bytes(bytes: &[u8], source: &str) -> Result<Log> {
                 values: pick(&values),
             })
             .collect();
-        groups.push(Group {
+        out.groups.push(Group {
             prefix: Some(name.clone()),
             name,
             time_s,
             channels,
         });
     }
-    if stale > 0 {
-        let mut note = format!(
-            "{stale} messages with stale time stamps (zero, repeating an earlier one, or outside the data span) were left out"
-        );
-        if !stale_topics.is_empty() {
-            stale_topics.truncate(12);
-            note.push_str(&format!("; topics with no other messages: {}", stale_topics.join(", ")));
-        }
-        notes.push(note);
+    out
+}
+
+/// The note on messages left out for stale time stamps, if any were.
+fn stale_note(stale: usize, mut stale_topics: Vec<String>) -> Option<String> {
+    if stale == 0 {
+        return None;
     }
-    groups.sort_by(|a, b| a.name.cmp(&b.name));
+    let mut note = format!(
+        "{stale} messages with stale time stamps (zero, repeating an earlier one, or outside the data span) were left out"
+    );
+    if !stale_topics.is_empty() {
+        stale_topics.truncate(12);
+        note.push_str(&format!("; topics with no other messages: {}", stale_topics.join(", ")));
+    }
+    Some(note)
+}
+
+/// Notes on how far the file was read (`last_t` in s), skipped short messages and dropouts.
+fn reading_notes(completeness: Outcome, last_t: f64, short: usize, dropouts_ms: u64) -> Vec<String> {
+    let mut notes = Vec::new();
     match completeness {
         Outcome::Complete => {}
         Outcome::Truncated => notes.push(format!("log truncated mid-record: data read up to {last_t:.3} s")),
@@ -343,12 +373,42 @@ pub fn read_bytes(bytes: &[u8], source: &str) -> Result<Log> {
     if dropouts_ms > 0 {
         notes.push(format!("the logger reported {dropouts_ms} ms of dropouts"));
     }
+    notes
+}
+
+/// Reads a ULog file's bytes; `source` names it in messages.
+pub fn read_bytes(bytes: &[u8], source: &str) -> Result<Log> {
+    let source = source.to_string();
+    let mut c = Collected::default();
+    let completeness = match parse_records(bytes, &mut c) {
+        Ok(Ok(outcome)) => outcome,
+        Ok(Err(e)) => return Err(SysidError::Log(format!("{source}: not a readable ULog file: {e}"))),
+        Err(_) => {
+            return Err(SysidError::Log(format!(
+                "{source}: the ULog parser failed on corrupt data"
+            )))
+        }
+    };
+    check_has_data(bytes, &c.builders, &completeness, &source)?;
+    let header_us = header_timestamp_us(bytes);
+    let span = data_span(&c.builders, header_us)
+        .ok_or_else(|| SysidError::Log(format!("{source}: no data message carries a time stamp (all are zero)")))?;
+    let (t0, t_end) = span;
+    let Trimmed {
+        mut groups,
+        last_t,
+        stale,
+        stale_topics,
+    } = trim_to_span(c.builders, t0, t_end);
+    let mut notes: Vec<String> = stale_note(stale, stale_topics).into_iter().collect();
+    groups.sort_by(|a, b| a.name.cmp(&b.name));
+    notes.extend(reading_notes(completeness, last_t, c.short, c.dropouts_ms));
     let log = Log {
         source,
         format: LogFormat::Ulog,
         groups,
         notes,
-        settings,
+        settings: c.settings,
         clock_origin_s: t0 as f64 * 1e-6,
     };
     super::check_not_empty(&log)?;
