@@ -358,20 +358,6 @@ pub fn filter_settings(b: &BetaflightTuning) -> FilterSettings {
     from_header_stages(&table)
 }
 
-impl Filters {
-    /// The same filters with every D-term lowpass cutoff scaled by `k` (whole Hz; notches kept).
-    pub fn with_dterm_scale(&self, k: f64) -> Filters {
-        Filters {
-            dterm: self
-                .dterm
-                .iter()
-                .map(|l| if l.is_lowpass() { l.scaled(k) } else { *l })
-                .collect(),
-            ..self.clone()
-        }
-    }
-}
-
 /// The flown tune of one axis as a Betaflight header states it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FlownHeader {

@@ -55,7 +55,7 @@ impl FilterSetting {
         if k == 1.0 {
             self.flown_hz
         } else {
-            (self.flown_hz * k).round().max(1.0)
+            super::scaled_cutoff_hz(self.flown_hz, k)
         }
     }
 }
@@ -141,19 +141,12 @@ impl FilterSettings {
         if k == 1.0 {
             return self.gyro.clone();
         }
-        self.gyro
-            .iter()
-            .map(|l| if l.is_lowpass() { l.scaled(k) } else { *l })
-            .collect()
+        super::scale_lowpasses(&self.gyro, k)
     }
 
     /// The lowest gyro lowpass cutoff at factor `k`, Hz (None without one).
     pub fn lowest_gyro_cutoff_hz(&self, k: f64) -> Option<f64> {
-        self.gyro_at(k)
-            .iter()
-            .filter(|l| l.is_lowpass())
-            .map(Lowpass::cutoff_hz)
-            .min_by(f64::total_cmp)
+        super::lowest_cutoff_hz(&self.gyro_at(k))
     }
 }
 

@@ -264,7 +264,7 @@ impl Lowpass {
     /// The same stage with its cutoff scaled by `k` and rounded to whole Hz (the firmware's
     /// settings are integers); a notch is returned unchanged.
     pub fn scaled(self, k: f64) -> Lowpass {
-        self.with_cutoff((self.cutoff_hz() * k).round().max(1.0))
+        self.with_cutoff(scaled_cutoff_hz(self.cutoff_hz(), k))
     }
 
     /// True for a lowpass (not a notch).
@@ -374,6 +374,28 @@ fn m1(v: f64) -> Mat<f64> {
 /// A non-finite gain.
 pub(crate) fn static_gain(v: f64) -> Result<StateSpace> {
     Ok(StateSpace::gain(m1(v), 0.0)?)
+}
+
+/// A cutoff `hz` scaled by `k` and rounded to whole Hz (the firmwares store integers), at least 1.
+pub fn scaled_cutoff_hz(hz: f64, k: f64) -> f64 {
+    (hz * k).round().max(1.0)
+}
+
+/// `stages` with every lowpass cutoff scaled by `k` ([`Lowpass::scaled`]; notches kept).
+pub fn scale_lowpasses(stages: &[Lowpass], k: f64) -> Vec<Lowpass> {
+    stages
+        .iter()
+        .map(|l| if l.is_lowpass() { l.scaled(k) } else { *l })
+        .collect()
+}
+
+/// The lowest lowpass cutoff of `stages`, Hz (None without a lowpass).
+pub fn lowest_cutoff_hz(stages: &[Lowpass]) -> Option<f64> {
+    stages
+        .iter()
+        .filter(|l| l.is_lowpass())
+        .map(Lowpass::cutoff_hz)
+        .min_by(f64::total_cmp)
 }
 
 /// The series connection of `stages` (None when empty: no filter).

@@ -296,15 +296,11 @@ impl RateGains {
     /// The same gains with every D-term lowpass cutoff scaled by `k` (whole Hz, as
     /// [`super::Lowpass::scaled`]; notches kept); None when the D term has no lowpass to scale.
     pub fn with_dterm_scale(&self, k: f64) -> Option<RateGains> {
-        let scaled = |hz: f64| (hz * k).round().max(1.0);
+        let scaled = |hz: f64| super::scaled_cutoff_hz(hz, k);
         let mut out = self.clone();
         match &mut out {
-            RateGains::Betaflight { filters, .. } => *filters = filters.with_dterm_scale(k),
-            RateGains::Inav { filters, .. } => {
-                for l in filters.dterm.iter_mut().filter(|l| l.is_lowpass()) {
-                    *l = l.scaled(k);
-                }
-            }
+            RateGains::Betaflight { filters, .. } => filters.dterm = super::scale_lowpasses(&filters.dterm, k),
+            RateGains::Inav { filters, .. } => filters.dterm = super::scale_lowpasses(&filters.dterm, k),
             RateGains::Px4 { filters, .. } if filters.dgyro_cutoff_hz > 0.0 => {
                 filters.dgyro_cutoff_hz = scaled(filters.dgyro_cutoff_hz);
             }
@@ -334,11 +330,7 @@ impl RateGains {
 
     /// The lowest D-term lowpass cutoff, Hz (None without one).
     pub fn lowest_dterm_cutoff_hz(&self) -> Option<f64> {
-        self.dterm_lowpasses()
-            .iter()
-            .filter(|l| l.is_lowpass())
-            .map(super::Lowpass::cutoff_hz)
-            .min_by(f64::total_cmp)
+        super::lowest_cutoff_hz(&self.dterm_lowpasses())
     }
 
     /// The relative change of each of P, I, D from `flown`, e.g. [+0.2, 0, −0.1].
