@@ -982,7 +982,7 @@ fn _tune(
     req.d_filter_tau_s = d_filter_tau;
     req.goals = goals;
     req.maximize = Maximize::parse(maximize).map_err(py_err)?;
-    req.axis = skyloop::firmware::betaflight::Axis::parse(axis).map_err(py_err)?;
+    req.axis = skyloop::firmware::Axis::parse(axis).map_err(py_err)?;
     req.starts = starts;
     req.tune_feedforward = !keep_feedforward;
     let o = guarded(py, move || {

@@ -205,33 +205,6 @@ fn resampled_flight_segment() {
     assert!(log.uniform(&["gyroADC[0]"], None, Some(100.0), Some(200.0)).is_err());
 }
 
-/// A real PX4 1.14 hexarotor flight (SOURCES.md): PX4 logs NaN for the six unused outputs of
-/// `actuator_motors`, which once counted as "motor saturation" over the whole log and left no
-/// airborne segment. The segment found lies inside the airborne time pyulog shows (4.8–15.6 s
-/// after the logger's start, 0.65 s later than the data span's start), and NaN is never blamed on
-/// saturation.
-#[test]
-fn px4_unused_motor_outputs_are_not_saturation() {
-    use skyloop_sysid::logs::flight::{airborne_segments, AirborneCriteria};
-    let log = open("ulog-rs_sample-small.ulg");
-    let (_, m6) = log.channel("actuator_motors.control[6]").unwrap();
-    assert!(
-        m6.iter().all(|v| v.is_nan()),
-        "output 7 of a hexarotor is NaN in PX4 logs"
-    );
-    let c = AirborneCriteria::for_log(&log).unwrap();
-    let a = airborne_segments(&log, "vehicle_angular_velocity.xyz[0]", &c, None, None).unwrap();
-    assert!(!a.segments.is_empty());
-    let span = a.searched.to_s - a.searched.from_s;
-    for (reason, s) in &a.excluded_s {
-        assert!(*s < 0.6 * span, "{reason}: {s} s of {span} s excluded");
-    }
-    for seg in &a.segments {
-        assert!(seg.from_s >= 4.8 + 0.6 && seg.to_s <= 15.6 + 0.7, "{seg:?}");
-        assert!(seg.to_s - seg.from_s >= 2.0, "{seg:?}");
-    }
-}
-
 /// A never-ending binary device is refused from its first bytes (it used to be read until the
 /// memory cap, 31 s, before the format check).
 #[cfg(unix)]

@@ -4,7 +4,7 @@
 use serde_json::{json, Value};
 use skyloop::design::loop_metrics::{four_block_norms, loop_margins};
 use skyloop::figures::Labeled;
-use skyloop::firmware::betaflight::Axis;
+use skyloop::firmware::Axis;
 use skyloop::lti::StateSpace;
 use skyloop::tune::live::{loop_response, LiveLoop};
 use skyloop::tune::log::{tune_from_log_bytes, LogTuneRequest};

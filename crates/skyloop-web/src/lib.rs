@@ -10,7 +10,7 @@
 pub mod api;
 
 use serde_json::Value;
-use skyloop::firmware::betaflight::Axis;
+use skyloop::firmware::Axis;
 use skyloop::tune::live::LiveLoop;
 use std::cell::RefCell;
 use wasm_bindgen::prelude::*;

@@ -5,10 +5,12 @@
 use std::io::Write;
 use std::path::Path;
 
+use crate::firmware::Axis;
+use crate::identify::airborne_segments;
 use skyloop_plot::figure::Band;
 use skyloop_plot::traces::{traces_figure, Trace, TracePanel};
-use skyloop_sysid::logs::flight::{airborne_segments, AirborneCriteria, Axis, RateLoopChannels, Span};
 use skyloop_sysid::logs::Log;
+use skyloop_sysid::logs::Span;
 
 use crate::error::{Error, Result};
 
@@ -72,10 +74,10 @@ pub fn export_csv(log: &Log, fields: &[String], out: &Path) -> Result<usize> {
 /// The airborne segments `skyloop identify --axis` would search (on the roll gyro's time base);
 /// empty for a log without firmware (CSV) or without flight.
 pub fn airborne_spans(log: &Log) -> Vec<Span> {
-    let Ok(ch) = RateLoopChannels::find(log, Axis::Roll) else {
+    let Ok(ch) = crate::firmware::rate_loop_channels(log, Axis::Roll) else {
         return Vec::new();
     };
-    let Ok(c) = AirborneCriteria::for_log(log) else {
+    let Ok(c) = crate::firmware::airborne_criteria(log) else {
         return Vec::new();
     };
     airborne_segments(log, &ch.output, &c, None, None)
@@ -152,6 +154,6 @@ pub fn info_json(file: &str, log: &Log, bytes: Option<&[u8]>) -> serde_json::Val
         "notes": log.notes,
         "groups": log.info(),
         "sessions": sessions,
-        "tuning": skyloop_sysid::logs::tuning::FirmwareTuning::from_log(log),
+        "tuning": crate::firmware::FirmwareTuning::from_log(log),
     })
 }

@@ -8,7 +8,8 @@
 //!   the D the firmware applies in flight is d_min, not d (d_min's boost is rare).
 #![allow(clippy::unwrap_used)] // a panic is how a test reports failure
 
-use skyloop::firmware::betaflight::{continuous, Axis, Gains, DTERM_SCALE};
+use skyloop::firmware::betaflight::{continuous, Gains, DTERM_SCALE};
+use skyloop::firmware::Axis;
 use skyloop::lti::c64;
 use skyloop::sysid::logs::{Log, OpenOptions};
 use std::f64::consts::PI;

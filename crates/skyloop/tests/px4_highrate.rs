@@ -295,11 +295,7 @@ fn true_margins(k: f64, p: f64, i: f64, d: f64) -> (f64, f64) {
 #[test]
 fn tune_from_a_px4_high_rate_log_rates_the_flown_tune_and_prints_param_set_lines() {
     let bytes = log_bytes(&flight(25.0), Motors::Flying);
-    let mut req = LogTuneRequest::new(
-        "px4-highrate.ulg".into(),
-        skyloop::firmware::betaflight::Axis::Roll,
-        Firmware::Px4,
-    );
+    let mut req = LogTuneRequest::new("px4-highrate.ulg".into(), skyloop::firmware::Axis::Roll, Firmware::Px4);
     req.starts = 2;
     let out = tune_from_log_bytes(&req, &bytes).unwrap();
     let cur = out.current.as_ref().expect("the flown MC_ROLLRATE_* are read");

@@ -5,8 +5,8 @@
 
 use std::path::{Path, PathBuf};
 
+use skyloop::firmware::FirmwareTuning;
 use skyloop::flightlog::{export_csv, info_json, plot_fields};
-use skyloop::sysid::logs::tuning::FirmwareTuning;
 use skyloop::sysid::logs::{blackbox, detect, Log, LogFormat, OpenOptions};
 
 use crate::output::print_json;

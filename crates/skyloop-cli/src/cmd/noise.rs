@@ -4,7 +4,7 @@
 use crate::cmd::tune::spinner;
 use crate::output::print_json;
 use clap::Args as ClapArgs;
-use skyloop::firmware::betaflight::Axis;
+use skyloop::firmware::Axis;
 use skyloop::noise::{analyze, NoiseRequest};
 
 /// Arguments of `skyloop noise`.

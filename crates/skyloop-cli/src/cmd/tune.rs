@@ -4,7 +4,7 @@
 
 use crate::output::print_json;
 use clap::Args as ClapArgs;
-use skyloop::firmware::betaflight::Axis;
+use skyloop::firmware::Axis;
 use skyloop::model::load_model;
 use skyloop::tune::log::{tune_axes_from_log, LogTuneOutcome, LogTuneRequest};
 use skyloop::tune::{report::write_outputs, tune as run_tune, Firmware, GenericStructure, Maximize, TuneRequest};

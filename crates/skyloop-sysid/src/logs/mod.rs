@@ -18,12 +18,26 @@
 pub mod blackbox;
 pub mod csv;
 pub mod dataflash;
-pub mod flight;
-pub mod tuning;
 pub mod ulog;
 pub mod uniform;
 
 pub use uniform::{detrend, segments_where, Condition, Detrend, UniformData};
+
+/// A stretch of a log, s (the log's own time axis).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Span {
+    /// Start, s.
+    pub from_s: f64,
+    /// End, s.
+    pub to_s: f64,
+}
+
+impl Span {
+    /// to_s − from_s, s.
+    pub fn len_s(&self) -> f64 {
+        self.to_s - self.from_s
+    }
+}
 
 use std::path::Path;
 

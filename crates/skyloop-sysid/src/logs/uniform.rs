@@ -20,7 +20,7 @@ pub struct UniformData {
 impl UniformData {
     /// The grid samples inside `span` (s, the log's clock): the first sample at or after its
     /// start to the last at or before its end, clamped to the grid (empty when none).
-    pub fn range_of(&self, span: &super::flight::Span) -> std::ops::Range<usize> {
+    pub fn range_of(&self, span: &super::Span) -> std::ops::Range<usize> {
         let lo = ((span.from_s - self.t0_s) / self.dt_s).ceil().max(0.0) as usize;
         let hi = (((span.to_s - self.t0_s) / self.dt_s).floor().max(0.0) as usize + 1).min(self.len());
         lo..hi.max(lo)
@@ -215,7 +215,7 @@ pub(crate) fn span(t: &[f64]) -> (f64, f64) {
 
 /// Sorts samples by time and drops repeated time stamps (keeping the first); borrowed when already
 /// strictly increasing.
-pub(crate) fn sorted<'a>(t: &'a [f64], v: &'a [f64]) -> (std::borrow::Cow<'a, [f64]>, std::borrow::Cow<'a, [f64]>) {
+pub fn sorted<'a>(t: &'a [f64], v: &'a [f64]) -> (std::borrow::Cow<'a, [f64]>, std::borrow::Cow<'a, [f64]>) {
     if t.windows(2).all(|w| w[1] > w[0]) {
         return (t.into(), v.into());
     }

@@ -3,9 +3,9 @@
 //! `gyro_lowpass.cutoff_hz`, `harmonic_notch.INS_HNTCH_FREQ`), and only the keys that differ kept.
 //! ArduPilot's logging rates are measured, not set, and are left out.
 
+use crate::firmware::FirmwareTuning;
 use serde::Serialize;
 use serde_json::Value;
-use skyloop_sysid::logs::tuning::FirmwareTuning;
 use std::collections::BTreeMap;
 
 /// One setting that differs between the logs (None: the log does not state it).

@@ -17,11 +17,11 @@ pub mod side;
 pub mod verdict;
 
 use crate::error::{Error, Result};
+use crate::firmware::FirmwareTuning;
+use crate::firmware::{Axis, Firmware};
 use crate::noise::{NoiseAnalysis, NoiseRequest};
 pub use headers::HeaderDiff;
 use serde::Serialize;
-use skyloop_sysid::logs::flight::{Axis, FlightFirmware};
-use skyloop_sysid::logs::tuning::FirmwareTuning;
 use skyloop_sysid::logs::Log;
 use std::path::Path;
 pub use verdict::CurveDiff;
@@ -257,7 +257,7 @@ fn flight(log: &Log, notes: Vec<String>) -> Flight {
         .unwrap_or_default();
     Flight {
         source: log.source.clone(),
-        firmware: FlightFirmware::of(log).map_or("unknown".to_string(), |f| f.name().to_string()),
+        firmware: Firmware::of_log(log).map_or("unknown".to_string(), |f| f.display_name().to_string()),
         revision,
         duration_s: log.duration_s(),
         notes,

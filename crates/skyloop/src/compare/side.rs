@@ -6,10 +6,12 @@
 
 use super::{Measured, NoiseBands, Plant, StepSummary, Tracking, COHERENCE_MIN};
 use crate::error::{Error, Result};
+use crate::firmware::Axis;
+use crate::identify::airborne_segments;
 use crate::identify::{identify_log, IdentifyRequest};
 use crate::noise::{AxisNoise, NoiseAnalysis};
 use skyloop_lti::timeresp::stepinfo;
-use skyloop_sysid::logs::flight::{airborne_segments, AirborneCriteria, Axis, RateLoopChannels, Span};
+use skyloop_sysid::logs::Span;
 use skyloop_sysid::logs::{Log, UniformData};
 use skyloop_sysid::spectral::{estimate_records, IoData, Method, Options};
 use std::ops::Range;
@@ -44,8 +46,8 @@ pub struct AxisData {
 /// # Errors
 /// A log without the axis' channels (named), or without an airborne segment.
 pub fn axis_data(log: &Log, axis: Axis) -> Result<AxisData> {
-    let ch = RateLoopChannels::find(log, axis)?;
-    let crit = AirborneCriteria::for_log(log)?;
+    let ch = crate::firmware::rate_loop_channels(log, axis)?;
+    let crit = crate::firmware::airborne_criteria(log)?;
     let data = log.uniform(&[ch.instrument.as_str(), ch.output.as_str()], None, None, None)?;
     if data.len() < 2 {
         return Err(Error::Input(format!(

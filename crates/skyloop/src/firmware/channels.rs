@@ -1,7 +1,8 @@
 //! Where a firmware's log holds the signals of the noise picture: the gyro (from the rate loop's
 //! channels), the D term, the motor commands, the throttle and the motors' rotation speed.
 
-use skyloop_sysid::logs::flight::{Axis as LogAxis, FlightFirmware, RateLoopChannels};
+use super::vocab::Axis;
+use super::{inav, Firmware};
 use skyloop_sysid::logs::Log;
 
 /// The noise picture's channels of a log; absent ones are None or empty.
@@ -28,18 +29,19 @@ pub struct NoiseChannels {
 
 /// The channels of `log`'s noise picture; None for a log whose firmware skyloop cannot name.
 pub fn noise_channels(log: &Log) -> Option<NoiseChannels> {
-    let firmware = FlightFirmware::of(log).ok()?;
+    let firmware = Firmware::of_log(log)?;
     let has = |n: &str| log.channel(n).is_ok();
-    let gyro = [LogAxis::Roll, LogAxis::Pitch, LogAxis::Yaw].map(|a| {
-        RateLoopChannels::find(log, a)
+    let gyro = Axis::ALL.map(|a| {
+        firmware
+            .rate_loop_channels(log, a)
             .map(|c| c.output)
             .map_err(|e| e.to_string())
     });
     let listed = |f: &dyn Fn(usize) -> String| (0..8).map(f).filter(|n| has(n)).collect::<Vec<_>>();
     Some(match firmware {
-        FlightFirmware::Betaflight | FlightFirmware::Inav => {
-            let throttle = if firmware == FlightFirmware::Inav {
-                let (lo, _) = skyloop_sysid::logs::flight::inav_throttle_and_motor_range(log);
+        Firmware::Betaflight | Firmware::Inav => {
+            let throttle = if firmware == Firmware::Inav {
+                let (lo, _) = inav::flight::throttle_and_motor_range(log);
                 (lo, 2000.0)
             } else {
                 (1000.0, 2000.0)
@@ -63,7 +65,7 @@ pub fn noise_channels(log: &Log) -> Option<NoiseChannels> {
                 rotation: (!erpm.is_empty()).then(|| (erpm, 100.0 / 60.0 / (poles / 2.0))),
             }
         }
-        FlightFirmware::Ardupilot => {
+        Firmware::Ardupilot => {
             let motors: Vec<String> = (1..=8).map(|k| format!("RCOU.C{k}")).filter(|n| has(n)).collect();
             NoiseChannels {
                 gyro,
@@ -76,7 +78,7 @@ pub fn noise_channels(log: &Log) -> Option<NoiseChannels> {
                 rotation: None,
             }
         }
-        FlightFirmware::Px4 => {
+        Firmware::Px4 => {
             let motors = listed(&|k| format!("actuator_motors.control[{k}]"));
             let rpm = listed(&|k| format!("esc_status.esc[{k}].esc_rpm"));
             NoiseChannels {
@@ -90,5 +92,6 @@ pub fn noise_channels(log: &Log) -> Option<NoiseChannels> {
                 rotation: (!rpm.is_empty()).then(|| (rpm, 1.0 / 60.0)),
             }
         }
+        Firmware::Generic => return None,
     })
 }

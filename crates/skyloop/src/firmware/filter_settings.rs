@@ -153,7 +153,7 @@ impl FilterSettings {
 /// One header lowpass stage and the names that set it: (stage, knob, static-cutoff name, dynamic
 /// min name, dynamic max name; the dynamic names empty when the firmware has none for it).
 pub(crate) type HeaderStage<'a> = (
-    &'a Option<skyloop_sysid::logs::tuning::Lowpass>,
+    &'a Option<super::vocab::LowpassSetting>,
     Knob,
     &'a str,
     &'a str,

@@ -5,9 +5,10 @@
 //! (`gyro_lpf1=pt1:150,dterm_lpf1=pt2:90,dyn_notch=2x:150-600`).
 //!
 //! Which stages a firmware has, what its header calls them and how its dynamic stages move is read
-//! by the firmware's own module ([`super::betaflight::filter_chain`], ...); this module only knows
+//! by the firmware's own module (`betaflight::filter_chain`, ...); this module only knows
 //! what a stage is.
 
+use super::vocab::NotchSetting;
 use crate::error::{Error, Result};
 use num_complex::Complex64;
 use serde::Serialize;
@@ -331,34 +332,10 @@ pub struct RawGyroTap {
     pub what: String,
 }
 
-/// The filter chain the log's header (or parameters) state, with notes on what is assumed; None for
-/// a log that states no filters (CSV).
-pub fn flown_chain(log: &skyloop_sysid::logs::Log) -> Option<(FilterChain, Vec<String>)> {
-    use skyloop_sysid::logs::tuning::FirmwareTuning;
-    match FirmwareTuning::from_log(log)? {
-        FirmwareTuning::Betaflight(b) => Some(super::betaflight::filter_chain(&b, log)),
-        FirmwareTuning::Inav(t) => Some(super::inav::filter_chain(&t)),
-        FirmwareTuning::Px4(p) => Some(super::px4::filter_chain(&p)),
-        FirmwareTuning::ArduPilot(a) => Some(super::ardupilot::filter_chain(&a)),
-    }
-}
-
-/// The log's channels of the gyro before the firmware's filters, when its debug mode logs them.
-pub fn raw_gyro_tap(log: &skyloop_sysid::logs::Log) -> Option<RawGyroTap> {
-    use skyloop_sysid::logs::tuning::FirmwareTuning;
-    match FirmwareTuning::from_log(log)? {
-        FirmwareTuning::Betaflight(b) => super::betaflight::raw_gyro_tap(&b, log),
-        _ => None,
-    }
-}
-
 /// A blackbox header's static notches as stages: up to two gyro notches (`gyro_notch1`, `gyro_notch2`)
 /// and the D-term notch, each given by its centre and lower cutoff (Betaflight and INAV alike).
-pub(crate) fn static_notches(
-    gyro: &[skyloop_sysid::logs::tuning::Notch],
-    dterm: Option<skyloop_sysid::logs::tuning::Notch>,
-) -> Vec<Stage> {
-    let stage = |name: String, path: Path, n: &skyloop_sysid::logs::tuning::Notch| Stage {
+pub(crate) fn static_notches(gyro: &[NotchSetting], dterm: Option<NotchSetting>) -> Vec<Stage> {
+    let stage = |name: String, path: Path, n: &NotchSetting| Stage {
         name,
         path,
         kind: StageKind::Notch {

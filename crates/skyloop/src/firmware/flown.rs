@@ -4,9 +4,10 @@
 
 use super::filter_settings::FilterSettings;
 use super::rate_gains::RateGains;
+use super::vocab::Axis;
 use super::{ardupilot, betaflight, inav, px4, Firmware};
 use crate::error::{Error, Result};
-use skyloop_sysid::logs::tuning::FirmwareTuning;
+use crate::firmware::FirmwareTuning;
 use skyloop_sysid::logs::Log;
 
 /// The flown tune of one axis as a log states it.
@@ -74,7 +75,7 @@ impl FlownTune {
 /// # Errors
 /// An ArduPilot log without its rate gains: its plant is identified in deg/s and the gains act on
 /// rad/s, so there is nothing to tune around (named, with what to use instead).
-pub fn flown_tune(log: &Log, firmware: Firmware, axis: betaflight::Axis) -> Result<Option<FlownTune>> {
+pub fn flown_tune(log: &Log, firmware: Firmware, axis: Axis) -> Result<Option<FlownTune>> {
     let header = FirmwareTuning::from_log(log);
     let tune = |controller, gains_flown, lines, notes| FlownTune {
         controller,

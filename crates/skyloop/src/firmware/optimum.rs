@@ -4,6 +4,7 @@
 //! feedforward's paths, bound and resolution, and the notes on units and ranges.
 
 use super::rate_gains::RateGains;
+use super::vocab::Axis;
 use super::{ardupilot, betaflight, inav, px4, round6, Firmware};
 use crate::error::Result;
 use skyloop_lti::StateSpace;
@@ -16,7 +17,7 @@ impl RateGains {
     /// The firmware's controller with its default filters and loop rate, P = I = D = 0 and the
     /// default feedforward (Betaflight F 120, 4.4's default; 0 elsewhere), for a plant in the
     /// firmware's own units (ArduPilot: rad/s); None for [`Firmware::Generic`].
-    pub fn template(firmware: Firmware, axis: betaflight::Axis) -> Option<RateGains> {
+    pub fn template(firmware: Firmware, axis: Axis) -> Option<RateGains> {
         match firmware {
             Firmware::Betaflight => Some(RateGains::Betaflight {
                 gains: betaflight::Gains {
@@ -71,7 +72,7 @@ impl RateGains {
         let t = |k: usize| th.get(k).copied().unwrap_or(0.0);
         Ok(match self {
             RateGains::Betaflight { gains, axis, filters } => {
-                let yaw = if *axis == betaflight::Axis::Yaw { 2.5 } else { 1.0 };
+                let yaw = if *axis == Axis::Yaw { 2.5 } else { 1.0 };
                 let scales = [
                     betaflight::PTERM_SCALE,
                     betaflight::ITERM_SCALE * yaw,
@@ -265,7 +266,7 @@ impl RateGains {
 mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
-    use betaflight::Axis;
+    use Axis;
 
     /// Every firmware's template rounds an optimum to gains whose continuous form is the optimum
     /// within the firmware's resolution, and a feedforward set in plant units reads back.

@@ -4,9 +4,10 @@
 //! and the lines the pilot pastes. One value per firmware whose gains a log carries.
 
 use super::ardupilot;
-use super::betaflight::{self, Axis};
+use super::betaflight;
 use super::inav;
 use super::px4;
+use super::vocab::Axis;
 use crate::error::Result;
 use serde_json::{json, Value};
 use skyloop_lti::StateSpace;

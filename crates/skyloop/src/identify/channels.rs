@@ -5,7 +5,7 @@ use super::preset::{axis_preset, AxisPreset};
 use super::remarks::Remarks;
 use super::request::IdentifyRequest;
 use crate::error::{Error, Result};
-use skyloop_sysid::logs::flight::Axis;
+use crate::firmware::Axis;
 use skyloop_sysid::logs::{median_rate_hz, Log, LogFormat};
 
 /// The columns of one identification.
@@ -61,7 +61,7 @@ pub(crate) fn resolve(log: &Log, a: &IdentifyRequest, rm: &mut Remarks) -> Resul
     if let Some(p) = &preset {
         rm.note(format!(
             "{} log, {} axis: input {input}, output {output}, instrument {}",
-            p.channels.firmware.name(),
+            p.firmware.display_name(),
             p.channels.axis.name(),
             excitation.as_deref().unwrap_or("none (open loop)")
         ));
@@ -167,8 +167,8 @@ pub(crate) fn band_limit(log: &Log, a: &IdentifyRequest, ch: &Channels, rm: &mut
         ));
     }
     // A rate loop logged below what shows its dynamics: the firmware's setting that logs it faster.
-    if let Some(fw) = ch.preset.as_ref().map(|p| p.channels.firmware) {
-        if let (Some(min), Some(advice)) = (fw.min_rate_hz(), fw.slow_log_advice()) {
+    if let Some(fw) = ch.preset.as_ref().map(|p| p.firmware) {
+        if let Some((min, advice)) = fw.slow_log() {
             if slow_rate < min {
                 rm.warn(format!(
                     "'{slow_name}' is logged at {slow_rate:.1} Hz, too slow to show the rate loop's dynamics (at least {min:.0} Hz): the fit below is not to be trusted; {advice}"

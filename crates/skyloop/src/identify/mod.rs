@@ -6,6 +6,7 @@
 //! open-loop estimates of closed-loop data, fits that did not converge or ended on a bound, and
 //! channels logged too slowly for the band.
 
+mod airborne;
 mod band;
 mod channels;
 mod estimate;
@@ -18,6 +19,7 @@ mod request;
 mod segments;
 mod uncertainty;
 
+pub use airborne::{airborne_segments, Airborne};
 pub use band::{coherent_band, supported_band, COHERENT, MAX_REL_ERR, MIN_DOF, PILOT_LOOP_HZ};
 pub use preset::{axis_preset, rate_loop_starts, AxisPreset, RATE_LOOP_MODEL};
 pub use report::{plot_identification, Identification, Units};
@@ -177,7 +179,7 @@ pub fn identify_log(log: &Log, a: &IdentifyRequest) -> Result<Identification> {
         title: format!("{input} → {output}"),
         preset: preset.as_ref().map(|p| {
             (
-                p.channels.firmware.name().to_string(),
+                p.firmware.display_name().to_string(),
                 p.channels.axis.name().to_string(),
             )
         }),

@@ -1,8 +1,8 @@
 //! `--axis`: what `skyloop identify LOG --axis roll` chooses on the pilot's behalf, as one value the
 //! CLI, `tune LOG --axis` and the Python bindings share.
 
+use crate::firmware::{AirborneCriteria, Axis, Firmware, RateLoopChannels};
 use skyloop_sysid::fit::ParamSpec;
-use skyloop_sysid::logs::flight::{AirborneCriteria, Axis, RateLoopChannels};
 use skyloop_sysid::logs::Log;
 use skyloop_sysid::spectral::Frf;
 
@@ -15,6 +15,8 @@ pub const RATE_LOOP_MODEL: &str = "K*exp(-Td*s)/(s*(tau*s+1))";
 /// Everything `--axis` fills in.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AxisPreset {
+    /// The firmware that wrote the log.
+    pub firmware: Firmware,
     /// Input, output and instrument channels with their units.
     pub channels: RateLoopChannels,
     /// The model fitted unless `--model` is given: [`RATE_LOOP_MODEL`].
@@ -28,10 +30,12 @@ pub struct AxisPreset {
 /// # Errors
 /// A CSV log (it names no firmware), or a log without the axis' channels (the message names them).
 pub fn axis_preset(log: &Log, axis: Axis) -> Result<AxisPreset> {
+    let firmware = Firmware::of_log_or_refuse(log)?;
     Ok(AxisPreset {
-        channels: RateLoopChannels::find(log, axis)?,
+        firmware,
+        channels: firmware.rate_loop_channels(log, axis)?,
         model: RATE_LOOP_MODEL,
-        criteria: AirborneCriteria::for_log(log)?,
+        criteria: firmware.airborne_criteria(log),
     })
 }
 

@@ -6,7 +6,7 @@ use num_complex::Complex64 as C64;
 use skyloop_plot::bode::BodeData;
 use skyloop_plot::frf::{plot_frf, FrfEstimate};
 use skyloop_sysid::fit::{FitResult, TfFit};
-use skyloop_sysid::logs::flight::Span;
+use skyloop_sysid::logs::Span;
 use skyloop_sysid::spectral::Frf;
 
 use super::{Uncertainty, Validation, COHERENT};

@@ -3,11 +3,12 @@
 
 use std::ops::Range;
 
+use super::airborne::airborne_segments;
 use super::channels::Channels;
 use super::remarks::Remarks;
 use super::request::IdentifyRequest;
 use crate::error::{Error, Result};
-use skyloop_sysid::logs::flight::{airborne_segments, Span};
+use skyloop_sysid::logs::Span;
 use skyloop_sysid::logs::{segments_where, Condition, Log, UniformData};
 
 /// The channels on one uniform grid and the records (sample ranges) of it to estimate on.

@@ -6,8 +6,8 @@
 use crate::error::{Error, Result};
 use crate::firmware::channels::NoiseChannels;
 use crate::firmware::filters::OperatingPoint;
-use skyloop_sysid::logs::flight::Span;
 use skyloop_sysid::logs::Log;
+use skyloop_sysid::logs::Span;
 use skyloop_sysid::spectral::psd::SegmentPsd;
 
 /// Target frame length, s (4 Hz resolution; short enough that throttle and motor speed are nearly

@@ -19,15 +19,15 @@ pub mod peaks;
 pub mod report;
 
 use crate::error::{Error, Result};
-use crate::firmware::betaflight::Axis;
 use crate::firmware::channels::noise_channels;
-use crate::firmware::filters::{
-    flown_chain, raw_gyro_tap, FilterChain, OperatingPoint, Path, RawGyroTap, Stage, StageKind,
-};
+use crate::firmware::filters::{FilterChain, OperatingPoint, Path, RawGyroTap, Stage, StageKind};
+use crate::firmware::Axis;
+use crate::firmware::{flown_chain, raw_gyro_tap};
+use crate::identify::airborne_segments;
 use frames::{strongest_peaks, Frame, FrameSource, FRAME_S};
 use num_complex::Complex64;
 use peaks::Peak;
-use skyloop_sysid::logs::flight::{airborne_segments, AirborneCriteria, Span};
+use skyloop_sysid::logs::Span;
 use skyloop_sysid::spectral::psd::SegmentPsd;
 
 /// What to analyse.
@@ -282,7 +282,7 @@ pub fn analyze_log(
 
 /// The airborne segments (the firmware's tests), or the whole log with a note when none is found.
 fn airborne(log: &skyloop_sysid::logs::Log, base: &str, notes: &mut Vec<String>) -> Vec<Span> {
-    let found = AirborneCriteria::for_log(log).and_then(|c| airborne_segments(log, base, &c, None, None));
+    let found = crate::firmware::airborne_criteria(log).and_then(|c| airborne_segments(log, base, &c, None, None));
     match found {
         Ok(a) => a.segments,
         Err(e) => {

@@ -311,7 +311,8 @@ pub fn front(all: &[Candidate], flown: &Scores, limits: &SearchLimits, n: usize)
 mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
-    use crate::firmware::betaflight::{self, Axis, Gains};
+    use crate::firmware::betaflight::{self, Gains};
+    use crate::firmware::Axis;
     use skyloop_robust::structured::verify::check_loop;
 
     fn setup() -> (RateGains, Vec<StateSpace>) {

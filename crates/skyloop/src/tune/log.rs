@@ -30,10 +30,10 @@ use super::noise::{self, NoiseReport};
 use super::verdict::{proposal_text, Verdict, VerdictKind};
 use super::{outcome_for_gains, tune, with_hold, Firmware, GenericStructure, Maximize, TuneOutcome, TuneRequest};
 use crate::error::{Error, Result};
-use crate::firmware::betaflight::Axis;
 use crate::firmware::filter_settings::{FilterSettings, Scale};
 use crate::firmware::flown::{flown_tune, FlownTune};
 use crate::firmware::rate_gains::RateGains;
+use crate::firmware::Axis;
 use crate::identify::{identify_log, Identification, IdentifyRequest};
 use serde_json::{json, Value};
 use skyloop_lti::interconnect::{feedback, series};
@@ -523,7 +523,7 @@ fn header_stage(req: &LogTuneRequest, idn: &Identified, notes: &mut Vec<String>)
 /// what they remove is seen only in a raw-gyro log whose flown chain reproduces the logged gyro),
 /// and the loop model is one operating point.
 fn tracking_notches_note(log: &Log) -> Option<String> {
-    use crate::firmware::filters::{flown_chain, StageKind};
+    use crate::firmware::{filters::StageKind, flown_chain};
     let (chain, _) = flown_chain(log)?;
     let names: Vec<String> = chain
         .stages

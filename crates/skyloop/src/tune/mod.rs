@@ -10,8 +10,8 @@
 
 use crate::error::{Error, Result};
 use crate::firmware;
-use crate::firmware::betaflight::Axis;
 use crate::firmware::rate_gains::RateGains;
+use crate::firmware::Axis;
 use serde_json::{json, Value};
 use skyloop_lti::json::LtiJson;
 use skyloop_lti::StateSpace;

@@ -52,7 +52,7 @@ pub fn lcg(seed: u64) -> impl FnMut() -> f64 {
 pub fn roll_request(name: &str) -> skyloop::tune::log::LogTuneRequest {
     let mut req = skyloop::tune::log::LogTuneRequest::new(
         name.into(),
-        skyloop::firmware::betaflight::Axis::Roll,
+        skyloop::firmware::Axis::Roll,
         skyloop::tune::Firmware::Ardupilot,
     );
     req.starts = 2;

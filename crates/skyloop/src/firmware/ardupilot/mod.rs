@@ -17,14 +17,17 @@
 
 use super::filter_settings::{FilterSetting, FilterSettings, Knob, LineStyle};
 use super::filters::{FilterChain, Path, Shape, Stage, StageKind};
-use super::{derivative_rolloff, Lowpass};
+use super::lowpass::{derivative_rolloff, Lowpass};
 use crate::error::{Error, Result};
-use crate::firmware::betaflight::Axis;
+use crate::firmware::vocab::Axis;
 use serde::Serialize;
 use skyloop_lti::interconnect::series;
 use skyloop_lti::StateSpace;
 use skyloop_robust::structured::blocks::Block;
-use skyloop_sysid::logs::tuning::ArduPilotTuning;
+pub mod flight;
+pub mod header;
+
+pub use header::ArduPilotTuning;
 
 /// rad/s per unit of the rates a DataFlash log records (`RATE.R`, `RATE.RDes`: deg/s), which is
 /// the unit of a plant identified from a log; the gains act on rad/s.
@@ -514,7 +517,7 @@ mod tests {
             loop_rate_hz: Some(400.0),
             harmonic_notch: notch
                 .iter()
-                .map(|(n, v)| skyloop_sysid::logs::tuning::NamedValue {
+                .map(|(n, v)| header::NamedValue {
                     name: (*n).into(),
                     value: *v,
                 })

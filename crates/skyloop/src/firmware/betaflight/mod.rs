@@ -19,12 +19,16 @@ use super::filter_settings::{from_header_stages, FilterSettings, HeaderStage, Kn
 use super::filters::{
     static_notches, FilterChain, Path, RawGyroTap, Shape, Stage, StageKind, ThrottleCurve, STAGE_NAMES,
 };
-use super::{chain, derivative_rolloff, Lowpass};
+use super::lowpass::{chain, derivative_rolloff, Lowpass};
 use crate::error::{Error, Result};
 use serde::Serialize;
 use skyloop_lti::StateSpace;
 use skyloop_robust::structured::blocks::Block;
-use skyloop_sysid::logs::tuning::{BetaflightTuning, Rates};
+pub mod flight;
+pub mod header;
+
+use super::vocab::{Axis, LowpassSetting};
+pub use header::{BetaflightTuning, Rates};
 use skyloop_sysid::logs::{Channel, Log};
 
 /// `PTERM_SCALE` of Betaflight's pid.h.
@@ -40,56 +44,12 @@ pub const PID_GAIN_MAX: u32 = 250;
 /// Largest F (`F_GAIN_MAX`).
 pub const F_GAIN_MAX: u32 = 1000;
 
-/// The axis a gain set belongs to (the CLI names and the yaw I factor depend on it).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Axis {
-    /// Roll.
-    Roll,
-    /// Pitch.
-    Pitch,
-    /// Yaw (Ki ×2.5 in the firmware).
-    Yaw,
-}
-
-impl Axis {
-    /// "roll", "pitch" or "yaw".
-    pub fn name(&self) -> &'static str {
-        match self {
-            Axis::Roll => "roll",
-            Axis::Pitch => "pitch",
-            Axis::Yaw => "yaw",
-        }
-    }
-
-    /// Parses "roll", "pitch" or "yaw".
-    ///
-    /// # Errors
-    /// Any other text.
-    pub fn parse(s: &str) -> Result<Self> {
-        match s {
-            "roll" => Ok(Axis::Roll),
-            "pitch" => Ok(Axis::Pitch),
-            "yaw" => Ok(Axis::Yaw),
-            _ => Err(Error::Input(format!("axis must be roll, pitch or yaw, got `{s}`"))),
-        }
-    }
-
-    /// 0, 1, 2 for roll, pitch, yaw (the order of the firmware's per-axis arrays).
-    pub fn index(&self) -> usize {
-        match self {
-            Axis::Roll => 0,
-            Axis::Pitch => 1,
-            Axis::Yaw => 2,
-        }
-    }
-
-    fn i_factor(&self) -> f64 {
-        if *self == Axis::Yaw {
-            2.5
-        } else {
-            1.0
-        }
+/// Betaflight's yaw I factor: Ki ×2.5 on yaw (unless integrated yaw).
+fn i_factor(axis: Axis) -> f64 {
+    if axis == Axis::Yaw {
+        2.5
+    } else {
+        1.0
     }
 }
 
@@ -146,7 +106,7 @@ impl Default for Filters {
 pub fn continuous(g: &Gains, axis: Axis) -> (f64, f64, f64, f64) {
     (
         PTERM_SCALE * g.p as f64,
-        ITERM_SCALE * g.i as f64 * axis.i_factor(),
+        ITERM_SCALE * g.i as f64 * i_factor(axis),
         DTERM_SCALE * g.d as f64,
         FTERM_SCALE * g.f as f64 / 100.0,
     )
@@ -173,7 +133,7 @@ pub fn from_continuous(kp: f64, ki: f64, kd: f64, f: u32, axis: Axis) -> Result<
     }
     Ok(Gains {
         p: conv("p", kp, PTERM_SCALE)?,
-        i: conv("i", ki, ITERM_SCALE * axis.i_factor())?,
+        i: conv("i", ki, ITERM_SCALE * i_factor(axis))?,
         d: conv("d", kd, DTERM_SCALE)?,
         f,
     })
@@ -478,40 +438,39 @@ pub fn filter_chain(b: &BetaflightTuning, log: &Log) -> (FilterChain, Vec<String
         ThrottleCurve::Betaflight40
     };
     let mut stages = Vec::new();
-    let mut lowpass =
-        |l: &Option<skyloop_sysid::logs::tuning::Lowpass>, name: &str, path: Path, type_key: Option<&str>| {
-            let Some(l) = l else { return };
-            // 3.x names the gyro lowpass type `gyro_soft_type`.
-            let kind = type_key
-                .and_then(&one)
-                .map(|t| {
-                    match t as i64 {
-                        1 => "BIQUAD",
-                        _ => "PT1",
-                    }
-                    .to_string()
-                })
-                .unwrap_or_else(|| l.kind.clone());
-            let shape = Shape::from_header(&kind).unwrap_or_else(|| {
-                notes.push(format!("{name}: filter type {kind} is not modelled; taken as PT1"));
-                Shape::Pt1
-            });
-            let kind = match l.dynamic_hz {
-                Some((min_hz, max_hz)) => StageKind::DynamicLowpass {
-                    shape,
-                    min_hz,
-                    max_hz,
-                    curve,
-                },
-                None if l.cutoff_hz > 0.0 => StageKind::Lowpass { shape, hz: l.cutoff_hz },
-                None => return,
-            };
-            stages.push(Stage {
-                name: name.into(),
-                path,
-                kind,
-            });
+    let mut lowpass = |l: &Option<LowpassSetting>, name: &str, path: Path, type_key: Option<&str>| {
+        let Some(l) = l else { return };
+        // 3.x names the gyro lowpass type `gyro_soft_type`.
+        let kind = type_key
+            .and_then(&one)
+            .map(|t| {
+                match t as i64 {
+                    1 => "BIQUAD",
+                    _ => "PT1",
+                }
+                .to_string()
+            })
+            .unwrap_or_else(|| l.kind.clone());
+        let shape = Shape::from_header(&kind).unwrap_or_else(|| {
+            notes.push(format!("{name}: filter type {kind} is not modelled; taken as PT1"));
+            Shape::Pt1
+        });
+        let kind = match l.dynamic_hz {
+            Some((min_hz, max_hz)) => StageKind::DynamicLowpass {
+                shape,
+                min_hz,
+                max_hz,
+                curve,
+            },
+            None if l.cutoff_hz > 0.0 => StageKind::Lowpass { shape, hz: l.cutoff_hz },
+            None => return,
         };
+        stages.push(Stage {
+            name: name.into(),
+            path,
+            kind,
+        });
+    };
     let v3 = b.version_major == Some(3);
     lowpass(&b.gyro_lowpass, "gyro_lpf1", Path::Gyro, v3.then_some("gyro_soft_type"));
     lowpass(&b.gyro_lowpass2, "gyro_lpf2", Path::Gyro, None);
@@ -603,7 +562,7 @@ pub fn header_lines(b: &BetaflightTuning) -> Vec<String> {
             super::opt(g.d_min)
         ));
     }
-    let lp = |name: &str, l: &Option<skyloop_sysid::logs::tuning::Lowpass>| match l {
+    let lp = |name: &str, l: &Option<LowpassSetting>| match l {
         Some(l) => format!(
             "  {name}: {} {} Hz{}",
             l.kind,

@@ -20,13 +20,16 @@
 
 use super::filter_settings::{from_header_stages, FilterSettings, HeaderStage, Knob};
 use super::filters::{static_notches, FilterChain, Path, Shape, Stage, StageKind};
-use super::{chain, derivative_rolloff, Lowpass};
+use super::lowpass::{chain, derivative_rolloff, Lowpass};
 use crate::error::{Error, Result};
-use crate::firmware::betaflight::Axis;
+use crate::firmware::vocab::{Axis, LowpassSetting};
 use serde::Serialize;
 use skyloop_lti::StateSpace;
 use skyloop_robust::structured::blocks::Block;
-use skyloop_sysid::logs::tuning::InavTuning;
+pub mod flight;
+pub mod header;
+
+pub use header::InavTuning;
 
 /// `FP_PID_RATE_P_MULTIPLIER`: Kp = P/31.
 pub const P_MULTIPLIER: f64 = 31.0;
@@ -282,7 +285,7 @@ pub fn flown_from_header(t: &InavTuning, axis: Axis) -> FlownHeader {
 pub fn filter_chain(t: &InavTuning) -> (FilterChain, Vec<String>) {
     let mut notes = Vec::new();
     let mut stages = Vec::new();
-    let mut lowpass = |l: &Option<skyloop_sysid::logs::tuning::Lowpass>, name: &str, path: Path| {
+    let mut lowpass = |l: &Option<LowpassSetting>, name: &str, path: Path| {
         if let Some(l) = l.as_ref().filter(|l| l.cutoff_hz > 0.0) {
             let shape = Shape::from_header(&l.kind).unwrap_or_else(|| {
                 notes.push(format!("{name}: filter type {} is not modelled; taken as PT1", l.kind));
@@ -320,7 +323,7 @@ pub fn header_lines(t: &InavTuning) -> Vec<String> {
             super::opt(g.cd)
         ));
     }
-    let lp = |name: &str, l: &Option<skyloop_sysid::logs::tuning::Lowpass>| match l {
+    let lp = |name: &str, l: &Option<LowpassSetting>| match l {
         Some(l) => format!("  {name}: {} {} Hz", l.kind, l.cutoff_hz),
         None => format!("  {name}: off"),
     };
@@ -355,9 +358,10 @@ pub fn header_lines(t: &InavTuning) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)]
+    use super::header::InavPid;
     use super::*;
+    use crate::firmware::vocab::LowpassSetting as HL;
     use skyloop_lti::c64;
-    use skyloop_sysid::logs::tuning::{InavPid, Lowpass as HL};
 
     /// Well below the D-term filter C_fb(jω) = P/31 + (I/4)/(jω) + (D/1905)·jω (pid.h's multipliers).
     #[test]

@@ -12,13 +12,16 @@
 
 use super::filter_settings::{FilterSetting, FilterSettings, Knob, LineStyle};
 use super::filters::{FilterChain, Path, Shape, Stage, StageKind};
-use super::{derivative_rolloff, Lowpass};
+use super::lowpass::{derivative_rolloff, Lowpass};
 use crate::error::{Error, Result};
-use crate::firmware::betaflight::Axis;
+use crate::firmware::vocab::Axis;
 use serde::Serialize;
 use skyloop_lti::StateSpace;
 use skyloop_robust::structured::blocks::Block;
-use skyloop_sysid::logs::tuning::Px4Tuning;
+pub mod flight;
+pub mod header;
+
+pub use header::Px4Tuning;
 
 /// `MC_<AXIS>RATE_{K,P,I,D,FF}`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
