@@ -333,14 +333,16 @@ fn identify_betaflight_rate_loop() {
 fn identify_axis_preset_on_a_betaflight_acro_flight() {
     // btfl_all.bbl session 4, the ~130 s acro flight: the pilot's one command.
     let log = log_path("btfl_all.bbl");
-    // With the band narrowed to 1..40 Hz the model predicts the held-out half worse than its mean
-    // (fit −1.3 %): refused, not printed as a result (the robustness campaign's item 16).
+    // With the band narrowed to 1..40 Hz (below 2 Hz the pilot's loop biases the instrument) the
+    // unweighted NRMSE fit on the held-out blocks is −1.3 %, dominated by the large low-frequency
+    // points; weighted by their inverse variance, as the fit is, the model explains 70 % of the
+    // held-out response: answered, with the poor-validation warning naming both numbers.
     let narrowed = ["identify", &log, "--axis", "roll", "--fmin-hz", "1", "--fmax-hz", "40"];
     let out = skyloop(&narrowed);
-    assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
     assert!(
-        err.contains("does not validate") && err.contains("--allow-poor-fit"),
+        err.contains("held-out validation is poor") && err.contains("weighted fit") && err.contains("NRMSE fit"),
         "{err}"
     );
     let args = ["identify", &log, "--axis", "roll", "--json"];
@@ -367,7 +369,7 @@ fn identify_axis_preset_on_a_betaflight_acro_flight() {
     for w in segs.windows(2) {
         assert!(w[1]["from_s"].as_f64().unwrap() > w[0]["to_s"].as_f64().unwrap());
     }
-    for k in ["fit_percent", "frf_residual"] {
+    for k in ["fit_percent", "frf_residual", "weighted_fit_percent"] {
         assert!(v["validation"][k].as_f64().is_some(), "{k}");
     }
     assert!(v["converged"].is_boolean() && v["at_bounds"].is_array());

@@ -204,8 +204,8 @@ fn print_table(id: &Identification) {
     }
     if let Some(v) = &id.validation {
         println!(
-            "validation (held-out blocks {:?}): fit {:.1} %, FRF residual {:.3} (training fit {:.1} %)",
-            v.test_blocks, v.fit_percent, v.frf_residual, v.train_fit_percent
+            "validation (held-out blocks {:?}): fit {:.1} % (inverse-variance weighted, log magnitude and phase: {:.1} %), FRF residual {:.3} (training fit {:.1} %)",
+            v.test_blocks, v.fit_percent, v.weighted_fit_percent, v.frf_residual, v.train_fit_percent
         );
     }
     if let Some(t) = tf {

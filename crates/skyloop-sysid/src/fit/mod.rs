@@ -172,6 +172,41 @@ impl Target {
         out
     }
 
+    /// The inverse-variance weighted log-domain fit percentage of model values `m` (see
+    /// [`model::Evaluation::weighted_fit_percent`]): the data's phase is unwrapped along frequency so
+    /// that its variation is the response's, not a wrap at ±180°.
+    pub fn weighted_log_fit_percent(&self, m: &[C64]) -> f64 {
+        let mut logs = Vec::with_capacity(self.g.len());
+        let mut prev: Option<f64> = None;
+        for g in &self.g {
+            let mut ph = g.arg();
+            if let Some(p) = prev {
+                ph -= std::f64::consts::TAU * ((ph - p) / std::f64::consts::TAU).round();
+            }
+            prev = Some(ph);
+            logs.push(C64::new(g.norm().ln(), ph));
+        }
+        let w2: Vec<f64> = self.weight.iter().map(|w| w * w).collect();
+        let sw: f64 = w2.iter().sum();
+        if !(sw > 0.0) {
+            return f64::NAN;
+        }
+        let mean: C64 = logs.iter().zip(&w2).map(|(l, w)| l * w).sum::<C64>() / sw;
+        let den: f64 = logs.iter().zip(&w2).map(|(l, w)| w * (l - mean).norm_sqr()).sum();
+        let num: f64 = self
+            .g
+            .iter()
+            .zip(m)
+            .zip(&w2)
+            .map(|((d, m), w)| w * (m / d).ln().norm_sqr())
+            .sum();
+        if den > 0.0 {
+            100.0 * (1.0 - (num / den).sqrt())
+        } else {
+            f64::NAN
+        }
+    }
+
     /// MATLAB-style fit percentage of model values `m`.
     pub fn fit_percent(&self, m: &[C64]) -> f64 {
         let mean: C64 = self.g.iter().sum::<C64>() / self.g.len() as f64;

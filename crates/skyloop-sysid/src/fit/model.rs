@@ -45,6 +45,11 @@ pub struct Evaluation {
     pub log_residual_rms: f64,
     /// Number of points compared.
     pub points: usize,
+    /// 100·(1 − ‖W·ln(G_model/G_data)‖/‖W·(ln G_data − mean)‖), percent: the share of the measured
+    /// response's variation in log magnitude and unwrapped phase the model explains, each point
+    /// weighted by its inverse variance (the fit's own weights). Unlike [`Self::fit_percent`], which
+    /// large low-frequency points dominate, a noisy point counts as little as it does in the fit.
+    pub weighted_fit_percent: f64,
 }
 
 /// Compares `model` at `params` with `frf` on the points [`FitOptions`] selects (its band; weights
@@ -70,6 +75,7 @@ pub fn evaluate(frf: &Frf, model: &Expr, params: &BTreeMap<String, f64>, o: &Fit
         fit_percent: target.fit_percent(&m),
         log_residual_rms: (ss / n as f64).sqrt(),
         points: n,
+        weighted_fit_percent: target.weighted_log_fit_percent(&m),
     })
 }
 

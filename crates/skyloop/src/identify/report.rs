@@ -182,6 +182,7 @@ impl Identification {
                 "train_fit_percent": num(val.train_fit_percent),
                 "fit_percent": num(val.fit_percent),
                 "frf_residual": num(val.frf_residual),
+                "weighted_fit_percent": num(val.weighted_fit_percent),
             });
         }
         if let Some(t) = &self.tf {

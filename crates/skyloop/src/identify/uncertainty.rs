@@ -34,6 +34,11 @@ pub struct Validation {
     /// RMS log error |ln(G_model/G_heldout)| over the held-out FRF's fitted band (dimensionless; 0.1
     /// is about 0.9 dB or 5.7°).
     pub frf_residual: f64,
+    /// The training model's share of the held-out FRF's variation in log magnitude and phase, each
+    /// point weighted by its inverse variance as in the fit, percent (what the refusal judges: the
+    /// unweighted `fit_percent` is dominated by the largest, lowest-frequency points, where the
+    /// pilot's loop biases the instrument most).
+    pub weighted_fit_percent: f64,
 }
 
 /// Delete-one jackknife standard error of each parameter over leave-one-out estimates.

@@ -75,7 +75,7 @@ pub struct Header {
     /// Offset of the first byte after the header, from the session start.
     pub data_start: usize,
     /// Every `H name:value` line in file order (value as written, untrimmed): the settings the
-    /// decoder does not need, such as the PID gains and filters [`crate::logs::tuning`] reads.
+    /// decoder does not need, such as the PID gains and filters `skyloop::firmware` reads.
     pub lines: Vec<(String, String)>,
 }
 
