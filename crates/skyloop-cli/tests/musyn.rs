@@ -78,6 +78,8 @@ fn bad_specs_exit_2() {
         ("half-grid", good.replace("n_freq = 51\n", "")),
         ("bad-grid", good.replace("w_min_rad_s = 1e-3", "w_min_rad_s = -1.0")),
         ("zero-iter", good.replace("max_iter = 6", "max_iter = 0")),
+        ("huge-iter", good.replace("max_iter = 6", "max_iter = 1000000000")),
+        ("huge-d-order", good.replace("d_order = 4", "d_order = 50")),
         (
             "missing-plant-file",
             "plant = \"nope.json\"\nblocks = \"c1x1\"\nnmeas = 1\nncon = 1\n".to_string(),
@@ -93,7 +95,11 @@ fn bad_specs_exit_2() {
             "{tag}: {}",
             String::from_utf8_lossy(&out.stderr)
         );
-        assert!(String::from_utf8_lossy(&out.stderr).contains("error"), "{tag}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("error"), "{tag}");
+        if tag.starts_with("huge") {
+            assert!(err.contains("must be in"), "{tag}: {err}");
+        }
     }
     let out = skyloop(&["musyn", "/nonexistent/spec.toml"]);
     assert_eq!(out.status.code(), Some(2));

@@ -317,6 +317,30 @@ fn monte_carlo_spreads_are_bounded() {
     assert!(err.contains("monte_carlo.mass_sd") && err.contains("0..=1"), "{err}");
 }
 
+/// `monte_carlo.runs` beyond the bound is refused on every output path with the key and its range
+/// named, exit 2 (issue 46: with `--out FILE.csv` the run indices were listed before any check, and
+/// `runs = 1000000000000` aborted on an 8 TB allocation).
+#[test]
+fn monte_carlo_runs_are_bounded_on_every_path() {
+    let src = std::fs::read_to_string(example("quadrotor-ssi.toml")).unwrap();
+    let dir = tmp("mc-runs");
+    std::fs::create_dir_all(&dir).unwrap();
+    for runs in ["1000000000000", "0"] {
+        let path = dir.join(format!("r{runs}.toml"));
+        std::fs::write(&path, src.replace("runs = 100", &format!("runs = {runs}"))).unwrap();
+        for out in ["o.csv", "o.parquet", "dir"] {
+            let o = skyloop()
+                .args(["simulate", path.to_str().unwrap(), "--monte-carlo", "--json", "--out"])
+                .arg(dir.join(out))
+                .output()
+                .unwrap();
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert_eq!(o.status.code(), Some(2), "runs = {runs}, --out {out}: {err}");
+            assert!(err.contains("monte_carlo.runs") && err.contains("1..=1000000"), "{err}");
+        }
+    }
+}
+
 /// A long run states its cost up front and reports progress on stderr (a line every 10 % when
 /// stderr is not a terminal); one beyond the step bound is refused before it starts.
 #[test]

@@ -2,7 +2,7 @@
 //! parallel (rayon) with a progress bar; summary statistics of the metrics.
 
 use crate::disturbance::DisturbanceSpec;
-use crate::error::{check_min, check_range, Result, SimError};
+use crate::error::{Result, SimError};
 pub use crate::scenario::MonteCarloSpec;
 use crate::scenario::Scenario;
 use crate::sim::{log_every, Metrics, Simulation};
@@ -125,12 +125,7 @@ pub fn run(
     mc: &MonteCarloSpec,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<(Vec<Metrics>, Summary)> {
-    if mc.runs == 0 || mc.runs > MAX_RUNS {
-        return Err(SimError::Param(format!(
-            "monte_carlo.runs = {} must be in 1..={MAX_RUNS} (split a larger campaign with --seeds A..B)",
-            mc.runs
-        )));
-    }
+    mc.validate()?;
     let indices: Vec<usize> = (0..mc.runs).collect();
     let all = run_indices(scn, mc, &indices, progress)?;
     let summary = summarize(&all);
@@ -159,11 +154,7 @@ pub fn run_indices(
             indices.len()
         )));
     }
-    // A relative standard deviation above 1 samples masses and inertias mostly at the clamp
-    // (0.2 of nominal) or many times nominal: not a study of one craft.
-    check_range(mc.mass_sd, 0.0, 1.0, "monte_carlo.mass_sd (relative)")?;
-    check_range(mc.inertia_sd, 0.0, 1.0, "monte_carlo.inertia_sd (relative)")?;
-    check_min(mc.disturbance_sd, 0.0, "monte_carlo.disturbance_sd")?;
+    mc.validate_spreads()?;
     // Fail fast on a bad scenario before spawning work.
     Simulation::new(scn, mc.seed)?;
     let done = std::sync::atomic::AtomicUsize::new(0);

@@ -205,6 +205,9 @@ impl Scenario {
         if self.reference.windows(2).any(|w| w[1].t_s < w[0].t_s) {
             return Err(SimError::Scenario("reference steps must be sorted by t_s".into()));
         }
+        if let Some(mc) = &self.monte_carlo {
+            mc.validate()?;
+        }
         Ok(())
     }
 }
@@ -270,6 +273,37 @@ pub struct MonteCarloSpec {
     /// Relative standard deviation of disturbance magnitudes.
     #[serde(default)]
     pub disturbance_sd: f64,
+}
+
+impl MonteCarloSpec {
+    /// Checks the study's size and spreads. Called when a scenario is parsed, so no path (a
+    /// CSV/Parquet output that lists the run indices first, Python, the browser) sees an unbounded
+    /// `runs`: an index list of 10¹² runs is 8 TB, and the allocation aborts the process.
+    ///
+    /// # Errors
+    /// `runs` outside 1..=[`MAX_RUNS`](crate::montecarlo::MAX_RUNS), or a spread out of range.
+    pub fn validate(&self) -> Result<()> {
+        let max = crate::montecarlo::MAX_RUNS;
+        if self.runs == 0 || self.runs > max {
+            return Err(SimError::Param(format!(
+                "monte_carlo.runs = {} must be in 1..={max} (split a larger campaign with --seeds A..B)",
+                self.runs
+            )));
+        }
+        self.validate_spreads()
+    }
+
+    /// Checks the spreads alone (a `--seeds A..B` campaign does not use `runs`).
+    ///
+    /// # Errors
+    /// A relative spread outside 0..=1 or a negative disturbance standard deviation.
+    pub fn validate_spreads(&self) -> Result<()> {
+        // A relative standard deviation above 1 samples masses and inertias mostly at the clamp
+        // (0.2 of nominal) or many times nominal: not a study of one craft.
+        crate::error::check_range(self.mass_sd, 0.0, 1.0, "monte_carlo.mass_sd (relative)")?;
+        crate::error::check_range(self.inertia_sd, 0.0, 1.0, "monte_carlo.inertia_sd (relative)")?;
+        crate::error::check_min(self.disturbance_sd, 0.0, "monte_carlo.disturbance_sd")
+    }
 }
 
 #[cfg(test)]

@@ -278,8 +278,12 @@ fn servo_open_loop_chirp_recovers_eq6() {
 #[test]
 fn weighted_log_fit_discounts_noisy_points_and_catches_a_wrong_model() {
     let truth = parse("K*exp(-Td*s)/(s*(tau*s+1))").unwrap();
-    let params: std::collections::BTreeMap<String, f64> =
-        [("K".to_string(), 80.0), ("tau".to_string(), 0.02), ("Td".to_string(), 0.004)].into();
+    let params: std::collections::BTreeMap<String, f64> = [
+        ("K".to_string(), 80.0),
+        ("tau".to_string(), 0.02),
+        ("Td".to_string(), 0.004),
+    ]
+    .into();
     let freq_hz: Vec<f64> = (0..60).map(|i| 2.0 * 1.06f64.powi(i)).collect();
     let map: std::collections::HashMap<String, f64> = params.clone().into_iter().collect();
     let g = |f: f64| truth.eval(C64::new(0.0, 2.0 * std::f64::consts::PI * f), &map).unwrap();
@@ -305,5 +309,9 @@ fn weighted_log_fit_discounts_noisy_points_and_catches_a_wrong_model() {
     assert!(e.weighted_fit_percent > 90.0, "weighted {}", e.weighted_fit_percent);
     let wrong = parse("K*exp(-Td*s)/(tau*s+1)").unwrap();
     let e = skyloop_sysid::fit::evaluate(&frf, &wrong, &params, &o).unwrap();
-    assert!(e.weighted_fit_percent < 0.0, "wrong model weighted {}", e.weighted_fit_percent);
+    assert!(
+        e.weighted_fit_percent < 0.0,
+        "wrong model weighted {}",
+        e.weighted_fit_percent
+    );
 }

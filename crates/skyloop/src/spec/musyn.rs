@@ -7,6 +7,14 @@
 /// Most frequencies of a μ-synthesis grid (`n_freq`, or the length of `w_rad_s`).
 pub const MAX_N_FREQ: usize = 2_000;
 
+/// Most DK-iterations (`max_iter`): each is a γ-bisection and a D-fit at every frequency, seconds to
+/// minutes; MATLAB's musyn stops at 10 by default.
+pub const MAX_ITER: usize = 100;
+
+/// Highest order of a fitted D-scale (`d_order`): the fit's unknowns grow with it, and beyond a few
+/// states per block the fitted scales only add states to the controller (MATLAB's default is up to 5).
+pub const MAX_D_ORDER: usize = 10;
+
 use crate::error::{Error, Result};
 use serde::Deserialize;
 use skyloop_lti::json::LtiJson;
@@ -121,9 +129,19 @@ impl MusynSpec {
         let o = &self.options;
         let mut opts = MusynOptions::default();
         if let Some(v) = o.max_iter {
+            if !(1..=MAX_ITER).contains(&v) {
+                return Err(Error::Spec(format!(
+                    "options: max_iter = {v} must be in 1..={MAX_ITER}"
+                )));
+            }
             opts.max_iter = v;
         }
         if let Some(v) = o.d_order {
+            if v > MAX_D_ORDER {
+                return Err(Error::Spec(format!(
+                    "options: d_order = {v} must be in 0..={MAX_D_ORDER}"
+                )));
+            }
             opts.d_order = v;
         }
         if let Some(v) = o.tol {
