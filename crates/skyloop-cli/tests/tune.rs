@@ -501,7 +501,7 @@ fn tune_from_a_log_rejects_bad_requests() {
     let logs = format!("{}/../../testdata/logs", env!("CARGO_MANIFEST_DIR"));
     let bf = format!("{logs}/btfl_all.bbl");
     let idle = format!("{logs}/btfl_001.bbl");
-    let cases: [(Vec<&str>, &str); 4] = [
+    let cases: [(Vec<&str>, &str); 6] = [
         (
             vec!["tune", &bf, "--plant", "1/s", "--firmware", "betaflight"],
             "cannot be used with",
@@ -510,6 +510,12 @@ fn tune_from_a_log_rejects_bad_requests() {
             vec!["tune", &bf, "--axis", "roll", "--firmware", "px4"],
             "Betaflight log",
         ),
+        // A mismatch names both firmwares, on every axis at once (before any identification).
+        (
+            vec!["tune", &bf, "--firmware", "inav"],
+            "--firmware inav does not match the log, which is a Betaflight log",
+        ),
+        (vec!["tune", "--plant", "1/s"], "--firmware is needed with --plant"),
         (
             vec!["tune", &idle, "--axis", "roll", "--firmware", "betaflight"],
             "airborne",
@@ -665,6 +671,21 @@ fn smooth_tune_log_is_never_made_worse() {
     for ax in ["roll", "pitch", "yaw"] {
         assert!(all["axes"][ax].is_object(), "{ax}: {all}");
     }
+    // The firmware comes from the log's header when --firmware is left out: the same answer.
+    let from_header = json(&["tune", &log, "--json"]);
+    assert_eq!(from_header["axes"]["roll"]["proposed"], all["axes"]["roll"]["proposed"]);
+    assert_eq!(from_header["cli"], all["cli"]);
+    // Yaw (no stick input to identify it) is a verdict `cannot` with its measured reason and what
+    // to fly on Betaflight, its error kept where scripts read it.
+    let yaw = &all["axes"]["yaw"];
+    assert_eq!(yaw["verdict"]["kind"], "cannot", "{yaw}");
+    let reason = yaw["error"].as_str().unwrap();
+    assert!(yaw["verdict"]["text"].as_str().unwrap().ends_with(reason), "{yaw}");
+    let fly = yaw["what_to_fly"].as_str().unwrap();
+    assert!(
+        fly.contains("yaw (rudder) stick") && fly.contains("chirp_amplitude_yaw"),
+        "{fly}"
+    );
     let v = &all["axes"]["roll"];
     assert_eq!(v["current"]["gains"]["p"], 14);
     assert!(

@@ -1,4 +1,4 @@
-//! `skyloop tune (LOG --axis roll | --plant MODEL) --firmware betaflight|px4|generic ...`: gains
+//! `skyloop tune (LOG [--axis roll] | --plant MODEL --firmware betaflight|px4|...) ...`: gains
 //! for the flight controller, tuned against margin goals and re-verified; from a log, the axis is
 //! identified and the flown tune is compared (thin: parse, call skyloop::tune, print).
 
@@ -7,6 +7,7 @@ use clap::Args as ClapArgs;
 use skyloop::firmware::Axis;
 use skyloop::model::load_model;
 use skyloop::tune::log::{tune_axes_from_log, LogTuneOutcome, LogTuneRequest};
+use skyloop::tune::verdict::Refusal;
 use skyloop::tune::{report::write_outputs, tune as run_tune, Firmware, GenericStructure, Maximize, TuneRequest};
 
 /// Arguments of `skyloop tune`.
@@ -18,9 +19,9 @@ pub struct Args {
     /// The rate-loop plant (expression or LTI JSON), in the firmware's units (Betaflight, INAV: PID sum → deg/s; PX4: normalized torque → rad/s).
     #[arg(long, allow_hyphen_values = true)]
     pub plant: Option<String>,
-    /// betaflight, inav, px4, ardupilot (ATC_RAT_* of ArduCopter/QuadPlane; with --plant only) or generic.
+    /// betaflight, inav, px4, ardupilot (ATC_RAT_* of ArduCopter/QuadPlane) or generic; with LOG the default is the firmware that wrote it (a different one is refused, except generic).
     #[arg(long)]
-    pub firmware: String,
+    pub firmware: Option<String>,
     /// generic only: pi, pid or pidf (pidf = pid: kp + ki/s + kd·s/(tf·s+1)), or pid2 (the same with setpoint weights b, c fitted for tracking: u = kp(b·r−y) + ki/s(r−y) + kd·s/(tf·s+1)(c·r−y)).
     #[arg(long, default_value = "pid")]
     pub structure: String,
@@ -89,7 +90,12 @@ pub fn run(a: Args) -> skyloop::Result<()> {
         }
     }
     let plant = a.plant.as_deref().unwrap_or_default();
-    let mut req = TuneRequest::new(load_model(plant)?, Firmware::parse(&a.firmware)?);
+    let firmware = a.firmware.as_deref().ok_or_else(|| {
+        skyloop::Error::Input(
+            "--firmware is needed with --plant: betaflight, inav, px4, ardupilot or generic (with a LOG it is read from the log)".into(),
+        )
+    })?;
+    let mut req = TuneRequest::new(load_model(plant)?, Firmware::parse(firmware)?);
     req.structure = GenericStructure::parse(&a.structure)?;
     req.d_filter_tau_s = a.d_filter_tau;
     req.goals = a.goals.clone();
@@ -143,7 +149,8 @@ fn run_log(log: std::path::PathBuf, a: &Args) -> skyloop::Result<()> {
         Some(x) => vec![Axis::parse(x)?],
         None => vec![Axis::Roll, Axis::Pitch, Axis::Yaw],
     };
-    let mut req = LogTuneRequest::new(log.clone(), axes[0], Firmware::parse(&a.firmware)?);
+    let firmware = a.firmware.as_deref().map(Firmware::parse).transpose()?;
+    let mut req = LogTuneRequest::new(log.clone(), axes[0], firmware);
     req.session = a.session;
     req.fmin_hz = a.fmin_hz;
     req.fmax_hz = a.fmax_hz;
@@ -159,29 +166,24 @@ fn run_log(log: std::path::PathBuf, a: &Args) -> skyloop::Result<()> {
     req.noise_budget = a.noise_budget;
     req.tune_filters = a.tune_filters;
     req.progress = Some(show_stage);
-    // The log is read once; an unreadable one fails before any axis starts.
-    let mut outs = Vec::new();
-    for (axis, r) in axes.iter().zip(tune_axes_from_log(&req, &axes)?) {
-        match r {
-            Ok(o) => outs.push(Ok(o)),
-            // One axis given: its error is the command's. Several: the others still answer.
-            Err(e) if axes.len() == 1 => {
-                finish_progress();
-                return Err(e);
-            }
-            Err(e) => outs.push(Err((*axis, e))),
-        }
-    }
-    // No axis answered: the request itself is at fault (a firmware that does not match the log, a
-    // log without flight); its first error is the command's.
-    if outs.iter().all(|o| o.is_err()) {
-        finish_progress();
-        if let Some(Err((_, e))) = outs.into_iter().next() {
-            return Err(e);
-        }
-        return Err(skyloop::Error::Input("no axis to tune".into()));
-    }
+    // The log is read once; an unreadable one (or a --firmware it does not match) fails before any
+    // axis starts.
+    let tuned = tune_axes_from_log(&req, &axes)?;
     finish_progress();
+    let outs: Vec<Result<LogTuneOutcome, Refusal>> = axes
+        .iter()
+        .zip(tuned.outcomes)
+        .map(|(&axis, r)| r.map_err(|e| Refusal::new(axis, tuned.firmware, &e)))
+        .collect();
+    // One axis given: its refusal is the command's (exit 2), with what to fly.
+    if axes.len() == 1 {
+        if let Some(Err(r)) = outs.first() {
+            return Err(skyloop::Error::Input(match &r.what_to_fly {
+                Some(w) => format!("{}\nwhat to fly: {w}", r.reason),
+                None => r.reason.clone(),
+            }));
+        }
+    }
     eprintln!(
         "[{}] report …",
         if axes.len() == 1 { axes[0].name() } else { "all axes" }
@@ -198,25 +200,44 @@ fn run_log(log: std::path::PathBuf, a: &Args) -> skyloop::Result<()> {
         eprintln!("wrote {}", dir.display());
     }
     if a.json {
-        if axes.len() == 1 {
-            if let Some(Ok(o)) = outs.first() {
-                return print_json(&o.to_json());
-            }
-        }
-        let mut m = serde_json::Map::new();
-        for o in &outs {
-            match o {
-                Ok(o) => m.insert(o.axis.name().into(), o.to_json()),
-                Err((ax, e)) => m.insert(ax.name().into(), serde_json::json!({"error": e.to_string()})),
-            };
-        }
-        let cli: Vec<String> = all_cli(&outs);
-        return print_json(&serde_json::json!({"axes": m, "cli": cli}));
+        print_log_json(&outs)?;
+    } else {
+        print_log_text(&outs, axes.len() > 1);
     }
-    for o in &outs {
+    // Every axis refused: the answers are printed, and the status says no gains came of it.
+    if outs.iter().all(|o| o.is_err()) {
+        return Err(skyloop::Error::Input(format!(
+            "{}: no axis could be tuned (each axis's reason and what to fly are above)",
+            log.display()
+        )));
+    }
+    Ok(())
+}
+
+fn print_log_json(outs: &[Result<LogTuneOutcome, Refusal>]) -> skyloop::Result<()> {
+    if let [Ok(o)] = outs {
+        return print_json(&o.to_json());
+    }
+    let mut m = serde_json::Map::new();
+    for o in outs {
+        match o {
+            Ok(o) => m.insert(o.axis.name().into(), o.to_json()),
+            Err(r) => m.insert(r.axis.name().into(), r.to_json()),
+        };
+    }
+    print_json(&serde_json::json!({"axes": m, "cli": all_cli(outs)}))
+}
+
+fn print_log_text(outs: &[Result<LogTuneOutcome, Refusal>], several: bool) {
+    for o in outs {
         match o {
             Ok(o) => println!("verdict  {}", o.verdict.text),
-            Err((ax, e)) => println!("verdict  {}: the log cannot support a proposal: {e}", ax.name()),
+            Err(r) => {
+                println!("verdict  {}", r.verdict().text);
+                if let Some(w) = &r.what_to_fly {
+                    println!("         what to fly: {w}");
+                }
+            }
         }
     }
     for o in outs.iter().flatten() {
@@ -224,14 +245,13 @@ fn run_log(log: std::path::PathBuf, a: &Args) -> skyloop::Result<()> {
         println!("== {} ==", o.axis.name());
         print_log_outcome(o);
     }
-    if axes.len() > 1 {
+    if several {
         println!();
         println!("== the lines to paste (every axis with a proposal) ==");
-        for l in all_cli(&outs) {
+        for l in all_cli(outs) {
             println!("{l}");
         }
     }
-    Ok(())
 }
 
 /// The spinner a terminal sees (None when stderr is not one: then each stage is a line).
@@ -264,7 +284,7 @@ fn finish_progress() {
 }
 
 /// The pasteable lines of every axis with a proposal, one `save` at the end.
-fn all_cli(outs: &[Result<LogTuneOutcome, (Axis, skyloop::Error)>]) -> Vec<String> {
+fn all_cli(outs: &[Result<LogTuneOutcome, Refusal>]) -> Vec<String> {
     let mut lines: Vec<String> = outs
         .iter()
         .flatten()

@@ -19,6 +19,7 @@
 pub mod ardupilot;
 pub mod betaflight;
 pub mod channels;
+pub mod excitation;
 pub mod filter_settings;
 pub mod filters;
 pub mod flown;

@@ -56,8 +56,9 @@ pub struct LogTuneRequest {
     pub fmin_hz: Option<f64>,
     /// Highest frequency of the identification, Hz (None: identify's default).
     pub fmax_hz: Option<f64>,
-    /// Firmware (must match the log's; generic tunes C = kp + ki/s + kd·s/(tf·s+1) on the same plant).
-    pub firmware: Firmware,
+    /// Firmware (None: the one that wrote the log; given, it must match the log's, except generic,
+    /// which tunes C = kp + ki/s + kd·s/(tf·s+1) on the same plant).
+    pub firmware: Option<Firmware>,
     /// Generic structure.
     pub structure: GenericStructure,
     /// Generic PID: a fixed derivative filter time constant, s.
@@ -87,14 +88,15 @@ pub struct LogTuneRequest {
 impl LogTuneRequest {
     /// Defaults: identify's band, ±2σ, generic PID structure, the pilot's objective (the highest
     /// crossover at no loss of robustness), noise budget 1.25, 8 starts.
-    pub fn new(log: PathBuf, axis: Axis, firmware: Firmware) -> Self {
+    /// `firmware`: a [`Firmware`], or None to take it from the log.
+    pub fn new(log: PathBuf, axis: Axis, firmware: impl Into<Option<Firmware>>) -> Self {
         LogTuneRequest {
             log,
             axis,
             session: None,
             fmin_hz: None,
             fmax_hz: None,
-            firmware,
+            firmware: firmware.into(),
             structure: GenericStructure::Pid,
             d_filter_tau_s: None,
             goals: Vec::new(),
@@ -232,29 +234,49 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
 /// yaw) is its entry's, so the other axes still answer.
 ///
 /// # Errors
-/// An unreadable or unrecognised log, or `--sigma` out of range.
-pub fn tune_axes_from_log(req: &LogTuneRequest, axes: &[Axis]) -> Result<Vec<Result<LogTuneOutcome>>> {
+/// An unreadable or unrecognised log, a `firmware` that does not match it, or `--sigma` out of range.
+pub fn tune_axes_from_log(req: &LogTuneRequest, axes: &[Axis]) -> Result<AxesTune> {
     check_sigma(req)?;
     let (log, derived) = crate::firmware::open_log(&req.log, req.session)?;
+    // A firmware that does not match the log is the request's fault, not an axis's.
+    let firmware = firmware_for(req.firmware, &log)?;
+    let req = &LogTuneRequest {
+        firmware: Some(firmware),
+        ..req.clone()
+    };
+    let outcomes = tune_each_axis(req, axes, &log, &derived);
+    Ok(AxesTune { firmware, outcomes })
+}
+
+/// The answer of [`tune_axes_from_log`]: the firmware the log was tuned as, and each axis's outcome
+/// or refusal, in the order asked.
+pub struct AxesTune {
+    /// The firmware given, or the one that wrote the log.
+    pub firmware: Firmware,
+    /// One per axis asked: its outcome, or why it has none (render with [`super::verdict::Refusal`]).
+    pub outcomes: Vec<Result<LogTuneOutcome>>,
+}
+
+fn tune_each_axis(req: &LogTuneRequest, axes: &[Axis], log: &Log, derived: &[String]) -> Vec<Result<LogTuneOutcome>> {
     let run = |req: &LogTuneRequest| -> Vec<Result<LogTuneOutcome>> {
         axes.iter()
             .map(|&axis| {
                 let r = LogTuneRequest { axis, ..req.clone() };
                 progress(&r, "identify");
-                tune_from_read_log(&r, log.clone(), derived.clone())
+                tune_from_read_log(&r, log.clone(), derived.to_vec())
             })
             .collect()
     };
     let outs = run(req);
     if !req.tune_filters || axes.len() < 2 {
-        return Ok(outs);
+        return outs;
     }
     // A setting every axis shares (the gyro lowpass, most D-term lowpasses) can take one value
     // only, verified on every axis: when the axes do not all propose the same one (or one cannot
     // be tuned), those settings stay as flown and every axis is tuned again around them.
     let choices: Vec<Scale> = outs.iter().map(shared_choice).collect();
     if choices.iter().all(|c| *c == choices[0]) {
-        return Ok(outs);
+        return outs;
     }
     let why = axes
         .iter()
@@ -266,7 +288,7 @@ pub fn tune_axes_from_log(req: &LogTuneRequest, axes: &[Axis]) -> Result<Vec<Res
         freeze_shared_filters: true,
         ..req.clone()
     };
-    Ok(run(&frozen)
+    run(&frozen)
         .into_iter()
         .map(|r| {
             r.map(|mut o| {
@@ -276,7 +298,7 @@ pub fn tune_axes_from_log(req: &LogTuneRequest, axes: &[Axis]) -> Result<Vec<Res
                 o
             })
         })
-        .collect())
+        .collect()
 }
 
 /// The factors an axis's proposal sets the shared filter settings to (×1 where it leaves them, or
@@ -309,6 +331,39 @@ pub fn tune_from_log_bytes(req: &LogTuneRequest, bytes: &[u8]) -> Result<LogTune
     tune_from_read_log(req, log, derived)
 }
 
+/// The firmware a log tune runs as: the one given, which must be the log's (or generic), or the
+/// log's own. Checked before the identification, so a mismatch is refused at once.
+fn firmware_for(given: Option<Firmware>, log: &Log) -> Result<Firmware> {
+    let of_log = Firmware::of_log(log);
+    match (given, of_log) {
+        (Some(Firmware::Generic), _) => Ok(Firmware::Generic),
+        (Some(g), Some(l)) if g == l => Ok(g),
+        (Some(g), Some(l)) => Err(Error::Input(format!(
+            "--firmware {} does not match the log, which is a{} {} log; leave --firmware out to use the log's ({})",
+            g.name(),
+            if l == Firmware::Inav { "n" } else { "" },
+            l.display_name(),
+            l.name(),
+        ))),
+        (Some(g), None) => Err(Error::Input(format!(
+            "--firmware {} does not match the log, which is a CSV log (it names no firmware): give --firmware generic",
+            g.name()
+        ))),
+        (None, Some(l)) => Ok(l),
+        (None, None) => Err(Error::Input(format!(
+            "{}: a CSV log names no firmware; give --firmware generic to tune a generic PID on it",
+            log.source
+        ))),
+    }
+}
+
+impl LogTuneRequest {
+    /// The firmware, resolved by [`firmware_for`] before any stage runs (generic if unresolved).
+    fn fw(&self) -> Firmware {
+        self.firmware.unwrap_or(Firmware::Generic)
+    }
+}
+
 fn check_sigma(req: &LogTuneRequest) -> Result<()> {
     if !(req.sigma.is_finite() && (0.0..=5.0).contains(&req.sigma)) {
         return Err(Error::Input(format!("--sigma must be in 0..=5, got {}", req.sigma)));
@@ -318,6 +373,10 @@ fn check_sigma(req: &LogTuneRequest) -> Result<()> {
 
 /// The stages after the log is read (and prepared, with `derived` its notes).
 fn tune_from_read_log(req: &LogTuneRequest, log: Log, derived: Vec<String>) -> Result<LogTuneOutcome> {
+    let req = &LogTuneRequest {
+        firmware: Some(firmware_for(req.firmware, &log)?),
+        ..req.clone()
+    };
     let mut idn = identify_stage(req, log, derived)?;
     let mut notes = std::mem::take(&mut idn.notes);
     let hdr = header_stage(req, &idn, &mut notes)?;
@@ -401,13 +460,6 @@ fn identify_stage(req: &LogTuneRequest, log: Log, derived: Vec<String>) -> Resul
             other => other,
         })?;
     let log_fw = Firmware::of_log(&log);
-    if req.firmware != Firmware::Generic && log_fw != Some(req.firmware) {
-        let l = log_fw.map_or("CSV", |f| f.display_name());
-        return Err(Error::Input(format!(
-            "--firmware {} does not match the log, which is a {l} log",
-            req.firmware.name()
-        )));
-    }
     let (_, fit) = id
         .fit
         .as_ref()
@@ -483,7 +535,7 @@ struct Header {
 }
 
 fn header_stage(req: &LogTuneRequest, idn: &Identified, notes: &mut Vec<String>) -> Result<Header> {
-    let mut treq = TuneRequest::new(idn.plant.clone(), req.firmware);
+    let mut treq = TuneRequest::new(idn.plant.clone(), req.fw());
     treq.extra_plants = idn.plants[1..].to_vec();
     treq.axis = req.axis;
     treq.structure = req.structure;
@@ -492,7 +544,7 @@ fn header_stage(req: &LogTuneRequest, idn: &Identified, notes: &mut Vec<String>)
     treq.maximize = req.maximize;
     treq.starts = req.starts;
     treq.tune_feedforward = req.tune_feedforward;
-    let flown = flown_tune(&idn.log, req.firmware, req.axis)?;
+    let flown = flown_tune(&idn.log, req.fw(), req.axis)?;
     let mut filters = Vec::new();
     match &flown {
         Some(f) => {
@@ -501,7 +553,7 @@ fn header_stage(req: &LogTuneRequest, idn: &Identified, notes: &mut Vec<String>)
             treq.controller = Some(f.controller.clone());
             treq.feedforward_flown = f.gains_flown;
         }
-        None if req.firmware == Firmware::Generic => {
+        None if req.fw() == Firmware::Generic => {
             notes.push("generic: the current gains are not compared (their units are the firmware's)".into());
         }
         None => notes.push("the log header carries no rate-controller tuning: nothing to compare".into()),

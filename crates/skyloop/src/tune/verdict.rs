@@ -1,6 +1,9 @@
 //! The verdict of a log tune, in a pilot's words: a proposal and what it changes, "keep your tune",
 //! or why the log cannot support a proposal and what to fly.
 
+use crate::error::Error;
+use crate::firmware::{excitation::what_to_fly, Axis};
+use crate::tune::Firmware;
 use serde_json::{json, Value};
 
 /// Which of the three answers.
@@ -38,6 +41,54 @@ impl Verdict {
     /// `{kind, text}`.
     pub fn to_json(&self) -> Value {
         json!({"kind": self.kind.name(), "text": self.text})
+    }
+}
+
+/// An axis the log cannot support a proposal on: the verdict `cannot` with the measured reason, and
+/// what to fly for the next log.
+#[derive(Debug, Clone)]
+pub struct Refusal {
+    /// The axis.
+    pub axis: Axis,
+    /// Why, as the analysis measured it (the error's message).
+    pub reason: String,
+    /// The flight that would identify the axis: the stick sequence and the firmware's own
+    /// excitation mode with its settings (None: the failure is not one more flying fixes, e.g. a
+    /// numerical one).
+    pub what_to_fly: Option<String>,
+}
+
+impl Refusal {
+    /// The refusal of `axis` for `err`, with what to fly on `firmware` when the failure is the log's
+    /// (an input the analysis refuses), not a numerical one.
+    pub fn new(axis: Axis, firmware: Firmware, err: &Error) -> Self {
+        let what_to_fly = matches!(err, Error::Input(_)).then(|| what_to_fly(firmware, axis));
+        Refusal {
+            axis,
+            reason: err.to_string(),
+            what_to_fly,
+        }
+    }
+
+    /// The verdict line: "yaw: the log cannot support a proposal: …".
+    pub fn verdict(&self) -> Verdict {
+        Verdict {
+            kind: VerdictKind::Cannot,
+            text: format!(
+                "{}: the log cannot support a proposal: {}",
+                self.axis.name(),
+                self.reason
+            ),
+        }
+    }
+
+    /// `{error, verdict: {kind: "cannot", text}, what_to_fly}` (`error` as before: the reason).
+    pub fn to_json(&self) -> Value {
+        json!({
+            "error": self.reason,
+            "verdict": self.verdict().to_json(),
+            "what_to_fly": self.what_to_fly,
+        })
     }
 }
 
