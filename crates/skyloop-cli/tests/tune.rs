@@ -688,6 +688,28 @@ fn smooth_tune_log_is_never_made_worse() {
     );
     let v = &all["axes"]["roll"];
     assert_eq!(v["current"]["gains"]["p"], 14);
+    // The flight's stretches: the used ones are the identification's segments, the others say why.
+    let segs = v["segments"].as_array().unwrap();
+    let used: Vec<f64> = segs
+        .iter()
+        .filter(|s| s["used"] == true)
+        .map(|s| s["start_s"].as_f64().unwrap())
+        .collect();
+    let ident: Vec<f64> = v["identification"]["segments"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["from_s"].as_f64().unwrap())
+        .collect();
+    assert_eq!(used.len(), ident.len(), "{segs:?}");
+    for (u, i) in used.iter().zip(&ident) {
+        assert!((u - i).abs() < 0.01, "{segs:?} vs {ident:?}");
+    }
+    assert!(
+        segs.iter()
+            .any(|s| s["used"] == false && s["reason"].as_str().unwrap().contains("idle throttle")),
+        "{segs:?}"
+    );
     assert!(
         v["causal_step_rms"].as_f64().unwrap() <= 0.25,
         "{}",

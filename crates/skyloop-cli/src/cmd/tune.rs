@@ -5,6 +5,7 @@
 use crate::output::print_json;
 use clap::Args as ClapArgs;
 use skyloop::firmware::Axis;
+use skyloop::identify::SegmentVerdict;
 use skyloop::model::load_model;
 use skyloop::tune::log::{tune_axes_from_log, LogTuneOutcome, LogTuneRequest};
 use skyloop::tune::verdict::Refusal;
@@ -254,6 +255,30 @@ fn print_log_text(outs: &[Result<LogTuneOutcome, Refusal>], several: bool) {
     }
 }
 
+/// The flight's stretches, used or not and why: one line each, the longest unused ones when there
+/// are many (the JSON's `segments` has every one).
+fn print_segments(tl: &[SegmentVerdict]) {
+    const MAX_LINES: usize = 12;
+    let (used, total) = SegmentVerdict::used_of_total_s(tl);
+    println!("segments {used:.1} s of {total:.1} s used ({} stretches)", tl.len());
+    let shown = SegmentVerdict::headline(tl, MAX_LINES);
+    for s in &shown {
+        println!(
+            "segment  {:>8.2} – {:>8.2} s  {}  {}",
+            s.start_s,
+            s.end_s,
+            if s.used { "used    " } else { "not used" },
+            s.reason
+        );
+    }
+    if shown.len() < tl.len() {
+        println!(
+            "segment  … {} shorter unused stretches (all in the JSON's segments)",
+            tl.len() - shown.len()
+        );
+    }
+}
+
 /// The spinner a terminal sees (None when stderr is not one: then each stage is a line).
 pub(crate) fn spinner() -> Option<&'static indicatif::ProgressBar> {
     use std::io::IsTerminal;
@@ -298,6 +323,7 @@ fn all_cli(outs: &[Result<LogTuneOutcome, Refusal>]) -> Vec<String> {
 }
 
 fn print_log_outcome(out: &LogTuneOutcome) {
+    print_segments(&out.identification.timeline);
     for (k, (v, s)) in &out.params {
         println!("plant    {k} = {v:.6} ± {s:.6}");
     }

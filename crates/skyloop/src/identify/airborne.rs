@@ -23,7 +23,55 @@ pub struct Airborne {
     pub excluded_s: Vec<(&'static str, f64)>,
     /// The searched span, s.
     pub searched: Span,
+    /// The searched span cut into stretches, each used or not and why, in time order (adjacent
+    /// unused stretches merged, their reasons listed by the time each excluded).
+    pub timeline: Vec<SegmentVerdict>,
 }
+
+/// One stretch of a searched span: whether the identification used it, and why (not).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct SegmentVerdict {
+    /// Start, log seconds.
+    pub start_s: f64,
+    /// End, log seconds.
+    pub end_s: f64,
+    /// Part of an airborne segment the estimate used.
+    pub used: bool,
+    /// What held there ("airborne: every test holds") or what excluded it ("motor saturation",
+    /// "margin around a take-off, landing or limit", "the log ends in flight", ...).
+    pub reason: String,
+}
+
+impl SegmentVerdict {
+    /// The stretches worth a line each: every used one, then the longest unused ones up to `max`
+    /// lines in all, in time order (a flight with saturation blips has hundreds of short ones).
+    pub fn headline(timeline: &[SegmentVerdict], max: usize) -> Vec<&SegmentVerdict> {
+        let mut shown: Vec<&SegmentVerdict> = timeline.iter().filter(|s| s.used).collect();
+        let mut unused: Vec<&SegmentVerdict> = timeline.iter().filter(|s| !s.used).collect();
+        unused.sort_by(|a, b| (b.end_s - b.start_s).total_cmp(&(a.end_s - a.start_s)));
+        shown.extend(unused.into_iter().take(max.saturating_sub(shown.len())));
+        shown.sort_by(|a, b| a.start_s.total_cmp(&b.start_s));
+        shown
+    }
+
+    /// Seconds used and seconds in all of a timeline.
+    pub fn used_of_total_s(timeline: &[SegmentVerdict]) -> (f64, f64) {
+        let len = |s: &&SegmentVerdict| s.end_s - s.start_s;
+        (
+            timeline.iter().filter(|s| s.used).map(|s| len(&s)).sum(),
+            timeline.iter().map(|s| len(&s)).sum(),
+        )
+    }
+}
+
+/// The reason of a used stretch.
+pub const USED_REASON: &str = "airborne: every test holds";
+/// The reason of the trimmed ends of a run where every test holds.
+const MARGIN_REASON: &str = "margin around a take-off, landing or limit";
+/// The reason of the crash tail.
+const CRASH_REASON: &str = "the log ends in flight (a crash or power loss): its last moments are not flight";
+/// The reason of a run too short to keep.
+const SHORT_REASON: &str = "airborne, but shorter than the shortest segment kept";
 
 /// Finds the airborne segments of `log` within [from_s, to_s] on the time base of channel `base` (the
 /// identification's output channel; other channels are held at their last sample, so a slow flag
@@ -52,6 +100,8 @@ pub fn airborne_segments(
     let (t_first, t_last) = (t[0], t[t.len() - 1]);
     let log_end = t_all.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let mut ok = vec![true; t.len()];
+    // The first test each sample fails (an index into `excluded`), for the timeline.
+    let mut why: Vec<Option<usize>> = vec![None; t.len()];
     let mut excluded: Vec<(&'static str, f64)> = Vec::new();
     let dt = (t_last - t_first) / (t.len() - 1) as f64;
     for l in &c.limits {
@@ -65,13 +115,30 @@ pub fn airborne_segments(
         }
         let held = hold_last(&tc, &vc, &t);
         let (mut bad, mut nan) = (0usize, 0usize);
+        let idx_of =
+            |excluded: &mut Vec<(&'static str, f64)>, r: &'static str| match excluded.iter().position(|(e, _)| *e == r)
+            {
+                Some(i) => i,
+                None => {
+                    excluded.push((r, 0.0));
+                    excluded.len() - 1
+                }
+            };
+        // In the order of the criteria: the test's own reason before its NaN samples'.
+        idx_of(&mut excluded, l.reason);
         for (k, v) in held.iter().enumerate() {
-            if v.is_nan() {
-                ok[k] = false;
+            let reason = if v.is_nan() {
                 nan += 1;
+                NAN_REASON
             } else if !(*v > l.lo && *v < l.hi) {
-                ok[k] = false;
                 bad += 1;
+                l.reason
+            } else {
+                continue;
+            };
+            ok[k] = false;
+            if why[k].is_none() {
+                why[k] = Some(idx_of(&mut excluded, reason));
             }
         }
         for (reason, count) in [(l.reason, bad), (NAN_REASON, nan)] {
@@ -85,19 +152,37 @@ pub fn airborne_segments(
         }
     }
     let mut segments = Vec::new();
+    let mut pieces: Vec<Piece> = Vec::new();
     for r in runs(&ok) {
-        let mut a = t[r.start] + c.margin_s;
-        let mut b = t[r.end - 1] - c.margin_s;
+        let (r0, r1) = (t[r.start], t[r.end - 1]);
+        let mut a = r0 + c.margin_s;
+        let mut b = r1 - c.margin_s;
         // The run reaches the last sample of the log: it stopped in flight.
-        if r.end == t.len() && log_end - t_last <= 1.5 * dt {
+        let crashed = r.end == t.len() && log_end - t_last <= 1.5 * dt;
+        if crashed {
             b -= c.crash_tail_s;
         }
         a = a.max(t_first);
         b = b.min(t_last);
         if b - a >= c.min_len_s {
             segments.push(Span { from_s: a, to_s: b });
+            pieces.push(Piece::unused(r0, a, MARGIN_REASON));
+            pieces.push(Piece {
+                start_s: a,
+                end_s: b,
+                used: true,
+                reasons: vec![(USED_REASON, b - a)],
+            });
+            pieces.push(Piece::unused(b, (b + c.margin_s).min(r1), MARGIN_REASON));
+            if crashed {
+                pieces.push(Piece::unused((b + c.margin_s).min(r1), r1, CRASH_REASON));
+            }
+        } else {
+            pieces.push(Piece::unused(r0, r1, SHORT_REASON));
         }
     }
+    pieces.extend(excluded_pieces(&t, &why, &excluded));
+    let timeline = merge_pieces(pieces, dt);
     let searched = Span {
         from_s: t_first,
         to_s: t_last,
@@ -109,7 +194,90 @@ pub fn airborne_segments(
         segments,
         excluded_s: excluded,
         searched,
+        timeline,
     })
+}
+
+/// A stretch of the timeline before adjacent unused ones are merged: the seconds each reason holds.
+struct Piece {
+    start_s: f64,
+    end_s: f64,
+    used: bool,
+    reasons: Vec<(&'static str, f64)>,
+}
+
+impl Piece {
+    fn unused(start_s: f64, end_s: f64, reason: &'static str) -> Piece {
+        Piece {
+            start_s,
+            end_s,
+            used: false,
+            reasons: vec![(reason, (end_s - start_s).max(0.0))],
+        }
+    }
+}
+
+/// The runs of samples some test excluded, each with the seconds each reason excluded in it.
+fn excluded_pieces(t: &[f64], why: &[Option<usize>], excluded: &[(&'static str, f64)]) -> Vec<Piece> {
+    let dt = if t.len() > 1 {
+        (t[t.len() - 1] - t[0]) / (t.len() - 1) as f64
+    } else {
+        0.0
+    };
+    let bad: Vec<bool> = why.iter().map(Option::is_some).collect();
+    runs(&bad)
+        .into_iter()
+        .map(|r| {
+            let mut reasons: Vec<(&'static str, f64)> = Vec::new();
+            for w in why[r.clone()].iter().flatten() {
+                let name = excluded[*w].0;
+                match reasons.iter_mut().find(|(n, _)| *n == name) {
+                    Some(e) => e.1 += dt,
+                    None => reasons.push((name, dt)),
+                }
+            }
+            Piece {
+                start_s: t[r.start],
+                end_s: t[r.end - 1],
+                used: false,
+                reasons,
+            }
+        })
+        .collect()
+}
+
+/// The pieces in time order, empty ones dropped, adjacent unused ones (within a sample or two)
+/// merged with their reasons listed by the time each held, longest first.
+fn merge_pieces(mut pieces: Vec<Piece>, dt: f64) -> Vec<SegmentVerdict> {
+    pieces.retain(|p| p.end_s > p.start_s || (!p.used && p.end_s == p.start_s && !p.reasons.is_empty()));
+    pieces.sort_by(|a, b| a.start_s.total_cmp(&b.start_s));
+    let mut merged: Vec<Piece> = Vec::new();
+    for p in pieces {
+        match merged.last_mut() {
+            Some(m) if !m.used && !p.used && p.start_s - m.end_s <= 2.5 * dt => {
+                m.end_s = m.end_s.max(p.end_s);
+                for (n, s) in p.reasons {
+                    match m.reasons.iter_mut().find(|(x, _)| *x == n) {
+                        Some(e) => e.1 += s,
+                        None => m.reasons.push((n, s)),
+                    }
+                }
+            }
+            _ => merged.push(p),
+        }
+    }
+    merged
+        .into_iter()
+        .map(|mut p| {
+            p.reasons.sort_by(|a, b| b.1.total_cmp(&a.1));
+            SegmentVerdict {
+                start_s: p.start_s,
+                end_s: p.end_s,
+                used: p.used,
+                reason: p.reasons.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", "),
+            }
+        })
+        .collect()
 }
 
 /// The refusal of a span without an airborne segment: how much each reason excluded, and, when one
@@ -229,6 +397,27 @@ mod tests {
         }
         let idle = a.excluded_s.iter().find(|(r, _)| *r == "idle throttle").unwrap().1;
         assert!((idle - 2.0).abs() < 0.02, "{idle}");
+        // The timeline: the used stretches are the segments, the others alternate with them and
+        // name what excluded them, and together they cover the span without overlap.
+        let tl = &a.timeline;
+        let used: Vec<(f64, f64)> = tl.iter().filter(|s| s.used).map(|s| (s.start_s, s.end_s)).collect();
+        assert_eq!(used, got, "{tl:?}");
+        assert!(
+            tl.windows(2)
+                .all(|w| w[0].used != w[1].used && w[1].start_s >= w[0].end_s - 1e-9),
+            "{tl:?}"
+        );
+        assert!(
+            (tl[0].start_s - 0.0).abs() < 1e-9 && (tl[tl.len() - 1].end_s - 19.99).abs() < 1e-9,
+            "{tl:?}"
+        );
+        let covered: f64 = tl.iter().map(|s| s.end_s - s.start_s).sum();
+        assert!((covered - 19.99).abs() < 0.05, "{covered} {tl:?}");
+        let at = |x: f64| tl.iter().find(|s| s.start_s <= x && x <= s.end_s).unwrap();
+        assert!(at(1.0).reason.starts_with("idle throttle"), "{tl:?}");
+        assert!(at(8.5).reason.starts_with("motor saturation"), "{tl:?}");
+        assert!(at(12.2).reason.starts_with("gyro saturation"), "{tl:?}");
+        assert!(at(19.5).reason.contains("the log ends in flight"), "{tl:?}");
         // A span with no flight names what excluded it.
         let e = airborne_segments(&l, "gyroADC[0]", &c, Some(0.0), Some(1.9))
             .unwrap_err()

@@ -19,7 +19,7 @@ mod request;
 mod segments;
 mod uncertainty;
 
-pub use airborne::{airborne_segments, Airborne};
+pub use airborne::{airborne_segments, Airborne, SegmentVerdict};
 pub use band::{coherent_band, supported_band, COHERENT, MAX_REL_ERR, MIN_DOF, PILOT_LOOP_HZ};
 pub use preset::{axis_preset, rate_loop_starts, AxisPreset, RATE_LOOP_MODEL};
 pub use report::{plot_identification, Identification, Units};
@@ -188,6 +188,7 @@ pub fn identify_log(log: &Log, a: &IdentifyRequest) -> Result<Identification> {
         instrument: excitation,
         units,
         segments: sel.segments,
+        timeline: sel.timeline,
         frf,
         coherent_band_hz,
         fit_band_hz,

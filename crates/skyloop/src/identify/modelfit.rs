@@ -295,7 +295,7 @@ fn check_determined(
         .params
         .iter()
         .filter(|(k, v)| r.stderr.get(*k).is_none_or(|se| !(se.abs() <= v.abs())))
-        .map(|(k, v)| format!("{k} = {v:.4} ± {:.2}", r.stderr.get(k).copied().unwrap_or(f64::NAN)))
+        .map(|(k, v)| format!("{k} = {v:.3e} ± {:.1e}", r.stderr.get(k).copied().unwrap_or(f64::NAN)))
         .collect();
     if loose.is_empty() {
         return Ok(());

@@ -40,6 +40,9 @@ pub struct Identification {
     pub units: Option<Units>,
     /// The spans of the log the estimate used, s.
     pub segments: Vec<Span>,
+    /// The selected span cut into stretches used or not, each with its reason (`segments` are the
+    /// used ones).
+    pub timeline: Vec<super::airborne::SegmentVerdict>,
     /// The frequency-response estimate with coherence and confidence.
     pub frf: Frf,
     /// The coherence-supported band (see [`coherent_band`](super::coherent_band)), Hz.
@@ -143,6 +146,7 @@ impl Identification {
                     "to_clock_s": s.to_s + self.clock_origin_s,
                 }))
                 .collect::<Vec<_>>(),
+            "timeline": self.timeline,
             "clock_origin_s": self.clock_origin_s,
             "fit_band_hz": self.fit_band_hz.map(|(a, b)| [a, b]),
             "coherent_band_hz": self.coherent_band_hz.map(|(a, b)| [a, b]),

@@ -3,7 +3,7 @@
 
 use std::ops::Range;
 
-use super::airborne::airborne_segments;
+use super::airborne::{airborne_segments, SegmentVerdict};
 use super::channels::Channels;
 use super::remarks::Remarks;
 use super::request::IdentifyRequest;
@@ -19,6 +19,8 @@ pub(crate) struct Selection {
     pub ranges: Vec<Range<usize>>,
     /// The same records as spans of the log's clock, s.
     pub segments: Vec<Span>,
+    /// The selected span cut into stretches used or not, and why.
+    pub timeline: Vec<SegmentVerdict>,
 }
 
 /// Resamples the channels (and the `--where` condition's column) onto one grid over
@@ -34,11 +36,13 @@ pub(crate) fn select(log: &Log, a: &IdentifyRequest, ch: &Channels, rm: &mut Rem
         cols.push(&c.column);
     }
     let data = log.uniform(&cols, a.rate, a.from, a.to)?;
+    let mut timeline = None;
     let ranges: Vec<Range<usize>> = if let Some(c) = &cond {
         vec![where_holds(&data, c, a.condition.as_deref().unwrap_or(""), rm)?]
     } else if let Some(p) = &ch.preset {
         let t_end = t_of(&data, data.len() - 1);
         let air = airborne_segments(log, &ch.output, &p.criteria, Some(data.t0_s), Some(t_end))?;
+        timeline = Some(air.timeline.clone());
         let total: f64 = air.segments.iter().map(Span::len_s).sum();
         let excluded: Vec<String> = air
             .excluded_s
@@ -64,14 +68,61 @@ pub(crate) fn select(log: &Log, a: &IdentifyRequest, ch: &Channels, rm: &mut Rem
     } else {
         std::iter::once(0..data.len()).collect()
     };
-    let segments = ranges
+    let segments: Vec<Span> = ranges
         .iter()
         .map(|r| Span {
             from_s: t_of(&data, r.start),
             to_s: t_of(&data, r.end - 1),
         })
         .collect();
-    Ok(Selection { data, ranges, segments })
+    // Without the airborne search: the chosen stretch used, the rest of the span not.
+    let timeline = timeline.unwrap_or_else(|| {
+        let why = if cond.is_some() {
+            "the --where condition does not hold for 2 s or more"
+        } else {
+            "outside --from/--to"
+        };
+        let end = t_of(&data, data.len().saturating_sub(1));
+        let mut tl = Vec::new();
+        let mut at = data.t0_s;
+        for s in &segments {
+            if s.from_s > at {
+                tl.push(SegmentVerdict {
+                    start_s: at,
+                    end_s: s.from_s,
+                    used: false,
+                    reason: why.into(),
+                });
+            }
+            let reason = if cond.is_some() {
+                "the --where condition holds"
+            } else {
+                "the selected span"
+            };
+            tl.push(SegmentVerdict {
+                start_s: s.from_s,
+                end_s: s.to_s,
+                used: true,
+                reason: reason.into(),
+            });
+            at = s.to_s;
+        }
+        if end > at {
+            tl.push(SegmentVerdict {
+                start_s: at,
+                end_s: end,
+                used: false,
+                reason: why.into(),
+            });
+        }
+        tl
+    });
+    Ok(Selection {
+        data,
+        ranges,
+        segments,
+        timeline,
+    })
 }
 
 /// Time of grid sample `i`, s.

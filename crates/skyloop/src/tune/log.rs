@@ -195,6 +195,50 @@ pub struct LogTuneOutcome {
     pub closed_loop: Option<super::model_check::ClosedLoopCheck>,
     /// What re-analysing other gains on this log's model needs (None without flown gains).
     pub live: Option<LiveLoop>,
+    /// The flight's setpoint and gyro of this axis, decimated for the report's time strip.
+    pub strip: FlightStrip,
+}
+
+/// The setpoint and gyro of an axis over the whole flight, decimated to at most
+/// [`FlightStrip::MAX_POINTS`] samples (every k-th: a picture, not data to analyse).
+#[derive(Debug, Clone, Default)]
+pub struct FlightStrip {
+    /// Log seconds.
+    pub t_s: Vec<f64>,
+    /// The identification's instrument (the setpoint), its units (None: the fit had no instrument).
+    pub setpoint: Option<Vec<f64>>,
+    /// The identification's output (the gyro), its units.
+    pub gyro: Vec<f64>,
+}
+
+impl FlightStrip {
+    /// Most samples kept.
+    pub const MAX_POINTS: usize = 4000;
+
+    /// The strip of `id`'s output and instrument in `log` (empty when a channel cannot be read:
+    /// the figure is then left out, nothing else depends on it).
+    fn of(log: &Log, id: &Identification) -> FlightStrip {
+        let Ok((t, y)) = log.series(&id.output) else {
+            return FlightStrip::default();
+        };
+        let step = t.len().div_ceil(Self::MAX_POINTS).max(1);
+        let pick = |v: &[f64]| v.iter().step_by(step).copied().collect::<Vec<f64>>();
+        let t_s = pick(&t);
+        let setpoint = id.instrument.as_ref().and_then(|name| {
+            let (ts, r) = log.series(name).ok()?;
+            // Held at its last sample at each kept gyro time (PX4 logs the setpoint at its own rate).
+            let held = t_s.iter().map(|&x| {
+                let k = ts.partition_point(|&s| s <= x);
+                r.get(k.saturating_sub(1)).copied().unwrap_or(f64::NAN)
+            });
+            Some(held.collect())
+        });
+        FlightStrip {
+            t_s,
+            setpoint,
+            gyro: pick(&y),
+        }
+    }
 }
 
 /// Largest RMS difference between the predicted and the measured step (per unit step) that
@@ -378,6 +422,7 @@ fn tune_from_read_log(req: &LogTuneRequest, log: Log, derived: Vec<String>) -> R
         ..req.clone()
     };
     let mut idn = identify_stage(req, log, derived)?;
+    let strip = FlightStrip::of(&idn.log, &idn.id);
     let mut notes = std::mem::take(&mut idn.notes);
     let hdr = header_stage(req, &idn, &mut notes)?;
     progress(req, "the flown tune");
@@ -419,6 +464,7 @@ fn tune_from_read_log(req: &LogTuneRequest, log: Log, derived: Vec<String>) -> R
         axis: req.axis,
         closed_loop: fl.closed_loop,
         live,
+        strip,
     })
 }
 
@@ -1006,9 +1052,12 @@ impl LogTuneOutcome {
     /// The proposal's JSON (as [`TuneOutcome::to_json`]: `gains`, `feedback_controller`,
     /// `margins`, `goals`, `cli`, ...) plus `current` (the flown tune analysed, with `gains` of the
     /// same keys), `proposed` (the proposal analysed likewise), `identification` (params, stderr,
-    /// fit percent, band), `measured_step` and `model_step_rms`.
+    /// fit percent, band), `segments` (the flight cut into stretches `{start_s, end_s, used,
+    /// reason}`: which the identification used and why the others were not), `measured_step` and
+    /// `model_step_rms`.
     pub fn to_json(&self) -> Value {
         let mut v = self.proposed.to_json();
+        v["segments"] = json!(self.identification.timeline);
         v["current"] = self.current.as_ref().map(TuneAnalysis::to_json).unwrap_or(Value::Null);
         v["proposed"] = self.proposed_analysis.to_json();
         let fit = self.identification.fit.as_ref().map(|(_, f)| f);

@@ -41,6 +41,9 @@ pub fn write_log_outputs(out: &LogTuneOutcome, dir: &Path) -> Result<()> {
     verdict_section(&mut rep, out);
     noise_and_filter_sections(&mut rep, out);
     plant_section(&mut rep, out);
+    if let Some(fig) = super::segments::segments_section(&mut rep, out) {
+        fig.save(&dir.join("flight_segments.svg"))?;
+    }
     comparison_section(&mut rep, out);
     proposal_section(&mut rep, out);
     let sec = rep.section("Frequency and time responses");

@@ -2,6 +2,7 @@
 //! and Nyquist plots of L and the closed-loop step (SVG, the Bode plot also as PNG), report.html.
 
 mod from_log;
+mod segments;
 
 pub use from_log::write_log_outputs;
 
