@@ -181,7 +181,7 @@ pub fn airborne_segments(
             pieces.push(Piece::unused(r0, r1, SHORT_REASON));
         }
     }
-    pieces.extend(excluded_pieces(&t, &why, &excluded));
+    pieces.extend(excluded_pieces(&t, dt, &why, &excluded));
     let timeline = merge_pieces(pieces, dt);
     let searched = Span {
         from_s: t_first,
@@ -196,6 +196,14 @@ pub fn airborne_segments(
         searched,
         timeline,
     })
+}
+
+/// Adds `s` seconds to `name`'s entry of `reasons` (a new entry at the end if it has none).
+fn tally(reasons: &mut Vec<(&'static str, f64)>, name: &'static str, s: f64) {
+    match reasons.iter_mut().find(|(n, _)| *n == name) {
+        Some(e) => e.1 += s,
+        None => reasons.push((name, s)),
+    }
 }
 
 /// A stretch of the timeline before adjacent unused ones are merged: the seconds each reason holds.
@@ -218,23 +226,14 @@ impl Piece {
 }
 
 /// The runs of samples some test excluded, each with the seconds each reason excluded in it.
-fn excluded_pieces(t: &[f64], why: &[Option<usize>], excluded: &[(&'static str, f64)]) -> Vec<Piece> {
-    let dt = if t.len() > 1 {
-        (t[t.len() - 1] - t[0]) / (t.len() - 1) as f64
-    } else {
-        0.0
-    };
+fn excluded_pieces(t: &[f64], dt: f64, why: &[Option<usize>], excluded: &[(&'static str, f64)]) -> Vec<Piece> {
     let bad: Vec<bool> = why.iter().map(Option::is_some).collect();
     runs(&bad)
         .into_iter()
         .map(|r| {
             let mut reasons: Vec<(&'static str, f64)> = Vec::new();
             for w in why[r.clone()].iter().flatten() {
-                let name = excluded[*w].0;
-                match reasons.iter_mut().find(|(n, _)| *n == name) {
-                    Some(e) => e.1 += dt,
-                    None => reasons.push((name, dt)),
-                }
+                tally(&mut reasons, excluded[*w].0, dt);
             }
             Piece {
                 start_s: t[r.start],
@@ -257,10 +256,7 @@ fn merge_pieces(mut pieces: Vec<Piece>, dt: f64) -> Vec<SegmentVerdict> {
             Some(m) if !m.used && !p.used && p.start_s - m.end_s <= 2.5 * dt => {
                 m.end_s = m.end_s.max(p.end_s);
                 for (n, s) in p.reasons {
-                    match m.reasons.iter_mut().find(|(x, _)| *x == n) {
-                        Some(e) => e.1 += s,
-                        None => m.reasons.push((n, s)),
-                    }
+                    tally(&mut m.reasons, n, s);
                 }
             }
             _ => merged.push(p),
@@ -324,7 +320,7 @@ fn runs(mask: &[bool]) -> Vec<Range<usize>> {
 
 /// The value of (t, v) (t increasing) last sampled at or before each time of `at`; the first value
 /// before the first sample.
-fn hold_last(t: &[f64], v: &[f64], at: &[f64]) -> Vec<f64> {
+pub(crate) fn hold_last(t: &[f64], v: &[f64], at: &[f64]) -> Vec<f64> {
     at.iter()
         .map(|&x| {
             let k = t.partition_point(|&s| s <= x);

@@ -19,6 +19,7 @@ mod request;
 mod segments;
 mod uncertainty;
 
+pub(crate) use airborne::hold_last;
 pub use airborne::{airborne_segments, Airborne, SegmentVerdict};
 pub use band::{coherent_band, supported_band, COHERENT, MAX_REL_ERR, MIN_DOF, PILOT_LOOP_HZ};
 pub use preset::{axis_preset, rate_loop_starts, AxisPreset, RATE_LOOP_MODEL};

@@ -224,14 +224,10 @@ impl FlightStrip {
         let step = t.len().div_ceil(Self::MAX_POINTS).max(1);
         let pick = |v: &[f64]| v.iter().step_by(step).copied().collect::<Vec<f64>>();
         let t_s = pick(&t);
+        // Held at its last sample at each kept gyro time (PX4 logs the setpoint at its own rate).
         let setpoint = id.instrument.as_ref().and_then(|name| {
             let (ts, r) = log.series(name).ok()?;
-            // Held at its last sample at each kept gyro time (PX4 logs the setpoint at its own rate).
-            let held = t_s.iter().map(|&x| {
-                let k = ts.partition_point(|&s| s <= x);
-                r.get(k.saturating_sub(1)).copied().unwrap_or(f64::NAN)
-            });
-            Some(held.collect())
+            Some(crate::identify::hold_last(&ts, &r, &t_s))
         });
         FlightStrip {
             t_s,
@@ -270,7 +266,7 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
     check_sigma(req)?;
     progress(req, "identify");
     let (log, derived) = crate::firmware::open_log(&req.log, req.session)?;
-    tune_from_read_log(req, log, derived)
+    tune_from_read_log(&resolved(req, &log)?, log, derived)
 }
 
 /// [`tune_from_log`] for each of `axes` (`req.axis` is replaced), the log read once: an
@@ -283,13 +279,12 @@ pub fn tune_axes_from_log(req: &LogTuneRequest, axes: &[Axis]) -> Result<AxesTun
     check_sigma(req)?;
     let (log, derived) = crate::firmware::open_log(&req.log, req.session)?;
     // A firmware that does not match the log is the request's fault, not an axis's.
-    let firmware = firmware_for(req.firmware, &log)?;
-    let req = &LogTuneRequest {
-        firmware: Some(firmware),
-        ..req.clone()
-    };
+    let req = &resolved(req, &log)?;
     let outcomes = tune_each_axis(req, axes, &log, &derived);
-    Ok(AxesTune { firmware, outcomes })
+    Ok(AxesTune {
+        firmware: req.fw(),
+        outcomes,
+    })
 }
 
 /// The answer of [`tune_axes_from_log`]: the firmware the log was tuned as, and each axis's outcome
@@ -372,7 +367,7 @@ pub fn tune_from_log_bytes(req: &LogTuneRequest, bytes: &[u8]) -> Result<LogTune
     check_sigma(req)?;
     progress(req, "identify");
     let (log, derived) = crate::firmware::open_log_bytes(bytes, &req.log.display().to_string(), req.session)?;
-    tune_from_read_log(req, log, derived)
+    tune_from_read_log(&resolved(req, &log)?, log, derived)
 }
 
 /// The firmware a log tune runs as: the one given, which must be the log's (or generic), or the
@@ -415,12 +410,17 @@ fn check_sigma(req: &LogTuneRequest) -> Result<()> {
     Ok(())
 }
 
-/// The stages after the log is read (and prepared, with `derived` its notes).
-fn tune_from_read_log(req: &LogTuneRequest, log: Log, derived: Vec<String>) -> Result<LogTuneOutcome> {
-    let req = &LogTuneRequest {
-        firmware: Some(firmware_for(req.firmware, &log)?),
+/// `req` with its firmware resolved against `log` by [`firmware_for`], once per log read.
+fn resolved(req: &LogTuneRequest, log: &Log) -> Result<LogTuneRequest> {
+    Ok(LogTuneRequest {
+        firmware: Some(firmware_for(req.firmware, log)?),
         ..req.clone()
-    };
+    })
+}
+
+/// The stages after the log is read (and prepared, with `derived` its notes), `req`'s firmware
+/// [`resolved`].
+fn tune_from_read_log(req: &LogTuneRequest, log: Log, derived: Vec<String>) -> Result<LogTuneOutcome> {
     let mut idn = identify_stage(req, log, derived)?;
     let strip = FlightStrip::of(&idn.log, &idn.id);
     let mut notes = std::mem::take(&mut idn.notes);
@@ -776,14 +776,7 @@ fn propose_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, fl: &Flow
                 let mut nr = noise_of(&gn, &gn, g, g, held)?;
                 nr.budget = Some(req.noise_budget);
                 noise_report = Some(nr);
-                (
-                    out,
-                    cur.clone(),
-                    Verdict {
-                        kind: VerdictKind::Cannot,
-                        text: format!("{}: the log cannot support a proposal: {why}", req.axis.name()),
-                    },
-                )
+                (out, cur.clone(), Verdict::cannot(req.axis, why))
             } else {
                 let settings = hdr
                     .flown
@@ -820,7 +813,7 @@ fn propose_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, fl: &Flow
             let verdict = match &refusal {
                 Some(why) => {
                     proposed.cli.clear();
-                    Verdict { kind: VerdictKind::Cannot, text: format!("{}: the log cannot support a proposal: {why}", req.axis.name()) }
+                    Verdict::cannot(req.axis, why)
                 }
                 None => Verdict {
                     kind: VerdictKind::Propose,

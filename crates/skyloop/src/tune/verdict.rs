@@ -38,6 +38,15 @@ pub struct Verdict {
 }
 
 impl Verdict {
+    /// The verdict `cannot` on `axis`, for the reason `why`: "roll: the log cannot support a
+    /// proposal: …".
+    pub fn cannot(axis: Axis, why: &str) -> Verdict {
+        Verdict {
+            kind: VerdictKind::Cannot,
+            text: format!("{}: the log cannot support a proposal: {why}", axis.name()),
+        }
+    }
+
     /// `{kind, text}`.
     pub fn to_json(&self) -> Value {
         json!({"kind": self.kind.name(), "text": self.text})
@@ -72,14 +81,7 @@ impl Refusal {
 
     /// The verdict line: "yaw: the log cannot support a proposal: …".
     pub fn verdict(&self) -> Verdict {
-        Verdict {
-            kind: VerdictKind::Cannot,
-            text: format!(
-                "{}: the log cannot support a proposal: {}",
-                self.axis.name(),
-                self.reason
-            ),
-        }
+        Verdict::cannot(self.axis, &self.reason)
     }
 
     /// `{error, verdict: {kind: "cannot", text}, what_to_fly}` (`error` as before: the reason).
