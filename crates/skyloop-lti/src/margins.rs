@@ -588,24 +588,34 @@ pub fn diskmargin(l: &StateSpace) -> Result<DiskMargin> {
     }
     // With no peak (f ≤ 1/2 asymptotes), the supremum is read at the grid end.
     let alpha = if best.1 > 0.0 { 1.0 / best.1 } else { f64::INFINITY };
-    Ok(disk_from_alpha(alpha, best.0))
+    Ok(DiskMargin::from_alpha(alpha, best.0))
 }
 
-fn disk_from_alpha(alpha: f64, w: f64) -> DiskMargin {
-    // From α = 2 on, the disk holds every gain from 0 to ∞ (MATLAB: GM = [0 Inf]). An α a few ulps
-    // below 2 (the loop 1/s) must not turn into a finite ±319 dB.
-    let unbounded = alpha >= 2.0 * (1.0 - 1e-9);
-    let low = (2.0 - alpha) / (2.0 + alpha);
-    let high = (2.0 + alpha) / (2.0 - alpha);
-    DiskMargin {
-        alpha,
-        gain_db: if unbounded {
-            [f64::NEG_INFINITY, f64::INFINITY]
-        } else {
-            [20.0 * low.log10(), 20.0 * high.log10()]
-        },
-        phase_deg: (2.0 * (alpha / 2.0).atan()).to_degrees(),
-        w_rad_s: w,
+impl DiskMargin {
+    /// The balanced (skew 0) disk of size `alpha` as gain range (dB) and phase (± degrees), at the
+    /// frequency `w` (rad/s) where it was found: the gain may change by a factor in
+    /// [(2 − α)/(2 + α), (2 + α)/(2 − α)] and the phase by ±2·atan(α/2), both at once.
+    ///
+    /// ```
+    /// let d = skyloop_lti::margins::DiskMargin::from_alpha(0.5, 1.0);
+    /// assert!((d.gain_db[1] - 4.437).abs() < 1e-3 && (d.phase_deg - 28.07).abs() < 1e-2);
+    /// ```
+    pub fn from_alpha(alpha: f64, w: f64) -> DiskMargin {
+        // From α = 2 on, the disk holds every gain from 0 to ∞ (MATLAB: GM = [0 Inf]). An α a few ulps
+        // below 2 (the loop 1/s) must not turn into a finite ±319 dB.
+        let unbounded = alpha >= 2.0 * (1.0 - 1e-9);
+        let low = (2.0 - alpha) / (2.0 + alpha);
+        let high = (2.0 + alpha) / (2.0 - alpha);
+        DiskMargin {
+            alpha,
+            gain_db: if unbounded {
+                [f64::NEG_INFINITY, f64::INFINITY]
+            } else {
+                [20.0 * low.log10(), 20.0 * high.log10()]
+            },
+            phase_deg: (2.0 * (alpha / 2.0).atan()).to_degrees(),
+            w_rad_s: w,
+        }
     }
 }
 
@@ -798,6 +808,29 @@ impl Piece {
 mod tests {
     use super::*;
     use faer::Mat;
+
+    /// The gain and phase a disk α tolerates, checked on the perturbation set itself rather than the
+    /// closed forms: the balanced disk multiplies L by f = (2 + αδ)/(2 − αδ), |δ| ≤ 1, so the gain
+    /// range is f at δ = ±1 and the phase is the largest arg f along |δ| = 1.
+    #[test]
+    fn disk_from_alpha_matches_the_perturbation_set() {
+        for alpha in [0.1, 0.5, 0.625, 1.0, 1.5] {
+            let d = DiskMargin::from_alpha(alpha, 1.0);
+            let f = |z: c64| (c64::new(2.0, 0.0) + z * alpha) / (c64::new(2.0, 0.0) - z * alpha);
+            let hi = 20.0 * f(c64::new(1.0, 0.0)).re.log10();
+            let lo = 20.0 * f(c64::new(-1.0, 0.0)).re.log10();
+            let phase = (0..=200_000)
+                .map(|k| f(c64::from_polar(1.0, k as f64 * std::f64::consts::PI / 200_000.0)).arg())
+                .fold(0.0f64, f64::max)
+                .to_degrees();
+            assert!((d.gain_db[1] - hi).abs() < 1e-9 && (d.gain_db[0] - lo).abs() < 1e-9, "{alpha}");
+            assert!((d.phase_deg - phase).abs() < 1e-6, "{alpha}: {} vs {phase}", d.phase_deg);
+        }
+        // The floor tune states: α = 0.5 is ±4.44 dB (gain 0.6 … 1.667) and ±28.07°.
+        let d = DiskMargin::from_alpha(0.5, 1.0);
+        assert!((d.gain_db[1] - 20.0 * (5.0f64 / 3.0).log10()).abs() < 1e-12);
+        assert!((d.phase_deg - 28.0725).abs() < 1e-4);
+    }
 
     fn tf1(num: &[f64], den: &[f64], delay: f64) -> StateSpace {
         // Test-only controllable canonical realization of num/den (den monic after scaling).

@@ -4,7 +4,7 @@
 //! re-verified with the exact plant (delay and the loop's sample and hold kept) after rounding.
 //!
 //! Defaults a pilot can trust, added unless the user gives a goal of the same kind: a disk-margin
-//! floor α ≥ 0.5 (±5.6 dB and ±28° simultaneously), and a noise limit: |C_fb(jω)| ≤ 10·Ku for
+//! floor α ≥ 0.5 (±4.4 dB and ±28.1° simultaneously), and a noise limit: |C_fb(jω)| ≤ 10·Ku for
 //! ω ≥ 3·ω_u, with Ku, ω_u the plant's ultimate gain and frequency (so gyro noise above the loop's
 //! bandwidth is amplified at most ten times the gain that would make the loop oscillate).
 
@@ -610,7 +610,10 @@ fn goals_with_floor(texts: &[String]) -> Result<(Vec<Goal>, Vec<String>)> {
             Bound::AtLeast(0.5),
             "disk_margin>=0.5 (default floor)",
         ));
-        defaults.push("disk_margin>=0.5: the loop tolerates ±5.6 dB and ±28° at once".to_string());
+        defaults.push(format!(
+            "disk_margin>=0.5: the loop tolerates {}",
+            verdict::disk_tolerance(0.5)
+        ));
     }
     Ok((goals, defaults))
 }

@@ -102,12 +102,29 @@ pub fn pct(new: f64, old: f64) -> String {
     format!("{:+.0} %", 100.0 * (new / old - 1.0))
 }
 
+/// What a balanced (skew 0) disk margin `alpha` means for the pilot: "±4.4 dB and ±28.1° at once"
+/// for α = 0.5, computed from α ([`skyloop_lti::margins::DiskMargin::from_alpha`]); "any gain" from
+/// α = 2 on.
+pub fn disk_tolerance(alpha: f64) -> String {
+    let d = skyloop_lti::margins::DiskMargin::from_alpha(alpha, f64::NAN);
+    if d.gain_db[1].is_finite() {
+        format!("±{:.1} dB and ±{:.1}° at once", d.gain_db[1], d.phase_deg)
+    } else {
+        format!("any gain and ±{:.1}° at once", d.phase_deg)
+    }
+}
+
 /// The proposal's verdict line: crossover, robustness and noise against the flown tune.
 pub fn proposal_text(axis: &str, xo: (f64, f64), alpha: (f64, f64), noise_ratio: f64) -> String {
     let robust = if (alpha.1 - alpha.0).abs() <= 0.02 * alpha.0.max(0.1) {
         format!("same robustness (disk α {:.2})", alpha.1)
     } else if alpha.1 > alpha.0 {
-        format!("more robust (disk α {:.2} → {:.2})", alpha.0, alpha.1)
+        format!(
+            "more robust (disk α {:.2} → {:.2}: {})",
+            alpha.0,
+            alpha.1,
+            disk_tolerance(alpha.1)
+        )
     } else {
         format!("less robust (disk α {:.2} → {:.2}, above the floor)", alpha.0, alpha.1)
     };
@@ -118,4 +135,18 @@ pub fn proposal_text(axis: &str, xo: (f64, f64), alpha: (f64, f64), noise_ratio:
         xo.1,
         pct(noise_ratio, 1.0)
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn disk_tolerance_is_computed_from_alpha() {
+        assert_eq!(disk_tolerance(0.5), "±4.4 dB and ±28.1° at once");
+        assert_eq!(disk_tolerance(1.0), "±9.5 dB and ±53.1° at once");
+        assert_eq!(disk_tolerance(2.0), "any gain and ±90.0° at once");
+        let t = proposal_text("roll", (20.0, 22.0), (0.3, 0.66), 1.0);
+        assert!(t.contains("disk α 0.30 → 0.66: ±6.0 dB and ±36.5° at once"), "{t}");
+    }
 }
