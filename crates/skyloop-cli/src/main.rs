@@ -75,8 +75,23 @@ fn join_negative_values(args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString
     out
 }
 
+/// `skyloop --markdown-help` prints the CLI reference (`docs/reference/cli.md`) generated from
+/// clap's own definitions, so the reference cannot drift from `--help` (a test compares the two).
+/// It is hidden from `--help`: it is for the docs, not for users.
+fn markdown_help() -> String {
+    let options = clap_markdown::MarkdownOptions::new()
+        .title("skyloop command-line reference".to_string())
+        .show_footer(false)
+        .show_table_of_contents(true);
+    clap_markdown::help_markdown_custom::<Cli>(&options)
+}
+
 fn main() {
     quiet_panics();
+    if std::env::args_os().skip(1).eq(["--markdown-help"]) {
+        print!("{}", markdown_help());
+        return;
+    }
     let cli = match Cli::try_parse_from(join_negative_values(std::env::args_os().collect())) {
         Ok(c) => c,
         Err(e) => {

@@ -16,6 +16,7 @@ pub mod convert;
 pub mod discretize;
 pub mod display;
 pub mod expr;
+pub mod feedthrough;
 pub mod gramian;
 pub mod interconnect;
 pub mod minreal;

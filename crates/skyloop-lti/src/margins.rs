@@ -823,8 +823,15 @@ mod tests {
                 .map(|k| f(c64::from_polar(1.0, k as f64 * std::f64::consts::PI / 200_000.0)).arg())
                 .fold(0.0f64, f64::max)
                 .to_degrees();
-            assert!((d.gain_db[1] - hi).abs() < 1e-9 && (d.gain_db[0] - lo).abs() < 1e-9, "{alpha}");
-            assert!((d.phase_deg - phase).abs() < 1e-6, "{alpha}: {} vs {phase}", d.phase_deg);
+            assert!(
+                (d.gain_db[1] - hi).abs() < 1e-9 && (d.gain_db[0] - lo).abs() < 1e-9,
+                "{alpha}"
+            );
+            assert!(
+                (d.phase_deg - phase).abs() < 1e-6,
+                "{alpha}: {} vs {phase}",
+                d.phase_deg
+            );
         }
         // The floor tune states: α = 0.5 is ±4.44 dB (gain 0.6 … 1.667) and ±28.07°.
         let d = DiskMargin::from_alpha(0.5, 1.0);

@@ -58,6 +58,18 @@ fn bicopter_design_is_consistent_and_matches_eq12() {
     let eq12 = skyloop_lti::expr::parse_model(EQ12).expect("eq12");
     let c = closeness(r.reduced.as_ref().expect("reduced"), &eq12, 0.05, 20.0).expect("closeness");
     assert!(c.max_rel_error < 0.01, "{c:?}");
+    // Like eq. (12) it is strictly proper: SPA's rounding-level feedthrough (−7e-8 after the boost)
+    // is dropped and said so, so its zpk has the paper's four zeros and no zero near 3.4e8 rad/s.
+    let reduced = r.reduced.as_ref().expect("reduced");
+    assert_eq!(reduced.d[(0, 0)], 0.0);
+    assert_eq!(skyloop_lti::poles_zeros::zeros(reduced).expect("zeros").len(), 4);
+    assert!(
+        s.notes
+            .iter()
+            .any(|n| n.contains("feedthrough") && n.contains("negligible")),
+        "{:?}",
+        s.notes
+    );
     // Boost and reduction as the paper's Step 3: γ after both is 2.862 (printed to 4 digits; the
     // coefficients of eq. (12) themselves give 2.866 in tools-free python-control arithmetic).
     let g = red.gamma.expect("gamma");

@@ -79,7 +79,7 @@ pub enum Command {
     Minreal(minreal::Args),
     /// Nonlinear 6-DOF closed-loop simulation of a scenario (TOML) → trajectory CSV, metrics JSON, plot.
     Simulate(simulate::Args),
-    /// Reproduce a paper's claims (quadrotor-ssi) and check them.
+    /// Reproduce a paper's claims (bicopter, quadrotor-ssi, ducted-fan) and check them.
     Reproduce(reproduce::Args),
     /// Discretize a continuous model (zoh, foh, tustin with optional prewarp, matched).
     C2d(c2d::Args),

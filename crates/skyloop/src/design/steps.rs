@@ -8,6 +8,7 @@ use crate::spec::design::DiscretizeSpec;
 use rayon::prelude::*;
 use skyloop_lti::discretize::{c2d, Method as C2dMethod};
 use skyloop_lti::error::Result;
+use skyloop_lti::feedthrough::drop_negligible_feedthrough;
 use skyloop_lti::reduce::{balred, Reduced};
 use skyloop_lti::sos::{to_sos, Sos};
 use skyloop_lti::{LtiError, StateSpace};
@@ -147,8 +148,29 @@ pub(super) fn reduce(spec: &DesignSpec, synthesized: &StateSpace, notes: &mut Ve
         ));
         return Ok(None);
     }
-    let red = balred(synthesized, r.order, method).map_err(|e| LtiError::InvalidArgument(format!("reduction: {e}")))?;
+    let mut red =
+        balred(synthesized, r.order, method).map_err(|e| LtiError::InvalidArgument(format!("reduction: {e}")))?;
+    // Singular perturbation gives a strictly proper controller a feedthrough D + C₂A₂₂⁻¹B₂ that
+    // may be rounding (−7·10⁻⁸ for the bicopter): dropped where it is below 1e-4 of the response up
+    // to two decades above the controller's dynamics, so the printed zpk, the files and the C
+    // header show no zero at |CB|/|D| (3.4·10⁸ rad/s there) that the controller does not have.
+    let trimmed = drop_negligible_feedthrough(&red.sys, 1e-4)?;
+    for (i, j, d, share) in &trimmed.dropped {
+        notes.push(format!(
+            "reduction: feedthrough D[{i},{j}] = {d:.3e} dropped as negligible (before the gain boost; at most {share:.1e} of the reduced controller's response up to {:.3e} Hz); it only put a zero near {:.2e} rad/s",
+            trimmed.up_to_rad_s / (2.0 * std::f64::consts::PI),
+            zero_of_feedthrough(&red.sys, *i, *j, *d),
+        ));
+    }
+    red.sys = trimmed.sys;
     Ok(Some(red))
+}
+
+/// The zero a feedthrough d puts on entry (i, j): where |c_i·b_j|/ω reaches |d|, |c_i·b_j|/|d| rad/s
+/// (the first Markov parameter; infinity when it vanishes).
+fn zero_of_feedthrough(sys: &StateSpace, i: usize, j: usize, d: f64) -> f64 {
+    let cb: f64 = (0..sys.nx()).map(|k| sys.c[(i, k)] * sys.b[(k, j)]).sum();
+    cb.abs() / d.abs()
 }
 
 /// Step 2: the boost gain, 1 without a `[boost]`: the given gain, or the one that puts the
