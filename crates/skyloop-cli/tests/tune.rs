@@ -656,6 +656,64 @@ fn plant_mode_claims_recompute_from_the_json_alone() {
     assert!(v["loop"]["extra_delay_s"].as_f64().unwrap() > 0.0);
 }
 
+/// Issue 46's case, the default goals: α, crossover, PM and Ms recompute to 0.1 % from the printed
+/// controller alone (this file's own arithmetic), and the printed I is the controller's integral
+/// gain: lim ω→0 of −ω·Im C_fb(jω) is I times Betaflight's ITERM_SCALE 0.244381 (the filters have
+/// unit DC gain). Before the fix, the claimed α (0.625) was 2 % off the printed controller's.
+#[test]
+fn betaflight_default_claims_are_those_of_the_printed_controller_and_gains() {
+    let v = json(&[
+        "tune",
+        "--plant",
+        "1500*exp(-0.003*s)/(s*(0.02*s+1))",
+        "--firmware",
+        "betaflight",
+        "--json",
+    ]);
+    let p = rate_plant(1500.0, 0.02, 0.003);
+    let (alpha, xo) = recompute_from_json(&v, &p);
+    let m = &v["margins"];
+    let claim = |k: &str| m[k].as_f64().unwrap();
+    assert!(
+        (alpha / claim("disk_alpha") - 1.0).abs() < 1e-3,
+        "alpha {alpha} vs {}",
+        claim("disk_alpha")
+    );
+    assert!(
+        (xo / claim("crossover_hz") - 1.0).abs() < 1e-3,
+        "crossover {xo} vs {}",
+        claim("crossover_hz")
+    );
+    // PM at the recomputed crossover, Ms as the peak of 1/|1 + L| on the same grid.
+    let extra = v["loop"]["extra_delay_s"].as_f64().unwrap();
+    let l_at = |w: f64| {
+        let c = lti_at(&v["feedback_controller"], w);
+        let g = p(w);
+        let e = (-w * extra).sin_cos();
+        let l0 = (c.0 * g.0 - c.1 * g.1, c.0 * g.1 + c.1 * g.0);
+        (l0.0 * e.1 - l0.1 * e.0, l0.0 * e.0 + l0.1 * e.1)
+    };
+    let l = l_at(2.0 * std::f64::consts::PI * xo);
+    let pm = 180.0 + l.1.atan2(l.0).to_degrees();
+    assert!(
+        (pm / claim("phase_margin_deg") - 1.0).abs() < 1e-3,
+        "pm {pm} vs {}",
+        claim("phase_margin_deg")
+    );
+    let ms = (0..20000)
+        .map(|k| 2.0 * std::f64::consts::PI * 0.5 * 10f64.powf(k as f64 / 7000.0))
+        .map(|w| {
+            let l = l_at(w);
+            1.0 / (1.0 + l.0).hypot(l.1)
+        })
+        .fold(0.0, f64::max);
+    assert!((ms / claim("ms") - 1.0).abs() < 1e-3, "Ms {ms} vs {}", claim("ms"));
+    let i = v["gains"]["i"].as_f64().unwrap();
+    let w = 1e-3;
+    let ki = -w * lti_at(&v["feedback_controller"], w).1;
+    assert!((ki / (i * 0.244381) - 1.0).abs() < 1e-6, "ki {ki} vs I {i} x 0.244381");
+}
+
 /// PID-Analyzer's smooth-tune log (Betaflight 3.1.5, no setpoint field): the model explains the
 /// flown step once the setpoint comes through the 3.x rate curve and the D-term filters are read
 /// under their 3.x names; every axis answers in one run; a roll proposal is neither slower nor less
