@@ -444,6 +444,18 @@ fn print_log_outcome(out: &LogTuneOutcome) {
             c.rms_db
         );
     }
+    if let Some(c) = &out.crossover_check {
+        let (m, mf, me) = c.measured_peak();
+        let (p, pf) = c.predicted_peak();
+        println!(
+            "model check: at the flown crossover ({:.1} Hz; {} measured points, {:.1}–{:.1} Hz): |S| of the flown loop on the measured plant peaks at {m:.1} ± {me:.1} dB ({mf:.1} Hz), on the model at {p:.1} dB ({pf:.1} Hz): {}",
+            c.crossover_hz,
+            c.freq_hz.len(),
+            c.freq_hz.first().copied().unwrap_or(0.0),
+            c.freq_hz.last().copied().unwrap_or(0.0),
+            if c.disagrees() { "they DISAGREE: the model is wrong where the margins are decided" } else { "they agree" }
+        );
+    }
     if let (Some(m), Some(r)) = (&out.causal_step, out.causal_step_rms) {
         println!(
             "model check: predicted step of the current tune vs the causal FIR step from the log: RMS difference {r:.3}; the future setpoint explains {:.0} % of its residual",

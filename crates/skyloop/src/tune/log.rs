@@ -193,6 +193,8 @@ pub struct LogTuneOutcome {
     pub axis: Axis,
     /// The flown tune's closed loop setpoint → gyro, measured against predicted.
     pub closed_loop: Option<super::model_check::ClosedLoopCheck>,
+    /// The flown loop's |S| and |T| around its crossover on the measured plant, against the model's.
+    pub crossover_check: Option<super::model_check::CrossoverCheck>,
     /// What re-analysing other gains on this log's model needs (None without flown gains).
     pub live: Option<LiveLoop>,
     /// The flight's setpoint and gyro of this axis, decimated for the report's time strip.
@@ -463,6 +465,7 @@ fn tune_from_read_log(req: &LogTuneRequest, log: Log, derived: Vec<String>) -> R
         proposed_filters: pr.proposed_filters,
         axis: req.axis,
         closed_loop: fl.closed_loop,
+        crossover_check: fl.crossover,
         live,
         strip,
     })
@@ -651,6 +654,7 @@ struct Flown {
     model_step_rms: Option<f64>,
     causal_step_rms: Option<f64>,
     closed_loop: Option<super::model_check::ClosedLoopCheck>,
+    crossover: Option<super::model_check::CrossoverCheck>,
     refusal: Option<String>,
 }
 
@@ -723,7 +727,30 @@ fn flown_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, notes: &mut
             .map_err(|e| notes.push(format!("no closed-loop check: {e}")))
             .ok()
     });
-    let refusal = refusal(req, current.as_ref(), causal_step_rms);
+    // Where the margins are decided: S and T of the flown loop on the measured plant around the
+    // flown crossover, against the model's.
+    let crossover = current.as_ref().and_then(|c| {
+        super::model_check::crossover_check(
+            &id.frf,
+            &plants[0],
+            &held[0],
+            &c.feedback_controller,
+            c.margins.crossover_hz,
+        )
+        .map_err(|e| notes.push(format!("no check at the flown crossover: {e}")))
+        .ok()
+    });
+    let refusal = refusal(req, current.as_ref(), causal_step_rms).or_else(|| {
+        crossover.as_ref().filter(|c| c.disagrees()).map(|c| {
+            let (m, mf, me) = c.measured_peak();
+            let (p, pf) = c.predicted_peak();
+            format!(
+                "the model is wrong where the margins are decided: around the flown crossover ({:.1} Hz) the flown loop's |S| peaks at {m:.1} ± {me:.1} dB ({mf:.1} Hz) on the plant the flight measured but at {p:.1} dB ({pf:.1} Hz) on the identified model (the rate-loop model lacks dynamics the data show there: a second lag, a resonance, or filter phase); fly {} stick snaps or a chirp so a richer model can be fitted",
+                c.crossover_hz,
+                req.axis.name()
+            )
+        })
+    });
     Ok(Flown {
         held,
         flight_setup,
@@ -736,6 +763,7 @@ fn flown_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, notes: &mut
         model_step_rms,
         causal_step_rms,
         closed_loop,
+        crossover,
         refusal,
     })
 }
@@ -1084,6 +1112,10 @@ impl LogTuneOutcome {
             .closed_loop
             .as_ref()
             .map_or(Value::Null, super::model_check::ClosedLoopCheck::to_json);
+        v["crossover_check"] = self
+            .crossover_check
+            .as_ref()
+            .map_or(Value::Null, super::model_check::CrossoverCheck::to_json);
         v["verdict"] = self.verdict.to_json();
         v["noise"] = self.noise.as_ref().map_or(Value::Null, NoiseReport::to_json);
         v["front"] = json!(self

@@ -149,3 +149,199 @@ pub fn closed_loop_check(
         .sqrt();
     Ok(out)
 }
+
+/// Largest random error (relative, 1σ) of a measured plant point the crossover check uses.
+pub const CROSSOVER_POINT_ERR_MAX: f64 = 0.5;
+
+/// The flown loop where its margins are decided, measured against predicted: around the flown
+/// crossover (half to twice it), the sensitivity S = 1/(1 + L) and T = L/(1 + L) of the flown
+/// feedback controller on the plant's *measured* frequency response (the instrument estimate
+/// Φ_yr/Φ_ur of the identification, point by point, no parametric model) against the same on the
+/// identified model. The controller is the firmware's own arithmetic, known exactly, so a
+/// difference is the model's: a predicted |S| peak the measurement does not show means the model
+/// is wrong where the margins are decided.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CrossoverCheck {
+    /// The flown crossover the band is centred on, Hz.
+    pub crossover_hz: f64,
+    /// Frequencies used (the estimate's points in the band with a random error of at most
+    /// [`CROSSOVER_POINT_ERR_MAX`]), Hz.
+    pub freq_hz: Vec<f64>,
+    /// |S| from the measured plant, dB.
+    pub measured_s_db: Vec<f64>,
+    /// Its random error (1σ), dB.
+    pub measured_s_err_db: Vec<f64>,
+    /// |S| from the identified model, dB.
+    pub predicted_s_db: Vec<f64>,
+    /// |T| from the measured plant, dB.
+    pub measured_t_db: Vec<f64>,
+    /// |T| from the identified model, dB.
+    pub predicted_t_db: Vec<f64>,
+}
+
+impl CrossoverCheck {
+    /// Largest measured |S| (dB, Hz, its 1σ in dB).
+    pub fn measured_peak(&self) -> (f64, f64, f64) {
+        let k = argmax(&self.measured_s_db);
+        (self.measured_s_db[k], self.freq_hz[k], self.measured_s_err_db[k])
+    }
+
+    /// Largest predicted |S| over the same points (dB, Hz).
+    pub fn predicted_peak(&self) -> (f64, f64) {
+        let k = argmax(&self.predicted_s_db);
+        (self.predicted_s_db[k], self.freq_hz[k])
+    }
+
+    /// The |S| peaks differ by more than [`PEAK_DB_MAX`] and by more than twice the measured
+    /// peak's random error.
+    pub fn disagrees(&self) -> bool {
+        let (m, _, e) = self.measured_peak();
+        let (p, _) = self.predicted_peak();
+        (m - p).abs() > PEAK_DB_MAX.max(2.0 * e)
+    }
+
+    /// `{crossover_hz, band_hz, points, measured_s_peak_db, measured_s_peak_hz,
+    /// measured_s_peak_err_db, predicted_s_peak_db, predicted_s_peak_hz, agrees, freq_hz,
+    /// measured_s_db, measured_s_err_db, predicted_s_db, measured_t_db, predicted_t_db}`.
+    pub fn to_json(&self) -> Value {
+        let (m, mf, me) = self.measured_peak();
+        let (p, pf) = self.predicted_peak();
+        json!({
+            "crossover_hz": self.crossover_hz,
+            "band_hz": [self.freq_hz.first(), self.freq_hz.last()],
+            "points": self.freq_hz.len(),
+            "measured_s_peak_db": m,
+            "measured_s_peak_hz": mf,
+            "measured_s_peak_err_db": me,
+            "predicted_s_peak_db": p,
+            "predicted_s_peak_hz": pf,
+            "agrees": !self.disagrees(),
+            "freq_hz": self.freq_hz,
+            "measured_s_db": self.measured_s_db,
+            "measured_s_err_db": self.measured_s_err_db,
+            "predicted_s_db": self.predicted_s_db,
+            "measured_t_db": self.measured_t_db,
+            "predicted_t_db": self.predicted_t_db,
+        })
+    }
+}
+
+fn argmax(v: &[f64]) -> usize {
+    (0..v.len()).max_by(|&a, &b| v[a].total_cmp(&v[b])).unwrap_or(0)
+}
+
+/// The check of the flown feedback controller `c_fb` around `crossover_hz` on the identification's
+/// estimate `frf` (plant input → output, setpoint as instrument): `plant` is the identified model (what the identification's estimate measured: no hold), `held` the same with the
+/// loop's sample and hold, which multiplies the measured plant too.
+///
+/// # Errors
+/// Fewer than three measured points in the band with a random error of at most
+/// [`CROSSOVER_POINT_ERR_MAX`] (the flight does not measure the loop there), or a model that cannot
+/// be evaluated.
+pub fn crossover_check(
+    frf: &skyloop_sysid::spectral::Frf,
+    plant: &StateSpace,
+    held: &StateSpace,
+    c_fb: &StateSpace,
+    crossover_hz: f64,
+) -> Result<CrossoverCheck> {
+    let err = frf.rel_std();
+    let (lo, hi) = (0.5 * crossover_hz, 2.0 * crossover_hz);
+    let evs = [
+        FreqEvaluator::new(plant)?,
+        FreqEvaluator::new(held)?,
+        FreqEvaluator::new(c_fb)?,
+    ];
+    let mut out = CrossoverCheck {
+        crossover_hz,
+        freq_hz: Vec::new(),
+        measured_s_db: Vec::new(),
+        measured_s_err_db: Vec::new(),
+        predicted_s_db: Vec::new(),
+        measured_t_db: Vec::new(),
+        predicted_t_db: Vec::new(),
+    };
+    let one = c64::new(1.0, 0.0);
+    let db = |x: f64| 20.0 * x.log10();
+    for (k, &f) in frf.freq_hz.iter().enumerate() {
+        if f < lo || f > hi || !(err[k] <= CROSSOVER_POINT_ERR_MAX) {
+            continue;
+        }
+        let s = c64::new(0.0, 2.0 * PI * f);
+        let v: Vec<c64> = evs
+            .iter()
+            .map(|e| e.eval(s).map(|m| m[(0, 0)]))
+            .collect::<std::result::Result<_, _>>()?;
+        // The hold the model adds, applied to the measured plant as well.
+        let hold = v[1] / v[0];
+        let l_meas = frf.response[k] * hold * v[2];
+        let l_pred = v[1] * v[2];
+        let (s_meas, s_pred) = (one / (one + l_meas), one / (one + l_pred));
+        out.freq_hz.push(f);
+        out.measured_s_db.push(db(s_meas.norm()));
+        out.measured_s_err_db.push(db(1.0 + (l_meas * s_meas).norm() * err[k]));
+        out.predicted_s_db.push(db(s_pred.norm()));
+        out.measured_t_db.push(db((l_meas * s_meas).norm()));
+        out.predicted_t_db.push(db((l_pred * s_pred).norm()));
+    }
+    if out.freq_hz.len() < 3 {
+        return Err(Error::Failed(format!(
+            "the flight measures the plant at {} point(s) between {lo:.1} and {hi:.1} Hz (half to twice the flown crossover) with a random error of at most {:.0} %: too few to check the loop there",
+            out.freq_hz.len(),
+            100.0 * CROSSOVER_POINT_ERR_MAX
+        )));
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use skyloop_lti::expr::parse_model;
+    use skyloop_sysid::spectral::Frf;
+
+    /// An estimate of `truth` at 2–100 Hz, exact, with the error bars of 200 averages at γ² 0.5.
+    fn frf_of(truth: &StateSpace) -> Frf {
+        let freq_hz: Vec<f64> = (0..120).map(|k| 2.0 * 10f64.powf(1.7 * f64::from(k) / 119.0)).collect();
+        let ev = FreqEvaluator::new(truth).unwrap();
+        let response = freq_hz
+            .iter()
+            .map(|f| ev.eval(c64::new(0.0, 2.0 * PI * f)).unwrap()[(0, 0)])
+            .collect();
+        let n = freq_hz.len();
+        Frf {
+            freq_hz,
+            response,
+            coherence: vec![0.5; n],
+            dof: vec![200.0; n],
+            bandwidth_hz: vec![0.0; n],
+        }
+    }
+
+    #[test]
+    fn a_model_missing_the_dynamics_at_crossover_disagrees_and_the_right_one_agrees() {
+        let model = parse_model("126*exp(-0.0034*s)/(s*(0.0088*s+1))").unwrap();
+        // The flown PID (C_fb of a Betaflight-like roll axis, in the model's units).
+        let c = parse_model("1.1 + 18/s + 0.015*s/(0.0016*s+1)").unwrap();
+        let xo = 30.0;
+        let same = crossover_check(&frf_of(&model), &model, &model, &c, xo).unwrap();
+        assert!(!same.disagrees(), "{:?}", same.to_json());
+        assert!(same
+            .measured_s_db
+            .iter()
+            .zip(&same.predicted_s_db)
+            .all(|(a, b)| (a - b).abs() < 1e-9));
+        // The craft has a second lag at 40 Hz the model lacks: |S| near crossover is far higher.
+        let truth = parse_model("126*exp(-0.0034*s)/(s*(0.0088*s+1)*(0.004*s+1))").unwrap();
+        let off = crossover_check(&frf_of(&truth), &model, &model, &c, xo).unwrap();
+        let (m, _, _) = off.measured_peak();
+        let (p, _) = off.predicted_peak();
+        assert!(off.disagrees(), "measured {m} vs predicted {p}");
+        assert!(m > p + PEAK_DB_MAX, "measured {m} vs predicted {p}");
+        // Too few usable points: an error naming the band, not a verdict.
+        let mut poor = frf_of(&truth);
+        poor.coherence.iter_mut().for_each(|g| *g = 0.001);
+        let e = crossover_check(&poor, &model, &model, &c, xo).unwrap_err().to_string();
+        assert!(e.contains("between 15.0 and 60.0 Hz"), "{e}");
+    }
+}

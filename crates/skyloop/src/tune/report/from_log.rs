@@ -44,6 +44,9 @@ pub fn write_log_outputs(out: &LogTuneOutcome, dir: &Path) -> Result<()> {
     if let Some(fig) = super::segments::segments_section(&mut rep, out) {
         fig.save(&dir.join("flight_segments.svg"))?;
     }
+    if let Some(fig) = crossover_section(&mut rep, out) {
+        fig.save(&dir.join("crossover_check.svg"))?;
+    }
     comparison_section(&mut rep, out);
     proposal_section(&mut rep, out);
     let sec = rep.section("Frequency and time responses");
@@ -64,6 +67,90 @@ pub fn write_log_outputs(out: &LogTuneOutcome, dir: &Path) -> Result<()> {
     }
     rep.save(&dir.join("report.html"))?;
     Ok(())
+}
+
+/// The flown loop where its margins are decided: |S| and |T| around the flown crossover on the
+/// plant the flight measured (with its ±2σ band) beside the model's, so a claim that the flown tune
+/// is near instability shows its measured evidence (or the lack of it) next to the prediction.
+fn crossover_section(rep: &mut Report, out: &LogTuneOutcome) -> Option<Figure> {
+    use skyloop_plot::figure::{Band, Marker, Panel, Series};
+    let c = out.crossover_check.as_ref()?;
+    let (m, mf, me) = c.measured_peak();
+    let (p, pf) = c.predicted_peak();
+    let mut s_panel = Panel::frequency("|S| [dB]");
+    s_panel.title = "sensitivity S = 1/(1 + L): disturbance amplification; its peak is 1/(distance of L to −1)".into();
+    let two = |sign: f64| -> Vec<f64> {
+        c.measured_s_db
+            .iter()
+            .zip(&c.measured_s_err_db)
+            .map(|(v, e)| v + sign * 2.0 * e)
+            .collect()
+    };
+    s_panel.bands.push(Band {
+        label: "measured ±2σ".into(),
+        x: c.freq_hz.clone(),
+        lower: two(-1.0),
+        upper: two(1.0),
+        color: 0,
+    });
+    s_panel.series.push(
+        Series::line(
+            "measured plant, flown controller",
+            c.freq_hz.clone(),
+            c.measured_s_db.clone(),
+        )
+        .colored(0),
+    );
+    s_panel.series.push(
+        Series::dashed(
+            "identified model, flown controller",
+            c.freq_hz.clone(),
+            c.predicted_s_db.clone(),
+        )
+        .colored(1),
+    );
+    s_panel.markers.push(Marker::Vertical {
+        x: c.crossover_hz,
+        label: format!("flown crossover {:.1} Hz", c.crossover_hz),
+    });
+    let mut t_panel = Panel::frequency("|T| [dB]");
+    t_panel.series.push(
+        Series::line(
+            "measured plant, flown controller",
+            c.freq_hz.clone(),
+            c.measured_t_db.clone(),
+        )
+        .colored(0),
+    );
+    t_panel.series.push(
+        Series::dashed(
+            "identified model, flown controller",
+            c.freq_hz.clone(),
+            c.predicted_t_db.clone(),
+        )
+        .colored(1),
+    );
+    let fig = Figure::new(
+        "The flown loop at its crossover: measured plant against the model",
+        vec![s_panel, t_panel],
+    );
+    let sec = rep.section("The flown loop at its crossover");
+    sec.text(&format!(
+        "Half to twice the flown crossover ({:.1} Hz), the flown feedback controller (the firmware's arithmetic, known exactly) closed around the plant this flight measured, point by point (the setpoint-instrument estimate, {} points with a random error of at most {:.0} %), and around the identified model. |S| peaks at {m:.1} ± {me:.1} dB ({mf:.1} Hz) on the measured plant and at {p:.1} dB ({pf:.1} Hz) on the model: {}.",
+        c.crossover_hz,
+        c.freq_hz.len(),
+        100.0 * crate::tune::model_check::CROSSOVER_POINT_ERR_MAX,
+        if c.disagrees() {
+            "they disagree, so the model is wrong where the margins are decided and no proposal is made from it"
+        } else {
+            "they agree within the measurement's error, so the flight itself shows the margins the model claims"
+        }
+    ));
+    sec.figure(
+        fig.clone(),
+        "|S| and |T| of the flown tune: solid on the measured plant (shaded ±2σ), dashed on the identified model.",
+    );
+    Some(fig)
 }
 
 /// Bode and Nyquist plots of L for each tune, both tunes' crossovers and phase margins marked in
