@@ -97,6 +97,12 @@ fn synthesis_failures_name_the_model_property() {
             vec!["ncfsyn", "1/((1e-8*s+1)*(1e8*s+1))"],
             "the shaped plant W2·P·W1 has poles from",
         ),
+        // A weight's pole cancelled by the plant's zero on the axis: the mode, its frequency and
+        // both models are named (before: the shaped plant "is not detectable" alone).
+        (
+            vec!["ncfsyn", "(s^2+4)/(s+1)^3", "--w1", "1/(s^2+4)"],
+            "the mode at s = 0.000000+2.000000i (0.3183 Hz) is a pole of the weight W1 cancelled by a zero of the plant P",
+        ),
     ] {
         let (code, _, err) = skyloop(&args);
         assert_eq!(code, 2, "{args:?}");

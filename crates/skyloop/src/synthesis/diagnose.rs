@@ -87,6 +87,70 @@ pub fn model_problem(name: &str, sys: &StateSpace, kind: Synthesis) -> Option<St
     None
 }
 
+/// Where an unstabilizable or undetectable mode comes from: the models (plant, weights) that have a
+/// pole there, and those with a zero there (a pole of one cancelled by a zero of the next in the
+/// series connection is the usual cause: the shaped plant keeps the mode but cannot reach or see
+/// it), and whether that is a cancellation or a hidden mode (the cause itself) rather than only a
+/// pole; None for another error or a mode no model names.
+fn mode_origin(e: &RobustError, models: &[(&str, &StateSpace)]) -> Option<(String, bool)> {
+    let (mode, verb) = match e {
+        RobustError::NotStabilizable { mode, .. } => (*mode, "no input can move"),
+        RobustError::NotDetectable { mode, .. } => (*mode, "no output sees"),
+        _ => return None,
+    };
+    let near = |z: &skyloop_lti::c64| (z - mode).norm() <= 1e-6 * mode.norm().max(1.0);
+    // Rounding-level parts print as 0, not −0.000000.
+    let tidy = |x: f64| if x.abs() < 5e-7 * mode.norm().max(1.0) { 0.0 } else { x };
+    let with = |f: fn(&StateSpace) -> skyloop_lti::error::Result<Vec<skyloop_lti::c64>>| -> Vec<&str> {
+        models
+            .iter()
+            .filter(|(_, m)| f(m).is_ok_and(|v| v.iter().any(near)))
+            .map(|(n, _)| *n)
+            .filter(|n| !n.starts_with("the shaped plant"))
+            .collect()
+    };
+    let (poles, mut zeros) = (
+        with(skyloop_lti::poles_zeros::poles),
+        with(skyloop_lti::poles_zeros::zeros),
+    );
+    // A model with a pole and a zero at the mode holds it hidden in its own realization (an
+    // input-decoupling or output-decoupling zero), not cancelled by another model.
+    let own: Vec<&str> = poles.iter().copied().filter(|n| zeros.contains(n)).collect();
+    if !own.is_empty() {
+        return Some((format!(
+            "the mode at s = {:.6}{:+.6}i ({:.4} Hz) is a hidden mode of {}'s own realization (a pole that {verb}): remove it (minreal) or give that model a realization without it",
+            tidy(mode.re),
+            tidy(mode.im),
+            mode.norm() / (2.0 * std::f64::consts::PI),
+            own.join(" and ")
+        ), true));
+    }
+    zeros.retain(|n| !poles.contains(n));
+    let at = format!(
+        "the mode at s = {:.6}{:+.6}i ({:.4} Hz)",
+        tidy(mode.re),
+        tidy(mode.im),
+        mode.norm() / (2.0 * std::f64::consts::PI)
+    );
+    let strong = !poles.is_empty() && !zeros.is_empty();
+    let named = match (poles.is_empty(), zeros.is_empty()) {
+        (true, true) => return None,
+        (false, true) => format!("{at} is a pole of {}", poles.join(" and ")),
+        (true, false) => format!("{at} is a zero of {}", zeros.join(" and ")),
+        (false, false) => format!(
+            "{at} is a pole of {} cancelled by a zero of {} in the series connection",
+            poles.join(" and "),
+            zeros.join(" and ")
+        ),
+    };
+    Some((
+        format!(
+            "{named}: the shaped plant keeps it, but {verb} it, so no stabilizing Riccati solution exists; move that pole or zero off the point (or off the imaginary axis), or drop the weight's dynamics there"
+        ),
+        strong,
+    ))
+}
+
 /// The message for a failed synthesis: the first model problem found, then the solver's words on a
 /// second line; the solver's words alone when the failure is a statement about the problem itself
 /// (infeasible γ, a rank-deficient D12/D21, bad arguments) or no model explains it.
@@ -102,7 +166,16 @@ pub fn explain(what: &str, e: &RobustError, models: &[(&str, &StateSpace)], kind
     // (A D12 or D21 whose smallest singular value is not small was judged deficient against the
     // plant's other, out-of-range entries: the scaling is the cause.)
     let problem = numerical
-        .then(|| models.iter().find_map(|(n, m)| model_problem(n, m, kind)))
+        .then(|| {
+            // A cancellation or a hidden mode is the cause itself; a mode that is merely some
+            // model's pole is explained better by that model's problem (a spread, a scaling) when
+            // it has one.
+            let origin = mode_origin(e, models);
+            let strong = origin.as_ref().filter(|(_, strong)| *strong).map(|(t, _)| t.clone());
+            strong
+                .or_else(|| models.iter().find_map(|(n, m)| model_problem(n, m, kind)))
+                .or_else(|| origin.map(|(t, _)| t))
+        })
         .flatten();
     match problem {
         Some(p) => format!("{what}: {p}\n  (solver: {e})"),
@@ -132,6 +205,29 @@ mod tests {
         assert!(p.contains("imaginary axis") && p.contains("s+0.001"), "{p}");
         assert!(model_problem("P", &m("1/(s*(s+1))"), Synthesis::LoopShaping).is_none());
         assert!(model_problem("P", &m("10/((s+1)*(0.01*s+1))"), Synthesis::Generalized).is_none());
+    }
+
+    #[test]
+    fn an_unreachable_mode_is_traced_to_the_weight_and_the_plant() {
+        // W1 has poles at ±2j (1/(s²+4)) and P zeros there: the series connection cancels them.
+        let e = RobustError::NotDetectable {
+            system: "the shaped plant (C, A)",
+            mode: skyloop_lti::c64::new(0.0, 2.0),
+        };
+        let t = explain(
+            "ncfsyn",
+            &e,
+            &[
+                ("the plant P", &m("(s^2+4)/(s+1)^3")),
+                ("the weight W1", &m("1/(s^2+4)")),
+            ],
+            Synthesis::LoopShaping,
+        );
+        assert!(
+            t.contains("is a pole of the weight W1 cancelled by a zero of the plant P") && t.contains("0.3183 Hz"),
+            "{t}"
+        );
+        assert!(t.contains("(solver:"), "{t}");
     }
 
     #[test]
