@@ -11,6 +11,8 @@ pub enum ControlError {
     InvalidLimits,
     /// Hanus conditioning needs an invertible feedthrough D.
     SingularFeedthrough,
+    /// A value outside its allowed range (`what` names the value and the range).
+    OutOfRange(&'static str),
 }
 
 impl core::fmt::Display for ControlError {
@@ -19,6 +21,7 @@ impl core::fmt::Display for ControlError {
             ControlError::TooLarge(what, n, cap) => write!(f, "{what} = {n} exceeds the capacity {cap}"),
             ControlError::NonFinite(what) => write!(f, "{what} is not finite"),
             ControlError::InvalidLimits => write!(f, "invalid limits (min > max or negative limit/time constant)"),
+            ControlError::OutOfRange(what) => write!(f, "out of range: {what}"),
             ControlError::SingularFeedthrough => {
                 write!(f, "anti-windup conditioning needs a nonzero feedthrough D")
             }

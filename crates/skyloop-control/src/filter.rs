@@ -176,6 +176,44 @@ impl<T: Real> Filter<T> {
         })
     }
 
+    /// A cascade of `order` (1..=3) first-order lags y += k·(x − y), at rest: a PT-n whose gain `k`
+    /// was computed elsewhere (a firmware's own arithmetic, see `skyloop::firmware`).
+    ///
+    /// # Errors
+    /// An order outside 1..=3 or a gain outside (0, 1].
+    pub fn from_lag(k: f64, order: u8) -> Result<Self> {
+        if !(1..=3).contains(&order) || !(k > 0.0 && k <= 1.0) {
+            return Err(ControlError::OutOfRange(
+                "a lag needs an order in 1..=3 and a gain in (0, 1]",
+            ));
+        }
+        Ok(Filter {
+            coeffs: Coeffs::Lag { k, order },
+            k: T::from_f64(k),
+            b: [T::ZERO; 3],
+            a: [T::ZERO; 2],
+            state: [T::ZERO; 3],
+        })
+    }
+
+    /// A biquad (b0 + b1 z⁻¹ + b2 z⁻²)/(1 + a1 z⁻¹ + a2 z⁻²) with given coefficients, at rest, run
+    /// in transposed direct form II.
+    ///
+    /// # Errors
+    /// A coefficient that is not finite.
+    pub fn from_biquad(b: [f64; 3], a: [f64; 2]) -> Result<Self> {
+        if !b.iter().chain(a.iter()).all(|v| v.is_finite()) {
+            return Err(ControlError::NonFinite("biquad coefficients"));
+        }
+        Ok(Filter {
+            coeffs: Coeffs::Biquad { b, a },
+            k: T::ZERO,
+            b: b.map(T::from_f64),
+            a: a.map(T::from_f64),
+            state: [T::ZERO; 3],
+        })
+    }
+
     /// Clears the state (output 0 for input 0).
     pub fn reset(&mut self) {
         self.state = [T::ZERO; 3];

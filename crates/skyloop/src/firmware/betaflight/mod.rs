@@ -24,6 +24,7 @@ use crate::error::{Error, Result};
 use serde::Serialize;
 use skyloop_lti::StateSpace;
 use skyloop_robust::structured::blocks::Block;
+pub mod filter_math;
 pub mod flight;
 pub mod header;
 

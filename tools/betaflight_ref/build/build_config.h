@@ -1,0 +1,2 @@
+/* Host stub (skyloop tools): the maths source includes this header but needs nothing from it. */
+#pragma once
