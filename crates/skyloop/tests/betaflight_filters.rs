@@ -194,3 +194,25 @@ fn analysis_model_is_within_its_stated_error() {
     );
     assert!(usual.0 < 0.02 && usual.1 < 0.03, "from 50 Hz up: {usual:?}");
 }
+
+/// The PID scale factors and the yaw I factor of every version against what its source defines
+/// (`tools/gen_betaflight_pid_scales.sh`): the loop's C_fb is P·PTERM_SCALE + I·ITERM_SCALE(·yaw)/s
+/// + D·DTERM_SCALE·s, and Kf = F·FEEDFORWARD_SCALE/100.
+#[test]
+fn pid_scales_and_yaw_i_factor_are_each_versions() {
+    use skyloop::firmware::betaflight as bf;
+    let fx = skyloop_fixtures::load(env!("CARGO_MANIFEST_DIR"), "tests/fixtures/betaflight/pid_scales.json");
+    let versions = fx["versions"].as_array().unwrap();
+    assert!(versions.len() >= 7);
+    for v in versions {
+        let tag = v["tag"].as_str().unwrap();
+        assert_eq!(v["commit"].as_str().unwrap().len(), 40);
+        assert_eq!(num(v, "pterm_scale"), bf::PTERM_SCALE, "{tag}");
+        assert_eq!(num(v, "iterm_scale"), bf::ITERM_SCALE, "{tag}");
+        assert_eq!(num(v, "dterm_scale"), bf::DTERM_SCALE, "{tag}");
+        assert_eq!(num(v, "feedforward_scale"), bf::FTERM_SCALE, "{tag}");
+        assert_eq!(num(v, "f_divisor"), 100.0, "{tag}");
+        let major: u32 = tag.split('.').next().unwrap().parse().unwrap();
+        assert_eq!(bf::yaw_i_factor(Some(major), false), num(v, "yaw_i_factor"), "{tag}");
+    }
+}

@@ -72,7 +72,7 @@ impl RateGains {
         let t = |k: usize| th.get(k).copied().unwrap_or(0.0);
         Ok(match self {
             RateGains::Betaflight { gains, axis, filters } => {
-                let yaw = if *axis == Axis::Yaw { 2.5 } else { 1.0 };
+                let yaw = if *axis == Axis::Yaw { filters.yaw_i_factor } else { 1.0 };
                 let scales = [
                     betaflight::PTERM_SCALE,
                     betaflight::ITERM_SCALE * yaw,
@@ -87,6 +87,7 @@ impl RateGains {
                             u[2] * scales[2],
                             gains.f,
                             *axis,
+                            filters,
                         )?,
                         axis: *axis,
                         filters: filters.clone(),
@@ -156,7 +157,7 @@ impl RateGains {
     pub fn feedforward_paths(&self) -> Result<(StateSpace, StateSpace)> {
         Ok(match self {
             RateGains::Betaflight { gains, axis, filters } => (
-                betaflight::reference_path(&betaflight::Gains { f: 0, ..*gains }, *axis, filters.loop_hz)?,
+                betaflight::reference_path(&betaflight::Gains { f: 0, ..*gains }, *axis, filters)?,
                 betaflight::feedforward_unit(filters.loop_hz)?,
             ),
             RateGains::Inav { gains, filters, .. } => (

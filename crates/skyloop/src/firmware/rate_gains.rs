@@ -20,7 +20,7 @@ pub enum RateGains {
     Betaflight {
         /// The gains.
         gains: betaflight::Gains,
-        /// The axis (yaw's I is scaled ×2.5).
+        /// The axis (yaw's I is scaled by the filters' `yaw_i_factor`).
         axis: Axis,
         /// Filters and loop rate.
         filters: betaflight::Filters,
@@ -85,8 +85,8 @@ impl RateGains {
     /// Continuous (Kp, Ki, Kd) in the plant's units.
     pub fn continuous(&self) -> [f64; 3] {
         match self {
-            RateGains::Betaflight { gains, axis, .. } => {
-                let (p, i, d, _) = betaflight::continuous(gains, *axis);
+            RateGains::Betaflight { gains, axis, filters } => {
+                let (p, i, d, _) = betaflight::continuous(gains, *axis, filters);
                 [p, i, d]
             }
             RateGains::Inav { gains, .. } => {
@@ -132,7 +132,7 @@ impl RateGains {
     /// A loop rate that is not positive.
     pub fn reference_path(&self) -> Result<StateSpace> {
         match self {
-            RateGains::Betaflight { gains, axis, filters } => betaflight::reference_path(gains, *axis, filters.loop_hz),
+            RateGains::Betaflight { gains, axis, filters } => betaflight::reference_path(gains, *axis, filters),
             RateGains::Inav { gains, filters, .. } => inav::reference_path(gains, filters),
             RateGains::Px4 { gains, .. } => px4::reference_path(gains),
             RateGains::Ardupilot {

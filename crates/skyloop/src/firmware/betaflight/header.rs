@@ -88,6 +88,8 @@ pub struct BetaflightTuning {
     pub rates: Vec<Rates>,
     /// Firmware major version (3 or 4 for Betaflight), from `Firmware revision`.
     pub version_major: Option<u32>,
+    /// `use_integrated_yaw` on (4.1–4.2): yaw's I is then not scaled ×2.5.
+    pub integrated_yaw: bool,
     /// Dynamic notch; `None` when absent or off.
     pub dynamic_notch: Option<DynamicNotch>,
     /// RPM filter; `None` when absent or off (0 harmonics).
@@ -185,6 +187,7 @@ pub fn from_log(log: &Log) -> BetaflightTuning {
         gyro_notches: header_notches(log, "gyro_notch_hz", "gyro_notch_cutoff"),
         rates: rates(log),
         version_major: version_of(log.setting("Firmware revision").unwrap_or_default()).map(|v| v.0),
+        integrated_yaw: log.setting("use_integrated_yaw").is_some_and(|v| v.trim() == "1"),
         tpa_breakpoint_us: one("tpa_breakpoint"),
     }
 }

@@ -45,10 +45,25 @@ pub const PID_GAIN_MAX: u32 = 250;
 /// Largest F (`F_GAIN_MAX`).
 pub const F_GAIN_MAX: u32 = 1000;
 
-/// Betaflight's yaw I factor: Ki ×2.5 on yaw (unless integrated yaw).
-fn i_factor(axis: Axis) -> f64 {
+/// Betaflight's yaw I factor from 4.0 on: `pid_init.c` multiplies yaw's Ki by 2.5 unless
+/// `use_integrated_yaw` is on; 3.x has no such factor (checked against the sources of 3.5.7, 4.0.6,
+/// 4.2.11, 4.5.5 and 2025.12.5).
+pub const YAW_I_FACTOR: f64 = 2.5;
+
+/// The yaw I factor a header's version and settings give: [`YAW_I_FACTOR`] from 4.0 on (and when
+/// the version is unknown), 1 on 3.x or with integrated yaw.
+pub fn yaw_i_factor(version_major: Option<u32>, integrated_yaw: bool) -> f64 {
+    if version_major.is_some_and(|v| v < 4) || integrated_yaw {
+        1.0
+    } else {
+        YAW_I_FACTOR
+    }
+}
+
+/// The I factor of `axis` with these filters' yaw factor.
+fn i_factor(axis: Axis, filters: &Filters) -> f64 {
     if axis == Axis::Yaw {
-        2.5
+        filters.yaw_i_factor
     } else {
         1.0
     }
@@ -88,6 +103,9 @@ pub struct Filters {
     pub dterm: Vec<Lowpass>,
     /// PID loop rate, Hz.
     pub loop_hz: f64,
+    /// Ki multiplier on yaw ([`yaw_i_factor`]: 2.5 from 4.0 on, 1 on 3.x or with integrated yaw);
+    /// not a filter, but a property of the version the loop runs, kept with its rate.
+    pub yaw_i_factor: f64,
 }
 
 impl Default for Filters {
@@ -99,15 +117,16 @@ impl Default for Filters {
             gyro: vec![Lowpass::Pt1(250.0), Lowpass::Pt1(500.0)],
             dterm: vec![Lowpass::Pt1(100.0), Lowpass::Pt1(150.0)],
             loop_hz: 4000.0,
+            yaw_i_factor: YAW_I_FACTOR,
         }
     }
 }
 
 /// Continuous gains in the plant's units: (Kp, Ki, Kd, Kf).
-pub fn continuous(g: &Gains, axis: Axis) -> (f64, f64, f64, f64) {
+pub fn continuous(g: &Gains, axis: Axis, filters: &Filters) -> (f64, f64, f64, f64) {
     (
         PTERM_SCALE * g.p as f64,
-        ITERM_SCALE * g.i as f64 * i_factor(axis),
+        ITERM_SCALE * g.i as f64 * i_factor(axis, filters),
         DTERM_SCALE * g.d as f64,
         FTERM_SCALE * g.f as f64 / 100.0,
     )
@@ -117,7 +136,7 @@ pub fn continuous(g: &Gains, axis: Axis) -> (f64, f64, f64, f64) {
 ///
 /// # Errors
 /// A negative gain or one above Betaflight's `PID_GAIN_MAX` (250) once scaled, named.
-pub fn from_continuous(kp: f64, ki: f64, kd: f64, f: u32, axis: Axis) -> Result<Gains> {
+pub fn from_continuous(kp: f64, ki: f64, kd: f64, f: u32, axis: Axis, filters: &Filters) -> Result<Gains> {
     let conv = |name: &str, k: f64, scale: f64| {
         super::integer_gain(
             &format!("Betaflight {name}_{}", axis.name()),
@@ -134,7 +153,7 @@ pub fn from_continuous(kp: f64, ki: f64, kd: f64, f: u32, axis: Axis) -> Result<
     }
     Ok(Gains {
         p: conv("p", kp, PTERM_SCALE)?,
-        i: conv("i", ki, ITERM_SCALE * i_factor(axis))?,
+        i: conv("i", ki, ITERM_SCALE * i_factor(axis, filters))?,
         d: conv("d", kd, DTERM_SCALE)?,
         f,
     })
@@ -164,7 +183,7 @@ pub fn block(filters: &Filters) -> Result<Block> {
 /// # Errors
 /// Invalid filter cutoffs.
 pub fn feedback_controller(g: &Gains, axis: Axis, filters: &Filters) -> Result<StateSpace> {
-    let (kp, ki, kd, _) = continuous(g, axis);
+    let (kp, ki, kd, _) = continuous(g, axis, filters);
     Ok(block(filters)?.realize(&[kp, ki, kd])?)
 }
 
@@ -172,10 +191,10 @@ pub fn feedback_controller(g: &Gains, axis: Axis, filters: &Filters) -> Result<S
 ///
 /// # Errors
 /// A loop rate that is not positive.
-pub fn reference_path(g: &Gains, axis: Axis, loop_hz: f64) -> Result<StateSpace> {
-    let (kp, ki, _, kf) = continuous(g, axis);
+pub fn reference_path(g: &Gains, axis: Axis, filters: &Filters) -> Result<StateSpace> {
+    let (kp, ki, _, kf) = continuous(g, axis, filters);
     let pi = StateSpace::from_rows(&[vec![0.0]], &[vec![1.0]], &[vec![ki]], &[vec![kp]], 0.0)?;
-    let mut f = feedforward_unit(loop_hz)?;
+    let mut f = feedforward_unit(filters.loop_hz)?;
     f.c = &f.c * kf;
     f.d = &f.d * kf;
     Ok(skyloop_lti::interconnect::parallel(&pi, &f)?)
@@ -372,6 +391,7 @@ pub fn flown_from_header(b: &BetaflightTuning, axis: Axis, log: &Log) -> FlownHe
         gyro: Vec::new(),
         dterm,
         loop_hz,
+        yaw_i_factor: yaw_i_factor(b.version_major, b.integrated_yaw),
     };
     let mut gains = None;
     if let Some(p) = b.pidf.get(axis.index()) {
@@ -636,6 +656,16 @@ mod tests {
         let s = c64::new(0.0, 0.01);
         let ki_yaw = (skyloop_lti::freqresp::evalfr(&yaw, s).unwrap()[(0, 0)] * s).re;
         assert!((ki_yaw - 2.5 * 0.244381 * 80.0).abs() < 1e-3 * ki_yaw);
+        // Betaflight 3.x (and integrated yaw) has no ×2.5: yaw's I is scaled as the others'.
+        let v3 = Filters {
+            yaw_i_factor: yaw_i_factor(Some(3), false),
+            ..Filters::default()
+        };
+        let yaw3 = feedback_controller(&g, Axis::Yaw, &v3).unwrap();
+        let ki_yaw3 = (skyloop_lti::freqresp::evalfr(&yaw3, s).unwrap()[(0, 0)] * s).re;
+        assert!((ki_yaw3 - 0.244381 * 80.0).abs() < 1e-3 * ki_yaw3, "{ki_yaw3}");
+        assert_eq!(yaw_i_factor(Some(4), true), 1.0);
+        assert_eq!(yaw_i_factor(None, false), YAW_I_FACTOR);
     }
 
     #[test]
@@ -646,9 +676,10 @@ mod tests {
             d: 40,
             f: 120,
         };
-        let (kp, ki, kd, _) = continuous(&g, Axis::Pitch);
-        assert_eq!(from_continuous(kp, ki, kd, 120, Axis::Pitch).unwrap(), g);
-        let e = from_continuous(100.0, ki, kd, 0, Axis::Roll).unwrap_err();
+        let fl = Filters::default();
+        let (kp, ki, kd, _) = continuous(&g, Axis::Pitch, &fl);
+        assert_eq!(from_continuous(kp, ki, kd, 120, Axis::Pitch, &fl).unwrap(), g);
+        let e = from_continuous(100.0, ki, kd, 0, Axis::Roll, &fl).unwrap_err();
         assert!(
             e.to_string().contains("p_roll") && e.to_string().contains("0..=250"),
             "{e}"
