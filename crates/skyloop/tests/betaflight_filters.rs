@@ -216,3 +216,45 @@ fn pid_scales_and_yaw_i_factor_are_each_versions() {
         assert_eq!(bf::yaw_i_factor(Some(major), false), num(v, "yaw_i_factor"), "{tag}");
     }
 }
+
+/// The five rate curves against the firmware's own `apply*Rates` functions of 4.2.11, 4.5.5 and
+/// 2025.12.5 (`tools/gen_betaflight_rates.sh`), at 201 stick deflections per setting, to 1e-6
+/// (the firmware computes in single precision, skyloop in double).
+#[test]
+fn rate_curves_match_the_firmware() {
+    use skyloop::firmware::betaflight::{header::Rates, stick_rate_deg_s};
+    let mut n = 0;
+    for tag in TAGS {
+        let fx = skyloop_fixtures::load(
+            env!("CARGO_MANIFEST_DIR"),
+            &format!("tests/fixtures/betaflight/rates_{tag}.json"),
+        );
+        assert_eq!(fx["commit"].as_str().unwrap().len(), 40);
+        for c in fx["curves"].as_array().unwrap() {
+            let ty = ["betaflight", "raceflight", "kiss", "actual", "quick"]
+                .iter()
+                .position(|t| c["type"] == *t)
+                .unwrap();
+            let r = Rates {
+                rc_rate: num(c, "rc_rate"),
+                super_rate: num(c, "super_rate"),
+                expo: num(c, "expo"),
+                rates_type: Some(ty as f64),
+                // A version without the setting ignores the harness's flag (a header of it has none).
+                quick_rc_expo: c["quick_rc_expo"] == 1 && fx["has_quick_rc_expo"] == true,
+            };
+            let (xs, want) = (series(c, "deflection"), series(c, "deg_s"));
+            let peak = want.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+            for (x, w) in xs.iter().zip(&want) {
+                let got = stick_rate_deg_s(*x, &r);
+                assert!(
+                    (got - w).abs() <= 1e-6 * peak,
+                    "{tag} {} {r:?} at {x}: {got} vs {w}",
+                    c["type"]
+                );
+                n += 1;
+            }
+        }
+    }
+    assert!(n > 20_000, "{n}");
+}

@@ -33,8 +33,11 @@ pub struct Rates {
     pub super_rate: f64,
     /// RC expo (`rc_expo` 4.x, `rcExpo`/`rcYawExpo` 3.x), ×100.
     pub expo: f64,
-    /// `rates_type` (0: Betaflight's curve; others are not modelled); `None` before 4.1.
+    /// `rates_type` (0 BETAFLIGHT, 1 RACEFLIGHT, 2 KISS, 3 ACTUAL, 4 QUICK); `None` before 4.1
+    /// (Betaflight's curve).
     pub rates_type: Option<f64>,
+    /// `quickrates_rc_expo` (QUICK rates: expo on the stick, not on the super-rate term).
+    pub quick_rc_expo: bool,
 }
 
 /// Betaflight's dynamic notch (gyro FFT tracking).
@@ -199,6 +202,7 @@ fn rates(log: &Log) -> Vec<Rates> {
     let one = |k: &str| list(k).first().copied();
     let sup = list("rates");
     let rates_type = one("rates_type");
+    let quick_rc_expo = one("quickrates_rc_expo").is_some_and(|v| v != 0.0);
     let (rc, ex) = (list("rc_rates"), list("rc_expo"));
     if rc.len() >= 3 && ex.len() >= 3 && sup.len() >= 3 {
         return (0..3)
@@ -207,6 +211,7 @@ fn rates(log: &Log) -> Vec<Rates> {
                 super_rate: sup[i],
                 expo: ex[i],
                 rates_type,
+                quick_rc_expo,
             })
             .collect();
     }
@@ -217,6 +222,7 @@ fn rates(log: &Log) -> Vec<Rates> {
                 super_rate: sup[i],
                 expo: if i == 2 { one("rcYawExpo").unwrap_or(0.0) } else { e },
                 rates_type,
+                quick_rc_expo,
             })
             .collect(),
         _ => Vec::new(),

@@ -218,33 +218,86 @@ pub fn feedforward_unit(loop_hz: f64) -> Result<StateSpace> {
     )?)
 }
 
-/// Betaflight's stick-to-rate curve (`rates_type` BETAFLIGHT, 3.x and 4.x, `rc.c`
-/// `applyBetaflightRates`): the setpoint in deg/s of a stick deflection `rc` in rcCommand units
-/// (−500..500 from centre). With x = rc/500 and expo e, rate r, super rate s (all /100):
-/// x ← x·|x|³·e + x·(1 − e); r ← r + 14.54·(r − 2) above 2; rate = 200·r·x / clamp(1 − |x|·s, 0.01, 1),
-/// limited to ±1998 deg/s.
+/// Betaflight's setpoint limit, deg/s (`SETPOINT_RATE_LIMIT`, and the default `rate_limit`).
+pub const SETPOINT_RATE_LIMIT: f64 = 1998.0;
+
+/// The setpoint in deg/s of a stick deflection `x` (−1..1) through the header's rate curve, before
+/// the `rate_limit` clamp, as `rc.c` computes it for each `rates_type` (4.1–2025.12; checked
+/// against the firmware's own functions in `tests/betaflight_filters.rs`). With the stored settings
+/// rc = `rc_rates`, e = `rc_expo`, s = `rates` (super rate / max rate):
+/// - BETAFLIGHT: x ← x·|x|³·e/100 + x·(1 − e/100); r = rc/100, + 14.54·(r − 2) above 2;
+///   200·r·x / clamp(1 − |x|·s/100, 0.01, 1);
+/// - RACEFLIGHT: x ← (1 + e/100·(x² − 1))·x; 10·rc·x·(1 + |x|·s/100);
+/// - KISS: (x³·e/100 + x·(1 − e/100))·rc/1000 · 2000 / clamp(1 − |x|·s/100, 0.01, 1), within ±1998;
+/// - ACTUAL: centre sensitivity c = 10·rc, max m = 10·s: c·x + max(0, m − c)·|x|·(x⁵·e/100 + x·(1 − e/100));
+/// - QUICK: r = 2·rc (integer), m = max(10·s, r), k = (m/r − 1)/(m/r); the curve
+///   x³·e/100 + x·(1 − e/100) on the stick (`quickrates_rc_expo`) or on |x| inside the super factor
+///   1/clamp(1 − k·(·), 0.01, 1); within ±1998.
+pub fn stick_rate_deg_s(x: f64, r: &Rates) -> f64 {
+    let (rc, e, s) = (r.rc_rate, r.expo / 100.0, r.super_rate);
+    let ax = x.abs();
+    let lim = |v: f64| v.clamp(-SETPOINT_RATE_LIMIT, SETPOINT_RATE_LIMIT);
+    let superf = |d: f64| 1.0 / (1.0 - d).clamp(0.01, 1.0);
+    match r.rates_type.map_or(0, |t| t.round() as i64) {
+        1 => {
+            let x = (1.0 + e * (x * x - 1.0)) * x;
+            10.0 * rc * x * (1.0 + ax * s * 0.01)
+        }
+        2 => {
+            let c = (x.powi(3) * e + x * (1.0 - e)) * (rc / 1000.0);
+            lim(2000.0 * superf(ax * s / 100.0) * c)
+        }
+        3 => {
+            let expo = ax * (x.powi(5) * e + x * (1.0 - e));
+            let centre = rc * 10.0;
+            x * centre + (s * 10.0 - centre).max(0.0) * expo
+        }
+        4 => {
+            let rate = (2.0 * rc).round();
+            let max = (s * 10.0).max(rate);
+            let k = (max / rate - 1.0) / (max / rate);
+            if r.quick_rc_expo {
+                let curve = x.powi(3) * e + x * (1.0 - e);
+                lim(curve * rate * superf(ax * k))
+            } else {
+                let curve = ax.powi(3) * e + ax * (1.0 - e);
+                lim(x * rate * superf(curve * k))
+            }
+        }
+        _ => {
+            let x = if e != 0.0 {
+                x * ax.powi(3) * e + x * (1.0 - e)
+            } else {
+                x
+            };
+            let mut rate = rc / 100.0;
+            if rate > 2.0 {
+                rate += 14.54 * (rate - 2.0);
+            }
+            let out = 200.0 * rate * x;
+            // The super factor reads the stick's own deflection, not the expo-curved one.
+            if s != 0.0 {
+                out * superf(ax * s / 100.0)
+            } else {
+                out
+            }
+        }
+    }
+}
+
+/// The setpoint (deg/s) of a stick deflection `rc` in rcCommand units (−500..500 from centre)
+/// through the header's rate curve ([`stick_rate_deg_s`]), limited to ±1998 deg/s (the default
+/// `rate_limit`).
 pub fn rate_curve_deg_s(rc: f64, r: &Rates) -> f64 {
-    let mut x = (rc / 500.0).clamp(-1.0, 1.0);
-    let e = r.expo / 100.0;
-    if e != 0.0 {
-        x = x * x.abs().powi(3) * e + x * (1.0 - e);
-    }
-    let mut rate = r.rc_rate / 100.0;
-    if rate > 2.0 {
-        rate += 14.54 * (rate - 2.0);
-    }
-    let mut out = 200.0 * rate * x;
-    if r.super_rate != 0.0 {
-        out /= (1.0 - x.abs() * r.super_rate / 100.0).clamp(0.01, 1.0);
-    }
-    out.clamp(-1998.0, 1998.0)
+    let x = (rc / 500.0).clamp(-1.0, 1.0);
+    stick_rate_deg_s(x, r).clamp(-SETPOINT_RATE_LIMIT, SETPOINT_RATE_LIMIT)
 }
 
 /// Adds `setpoint[0..3]` (deg/s) to a Betaflight log that does not record it (3.x), computed from
 /// `rcCommand[i]` through the header's rate curve ([`rate_curve_deg_s`]); returns a note saying so,
-/// or None when the log has its setpoint, lacks rcCommand or rates, or uses another rates type.
+/// or None when the log has its setpoint or lacks rcCommand or rates.
 pub fn add_setpoint_from_rc(log: &mut Log, rates: &[Rates]) -> Option<String> {
-    if rates.len() < 3 || rates.iter().any(|r| r.rates_type.is_some_and(|t| t != 0.0)) {
+    if rates.len() < 3 {
         return None;
     }
     let g = log.groups.iter_mut().find(|g| {
