@@ -52,6 +52,7 @@ fn logged_p_term_is_pterm_scale_times_the_error() {
             f: 140,
         },
         Axis::Roll,
+        &skyloop::firmware::betaflight::Filters::default(),
     );
     // Measured 1.095 against 0.032029·35 = 1.121; the fit explains 99.8 % of axisP.
     assert!(r2 > 0.99, "R² {r2}");
