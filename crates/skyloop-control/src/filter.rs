@@ -182,7 +182,7 @@ impl<T: Real> Filter<T> {
     /// # Errors
     /// An order outside 1..=3 or a gain outside (0, 1].
     pub fn from_lag(k: f64, order: u8) -> Result<Self> {
-        if !(1..=3).contains(&order) || !(k > 0.0 && k <= 1.0) {
+        if !((1..=3).contains(&order) && k > 0.0 && k <= 1.0) {
             return Err(ControlError::OutOfRange(
                 "a lag needs an order in 1..=3 and a gain in (0, 1]",
             ));

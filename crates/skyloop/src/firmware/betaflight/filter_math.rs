@@ -24,8 +24,9 @@ pub const PT3_CUTOFF_CORRECTION: f32 = 1.961_459_2;
 /// The firmware's sine: the argument wrapped to [−π, π], folded to [−π/2, π/2], then an odd
 /// polynomial x + c3·x³ + c5·x⁵ + c7·x⁷ (its `VERY_FAST_MATH` build, the default since 4.x; largest
 /// error about 2.3e-6). Arguments beyond ±32 rad give 0, as the firmware's guard does.
+#[allow(clippy::excessive_precision)] // the firmware's literals, digit for digit
 pub fn sin_approx(x: f32) -> f32 {
-    // The order-7 minimax coefficients the firmware uses.
+    // The order-7 minimax coefficients the firmware uses, as its source writes them.
     const C3: f32 = -1.666_568_1e-1;
     const C5: f32 = 8.312_366e-3;
     const C7: f32 = -1.849_218_2e-4;

@@ -135,7 +135,7 @@ fn crossover_section(rep: &mut Report, out: &LogTuneOutcome) -> Option<Figure> {
         vec![s_panel, t_panel],
     );
     let sec = rep.section("The flown loop at its crossover");
-    sec.text(&format!(
+    sec.text(format!(
         "Half to twice the flown crossover ({:.1} Hz), the flown feedback controller (the firmware's arithmetic, known exactly) closed around the plant this flight measured, point by point (the setpoint-instrument estimate, {} points with a random error of at most {:.0} %), and around the identified model. |S| peaks at {m:.1} ± {me:.1} dB ({mf:.1} Hz) on the measured plant and at {p:.1} dB ({pf:.1} Hz) on the model: {}.",
         c.crossover_hz,
         c.freq_hz.len(),
