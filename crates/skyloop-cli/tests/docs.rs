@@ -24,6 +24,8 @@
 //! `skyloop --markdown-help` and checked here against the binary, so it cannot drift from `--help`.
 #![allow(clippy::unwrap_used)] // a panic is how a test reports failure
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -258,18 +260,8 @@ fn guide_commands_run() {
 
 #[test]
 fn cli_reference_is_generated_from_the_definitions() {
-    let (code, out, err) = {
-        let o = Command::new(env!("CARGO_BIN_EXE_skyloop"))
-            .arg("--markdown-help")
-            .output()
-            .unwrap();
-        (
-            o.status.code(),
-            String::from_utf8_lossy(&o.stdout).into_owned(),
-            String::from_utf8_lossy(&o.stderr).into_owned(),
-        )
-    };
-    assert_eq!(code, Some(0), "{err}");
+    let (code, out, err) = common::skyloop(&["--markdown-help"]);
+    assert_eq!(code, 0, "{err}");
     assert!(out.contains("## `skyloop tune`"), "every subcommand has a section");
     let path = root().join("docs/reference/cli.md");
     if std::env::var("SKYLOOP_BLESS").is_ok_and(|v| v == "1") {

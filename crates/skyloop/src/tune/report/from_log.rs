@@ -93,43 +93,23 @@ fn crossover_section(rep: &mut Report, out: &LogTuneOutcome) -> Option<Figure> {
         upper: two(1.0),
         color: 0,
     });
-    s_panel.series.push(
-        Series::line(
-            "measured plant, flown controller",
-            c.freq_hz.clone(),
-            c.measured_s_db.clone(),
-        )
-        .colored(0),
-    );
-    s_panel.series.push(
-        Series::dashed(
-            "identified model, flown controller",
-            c.freq_hz.clone(),
-            c.predicted_s_db.clone(),
-        )
-        .colored(1),
-    );
+    // Measured (solid) and model (dashed) curves in the same two colours on both panels.
+    let pair = |panel: &mut Panel, measured: &[f64], predicted: &[f64]| {
+        let f = c.freq_hz.clone();
+        panel
+            .series
+            .push(Series::line("measured plant, flown controller", f.clone(), measured.to_vec()).colored(0));
+        panel
+            .series
+            .push(Series::dashed("identified model, flown controller", f, predicted.to_vec()).colored(1));
+    };
+    pair(&mut s_panel, &c.measured_s_db, &c.predicted_s_db);
     s_panel.markers.push(Marker::Vertical {
         x: c.crossover_hz,
         label: format!("flown crossover {:.1} Hz", c.crossover_hz),
     });
     let mut t_panel = Panel::frequency("|T| [dB]");
-    t_panel.series.push(
-        Series::line(
-            "measured plant, flown controller",
-            c.freq_hz.clone(),
-            c.measured_t_db.clone(),
-        )
-        .colored(0),
-    );
-    t_panel.series.push(
-        Series::dashed(
-            "identified model, flown controller",
-            c.freq_hz.clone(),
-            c.predicted_t_db.clone(),
-        )
-        .colored(1),
-    );
+    pair(&mut t_panel, &c.measured_t_db, &c.predicted_t_db);
     let fig = Figure::new(
         "The flown loop at its crossover: measured plant against the model",
         vec![s_panel, t_panel],
