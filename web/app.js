@@ -124,8 +124,10 @@ function renderModel(v) {
   // the rate controller's normalized output RATE.ROut → RATE.R in deg/s (ArduPilot).
   const kUnit = { px4: "(rad/s² per unit normalized torque)", ardupilot: "(deg/s² per unit RATE.ROut)" }[v.firmware]
     || "(deg/s² per PID-sum unit)";
-  $("model").innerHTML = `<p class="formula">P(s) = K·e<sup>−Td·s</sup> / (s·(τ·s + 1))</p>
-    <table class="kv">${row("K", kUnit, 1, 2)}${row("tau", "ms", 1e3, 2)}${row("Td", "ms", 1e3, 2)}
+  // Yaw's model has the rotors' reaction-torque zero Tz.
+  const zero = p.Tz !== undefined;
+  $("model").innerHTML = `<p class="formula">P(s) = K·${zero ? "(Tz·s + 1)·" : ""}e<sup>−Td·s</sup> / (s·(τ·s + 1))</p>
+    <table class="kv">${row("K", kUnit, 1, 2)}${row("tau", "ms", 1e3, 2)}${row("Td", "ms", 1e3, 2)}${zero ? row("Tz", "ms", 1e3, 1) : ""}
     <tr><td>fit</td><td>${fmt(id.fit_percent, 1)} % over ${id.segments.length} airborne segments; uncertainty set: ${id.plants} plants</td></tr></table>`;
   const cur = v.current;
   const series = [];

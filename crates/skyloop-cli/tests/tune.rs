@@ -745,15 +745,29 @@ fn smooth_tune_log_is_never_made_worse() {
     let from_header = json(&["tune", &log, "--json"]);
     assert_eq!(from_header["axes"]["roll"]["proposed"], all["axes"]["roll"]["proposed"]);
     assert_eq!(from_header["cli"], all["cli"]);
-    // Yaw (no stick input to identify it) is a verdict `cannot` with its measured reason and what
-    // to fly on Betaflight, its error kept where scripts read it.
+    // Yaw answers: its model has the rotors' reaction-torque zero (Tz above the motor lag), and it
+    // explains the flown step (without the zero the fit explained less than the mean, a refusal).
     let yaw = &all["axes"]["yaw"];
-    assert_eq!(yaw["verdict"]["kind"], "cannot", "{yaw}");
-    let reason = yaw["error"].as_str().unwrap();
-    assert!(yaw["verdict"]["text"].as_str().unwrap().ends_with(reason), "{yaw}");
-    let fly = yaw["what_to_fly"].as_str().unwrap();
+    assert_ne!(yaw["verdict"]["kind"], "cannot", "{yaw}");
+    let p = &yaw["identification"]["params"];
+    assert!(p["Tz"].as_f64().unwrap() > p["tau"].as_f64().unwrap(), "{p}");
     assert!(
-        fly.contains("yaw (rudder) stick") && fly.contains("chirp_amplitude_yaw"),
+        yaw["causal_step_rms"].as_f64().unwrap() <= 0.25,
+        "{}",
+        yaw["causal_step_rms"]
+    );
+    assert_eq!(yaw["crossover_check"]["agrees"], true, "{}", yaw["crossover_check"]);
+    // A refusal is a verdict `cannot` with its measured reason and what to fly on Betaflight, its
+    // error kept where scripts read it: LOG00037's roll (gentle hover, too little stick).
+    let hover = format!("{}/../../testdata/logs/LOG00037.BFL", env!("CARGO_MANIFEST_DIR"));
+    let h = json(&["tune", &hover, "--json"]);
+    let roll = &h["axes"]["roll"];
+    assert_eq!(roll["verdict"]["kind"], "cannot", "{roll}");
+    let reason = roll["error"].as_str().unwrap();
+    assert!(roll["verdict"]["text"].as_str().unwrap().ends_with(reason), "{roll}");
+    let fly = roll["what_to_fly"].as_str().unwrap();
+    assert!(
+        fly.contains("roll (aileron) stick") && fly.contains("chirp_amplitude_roll"),
         "{fly}"
     );
     let v = &all["axes"]["roll"];

@@ -7,7 +7,7 @@ use std::ops::Range;
 
 use super::band::{supported_band, MAX_REL_ERR, PILOT_LOOP_HZ};
 use super::estimate::Estimator;
-use super::preset::rate_loop_starts;
+use super::preset::preset_starts;
 use super::records;
 use super::remarks::Remarks;
 use super::report::fit_warnings;
@@ -91,7 +91,7 @@ pub(crate) fn fit_model(
     rm: &mut Remarks,
 ) -> Result<ModelFit> {
     let expr = skyloop_lti::expr::parse(text).map_err(|e| Error::Input(format!("--model: {e}")))?;
-    let starts = starting_points(a, frf, d.opts)?;
+    let starts = starting_points(a, text, frf, d.opts)?;
     let mut r = best_fit(frf, &expr, &starts, d.opts)?;
     let specs = restart(&starts[0], &r.params);
     let (mut uncertainty, mut validation) = (None, None);
@@ -121,8 +121,9 @@ pub(crate) fn fit_model(
 }
 
 /// The starts of the fit: the user's `--init`/`--model` parameters, else the rate-loop model's
-/// automatic starts from the FRF in the fit band, moved inside the user's `--bounds`.
-fn starting_points(a: &IdentifyRequest, frf: &Frf, fit_opts: &FitOptions) -> Result<Vec<Vec<ParamSpec>>> {
+/// automatic starts from the FRF in the fit band (for `model`, the preset's), moved inside the
+/// user's `--bounds`.
+fn starting_points(a: &IdentifyRequest, model: &str, frf: &Frf, fit_opts: &FitOptions) -> Result<Vec<Vec<ParamSpec>>> {
     if a.init.is_some() || a.model.is_some() {
         return Ok(vec![param_specs(a)?]);
     }
@@ -130,7 +131,7 @@ fn starting_points(a: &IdentifyRequest, frf: &Frf, fit_opts: &FitOptions) -> Res
         fit_opts.fmin_hz.unwrap_or(0.0),
         fit_opts.fmax_hz.unwrap_or(f64::INFINITY),
     );
-    let mut s = rate_loop_starts(frf, lo, hi);
+    let mut s = preset_starts(model, frf, lo, hi);
     if let Some(b) = &a.bounds {
         for start in &mut s {
             apply_bounds(start, b)?;

@@ -12,6 +12,13 @@ use crate::error::Result;
 /// loop's delay, acceleration K per unit of controller output.
 pub const RATE_LOOP_MODEL: &str = "K*exp(-Td*s)/(s*(tau*s+1))";
 
+/// The yaw rate-loop model: [`RATE_LOOP_MODEL`] with a zero at 1/Tz. Yaw torque is the rotors'
+/// reaction: their drag, which follows the motors' lag, and the torque that spins each rotor up or
+/// down, which is proportional to its acceleration and so leads. The sum has a zero (Tz > 0, Tz in
+/// s), and every real yaw log tried shows it: about −55° instead of −90° from 2 to 15 Hz, which
+/// [`RATE_LOOP_MODEL`] cannot follow (its fit explains less than the mean).
+pub const YAW_RATE_LOOP_MODEL: &str = "K*(Tz*s+1)*exp(-Td*s)/(s*(tau*s+1))";
+
 /// Everything `--axis` fills in.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AxisPreset {
@@ -19,8 +26,12 @@ pub struct AxisPreset {
     pub firmware: Firmware,
     /// Input, output and instrument channels with their units.
     pub channels: RateLoopChannels,
-    /// The model fitted unless `--model` is given: [`RATE_LOOP_MODEL`].
+    /// The model fitted unless `--model` is given: [`YAW_RATE_LOOP_MODEL`] for yaw,
+    /// [`RATE_LOOP_MODEL`] otherwise.
     pub model: &'static str,
+    /// The model tried when the data do not support `model` (yaw: [`RATE_LOOP_MODEL`], for a craft
+    /// whose rotors show no reaction-torque lead), if any.
+    pub fallback_model: Option<&'static str>,
     /// How the airborne segments are found.
     pub criteria: AirborneCriteria,
 }
@@ -34,7 +45,12 @@ pub fn axis_preset(log: &Log, axis: Axis) -> Result<AxisPreset> {
     Ok(AxisPreset {
         firmware,
         channels: firmware.rate_loop_channels(log, axis)?,
-        model: RATE_LOOP_MODEL,
+        model: if axis == Axis::Yaw {
+            YAW_RATE_LOOP_MODEL
+        } else {
+            RATE_LOOP_MODEL
+        },
+        fallback_model: (axis == Axis::Yaw).then_some(RATE_LOOP_MODEL),
         criteria: firmware.airborne_criteria(log),
     })
 }
@@ -43,35 +59,57 @@ pub fn axis_preset(log: &Log, axis: Axis) -> Result<AxisPreset> {
 /// Td with K from the measured magnitude (|G|·ω·|jωτ + 1| at each point, the median), bounded to
 /// K ≥ 0, 0.1 ms ≤ τ ≤ 2 s, 0 ≤ Td ≤ 0.2 s.
 pub fn rate_loop_starts(frf: &Frf, fmin_hz: f64, fmax_hz: f64) -> Vec<Vec<ParamSpec>> {
+    starts_with_zero(frf, fmin_hz, fmax_hz, &[None])
+}
+
+/// Starting points for fitting `model` (the `--axis` preset's: [`RATE_LOOP_MODEL`] or
+/// [`YAW_RATE_LOOP_MODEL`], told apart by its parameter `Tz`) as [`rate_loop_starts`]; with a zero,
+/// each start also tries Tz of 20 and 80 ms (bounded to 0..=1 s), K divided by |jωTz + 1|.
+pub fn preset_starts(model: &str, frf: &Frf, fmin_hz: f64, fmax_hz: f64) -> Vec<Vec<ParamSpec>> {
+    if model.contains("Tz") {
+        starts_with_zero(frf, fmin_hz, fmax_hz, &[Some(0.02), Some(0.08)])
+    } else {
+        rate_loop_starts(frf, fmin_hz, fmax_hz)
+    }
+}
+
+fn starts_with_zero(frf: &Frf, fmin_hz: f64, fmax_hz: f64, zeros: &[Option<f64>]) -> Vec<Vec<ParamSpec>> {
+    let spec = |name: &str, init: f64, lower: f64, upper: f64| ParamSpec {
+        name: name.into(),
+        init,
+        lower,
+        upper,
+    };
     let mut out = Vec::new();
     for tau in [0.01, 0.03, 0.1] {
         for td in [0.002, 0.008, 0.03] {
-            let mut k: Vec<f64> = frf
-                .freq_hz
-                .iter()
-                .zip(&frf.response)
-                .filter(|(f, g)| **f >= fmin_hz && **f <= fmax_hz && **f > 0.0 && g.norm().is_finite())
-                .map(|(f, g)| {
-                    let w = 2.0 * std::f64::consts::PI * f;
-                    g.norm() * w * (1.0 + (w * tau).powi(2)).sqrt()
-                })
-                .collect();
-            if k.is_empty() {
-                continue;
+            for &tz in zeros {
+                let mut k: Vec<f64> = frf
+                    .freq_hz
+                    .iter()
+                    .zip(&frf.response)
+                    .filter(|(f, g)| **f >= fmin_hz && **f <= fmax_hz && **f > 0.0 && g.norm().is_finite())
+                    .map(|(f, g)| {
+                        let w = 2.0 * std::f64::consts::PI * f;
+                        let lead = (1.0 + (w * tz.unwrap_or(0.0)).powi(2)).sqrt();
+                        g.norm() * w * (1.0 + (w * tau).powi(2)).sqrt() / lead
+                    })
+                    .collect();
+                if k.is_empty() {
+                    continue;
+                }
+                k.sort_by(f64::total_cmp);
+                let k0 = k[k.len() / 2].max(1e-9);
+                let mut start = vec![
+                    spec("K", k0, 0.0, f64::INFINITY),
+                    spec("tau", tau, 1e-4, 2.0),
+                    spec("Td", td, 0.0, 0.2),
+                ];
+                if let Some(tz) = tz {
+                    start.push(spec("Tz", tz, 0.0, 1.0));
+                }
+                out.push(start);
             }
-            k.sort_by(f64::total_cmp);
-            let k0 = k[k.len() / 2].max(1e-9);
-            let spec = |name: &str, init: f64, lower: f64, upper: f64| ParamSpec {
-                name: name.into(),
-                init,
-                lower,
-                upper,
-            };
-            out.push(vec![
-                spec("K", k0, 0.0, f64::INFINITY),
-                spec("tau", tau, 1e-4, 2.0),
-                spec("Td", td, 0.0, 0.2),
-            ]);
         }
     }
     out

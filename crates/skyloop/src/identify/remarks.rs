@@ -5,7 +5,7 @@
 use crate::error::{Error, Result};
 
 /// The notes and warnings gathered along the identification.
-#[derive(Debug, Default)]
+#[derive(Debug, Default, Clone)]
 pub(crate) struct Remarks {
     /// What the workflow chose on the user's behalf.
     pub notes: Vec<String>,

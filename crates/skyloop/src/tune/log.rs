@@ -34,7 +34,7 @@ use crate::firmware::filter_settings::{FilterSettings, Scale};
 use crate::firmware::flown::{flown_tune, FlownTune};
 use crate::firmware::rate_gains::RateGains;
 use crate::firmware::Axis;
-use crate::identify::{identify_log, Identification, IdentifyRequest};
+use crate::identify::{identify_log, Identification, IdentifyRequest, RATE_LOOP_MODEL, YAW_RATE_LOOP_MODEL};
 use serde_json::{json, Value};
 use skyloop_lti::interconnect::{feedback, series};
 use skyloop_lti::{c64, StateSpace};
@@ -250,11 +250,17 @@ pub const FLIGHT_OVERSHOOT_MAX: f64 = 30.0;
 /// ([`MeasuredStep::acausal_fraction`]) for which the measured step is taken as unbiased.
 pub const ACAUSAL_MAX: f64 = 0.1;
 
-/// The rate-loop model K·e^(−Td·s)/(s·(τ·s + 1)) with the given parameters.
-fn rate_model(k: f64, tau: f64, td: f64) -> Result<StateSpace> {
+/// The rate-loop model K·(Tz·s + 1)·e^(−Td·s)/(s·(τ·s + 1)) with the given parameters (Tz = 0:
+/// the roll and pitch model, no zero).
+fn rate_model(k: f64, tau: f64, td: f64, tz: f64) -> Result<StateSpace> {
     // Rust prints f64 without exponents, which the expression parser reads.
+    let lead = if tz > 0.0 {
+        format!("*({tz}*s+1)")
+    } else {
+        String::new()
+    };
     Ok(skyloop_lti::expr::parse_model(&format!(
-        "{k}*exp(-{td}*s)/(s*({tau}*s+1))"
+        "{k}{lead}*exp(-{td}*s)/(s*({tau}*s+1))"
     ))?)
 }
 
@@ -439,11 +445,15 @@ fn tune_from_read_log(req: &LogTuneRequest, log: Log, derived: Vec<String>) -> R
         gyro_noise: pr.gyro_noise.clone(),
     });
     Ok(LogTuneOutcome {
-        params: BTreeMap::from([
-            ("K".to_string(), idn.k),
-            ("tau".to_string(), idn.tau),
-            ("Td".to_string(), idn.td),
-        ]),
+        params: BTreeMap::from_iter(
+            [
+                ("K".to_string(), idn.k),
+                ("tau".to_string(), idn.tau),
+                ("Td".to_string(), idn.td),
+            ]
+            .into_iter()
+            .chain(idn.tz.map(|tz| ("Tz".to_string(), tz))),
+        ),
         identification: idn.id,
         plant: idn.plant,
         plants: idn.plants,
@@ -479,6 +489,8 @@ struct Identified {
     k: (f64, f64),
     tau: (f64, f64),
     td: (f64, f64),
+    /// The yaw model's zero Tz (value, standard error), s, when the fit has one.
+    tz: Option<(f64, f64)>,
     plant: StateSpace,
     plants: Vec<StateSpace>,
     log_fw: Option<Firmware>,
@@ -523,42 +535,63 @@ fn identify_stage(req: &LogTuneRequest, log: Log, derived: Vec<String>) -> Resul
     let (k, sk) = get("K")?;
     let (tau, stau) = get("tau")?;
     let (td, std_) = get("Td")?;
+    // The yaw model's reaction-torque zero, when the fit has one.
+    let tz = fit.params.contains_key("Tz").then(|| get("Tz")).transpose()?;
     let mut notes = derived;
     notes.push(format!(
-        "plant K*exp(-Td*s)/(s*(tau*s+1)) identified from {} ({} → {}), fit {:.1} %",
+        "plant {} identified from {} ({} → {}), fit {:.1} %",
+        if tz.is_some() {
+            YAW_RATE_LOOP_MODEL
+        } else {
+            RATE_LOOP_MODEL
+        },
         req.log.display(),
         id.input,
         id.output,
         fit.fit_percent
     ));
-    let plant = rate_model(k, tau, td)?;
+    let (tz0, stz) = tz.unwrap_or((0.0, 0.0));
+    let plant = rate_model(k, tau, td, tz0)?;
     let mut plants = vec![plant.clone()];
     if req.sigma > 0.0 {
         let spread = |s: f64| if s.is_finite() { req.sigma * s } else { 0.0 };
-        for (n, s) in [("K", sk), ("tau", stau), ("Td", std_)] {
+        let named = [("K", sk), ("tau", stau), ("Td", std_), ("Tz", stz)];
+        for (n, s) in &named[..if tz.is_some() { 4 } else { 3 }] {
             if !s.is_finite() {
                 notes.push(format!(
                     "the standard error of {n} is undetermined: {n} is held at its fit"
                 ));
             }
         }
-        let (dk, dtau, dtd) = (spread(sk), spread(stau), spread(std_));
+        let (dk, dtau, dtd, dtz) = (spread(sk), spread(stau), spread(std_), spread(stz));
         // One parameter at a time: a corner of the box would be 2σ·√3 from the fit, and τ and
         // Td trade off against each other in the fit (their errors are correlated), so the
         // corners are far less likely than the fit's ±2σ says.
-        for (i, d) in [dk, dtau, dtd].into_iter().enumerate() {
+        for (i, d) in [dk, dtau, dtd, dtz].into_iter().enumerate() {
             if d == 0.0 {
                 continue;
             }
             for sign in [-1.0, 1.0] {
-                let mut v = [k, tau, td];
+                let mut v = [k, tau, td, tz0];
                 v[i] += sign * d;
-                plants.push(rate_model(v[0].max(k / 20.0), v[1].max(1e-4), v[2].max(0.0))?);
+                plants.push(rate_model(
+                    v[0].max(k / 20.0),
+                    v[1].max(1e-4),
+                    v[2].max(0.0),
+                    v[3].max(0.0),
+                )?);
             }
         }
+        let zero = if tz.is_some() {
+            format!(", Tz {tz0:.5} ± {dtz:.5} s")
+        } else {
+            String::new()
+        };
         notes.push(format!(
-            "robust over K, tau, Td at ±{}σ: K {:.4} ± {:.4}, tau {:.5} ± {:.5} s, Td {:.5} ± {:.5} s (one at a time, clamped to K ≥ K/20, tau ≥ 0.1 ms, Td ≥ 0)",
-            req.sigma, k, dk, tau, dtau, td, dtd
+            "robust over K, tau, Td{} at ±{}σ: K {:.4} ± {:.4}, tau {:.5} ± {:.5} s, Td {:.5} ± {:.5} s{zero} (one at a time, clamped to K ≥ K/20, tau ≥ 0.1 ms, Td ≥ 0{})",
+            if tz.is_some() { ", Tz" } else { "" },
+            req.sigma, k, dk, tau, dtau, td, dtd,
+            if tz.is_some() { ", Tz ≥ 0" } else { "" }
         ));
     }
     Ok(Identified {
@@ -566,6 +599,7 @@ fn identify_stage(req: &LogTuneRequest, log: Log, derived: Vec<String>) -> Resul
         k: (k, sk),
         tau: (tau, stau),
         td: (td, std_),
+        tz,
         plant,
         plants,
         log_fw,
@@ -666,9 +700,15 @@ fn flown_stage(req: &LogTuneRequest, idn: &Identified, hdr: &Header, notes: &mut
     // The nonlinear check flies the identified axis with the log's own units and limits:
     // (loop rate, gyro unit in rad/s, output limit).
     let flight_units = match (log_fw.and_then(|f| f.flight_units()), loop_hz) {
-        (Some((unit, limit)), Some(hz)) => Some((hz, unit, limit)),
+        (Some((unit, limit)), Some(hz)) if idn.tz.is_none() => Some((hz, unit, limit)),
         _ => None,
     };
+    if let Some((tz, _)) = idn.tz {
+        notes.push(format!(
+            "the 6-DOF check is not flown on this axis: the simulator's motors have a lag only, not the reaction-torque lead (Tz = {:.1} ms) of the identified yaw model; the margins, the predicted step and the model checks use the full model",
+            1e3 * tz
+        ));
+    }
     let flight_setup = flight_units.map(|(loop_hz, gyro_unit_rad_s, output_limit)| FlightSetup {
         k,
         tau_s: tau,
