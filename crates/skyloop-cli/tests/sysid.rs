@@ -653,6 +653,11 @@ fn the_pilots_bare_command_fits_or_refuses_honestly() {
         &["identify", &log_path("LOG00037.BFL"), "--axis", "roll"],
         "does not excite the rate loop",
     );
+    // sample_px4_events.ulg: the torque setpoint logged at 50 Hz; that is the refusal's first cause.
+    fails_with(
+        &["identify", &log_path("sample_px4_events.ulg"), "--axis", "pitch"],
+        "error: 'vehicle_torque_setpoint.xyz[1]' is logged at 50.0 Hz, too slow",
+    );
     // btfl_001.bbl: armed at idle on the bench, never airborne.
     fails_with(
         &["identify", &log_path("btfl_001.bbl"), "--axis", "roll"],

@@ -50,6 +50,10 @@ use skyloop_sysid::spectral::{Method, Window};
 /// the rate-loop model changes little within it.
 pub const COARSER_RESOLUTIONS: [f64; 2] = [0.3, 0.6];
 
+/// The words of the warning that a channel is logged too slowly for the rate loop (see
+/// `channels::band_limit`).
+const SLOW_CHANNEL: &str = "too slow to show the rate loop's dynamics";
+
 /// The estimate and the parametric fit on it.
 struct Fitted {
     frf: skyloop_sysid::spectral::Frf,
@@ -254,7 +258,17 @@ pub fn identify_log(log: &Log, a: &IdentifyRequest) -> Result<Identification> {
         fit_opts,
         fit_band_hz,
         fit,
-    } = preset_fit(a, &ch, &sel, fmax_hz, &mut rm)?;
+    } = preset_fit(a, &ch, &sel, fmax_hz, &mut rm).map_err(|e| match e {
+        // A channel logged too slowly is the first cause of a fit that fails: say it first.
+        Error::Input(m) => match rm.warnings.iter().find(|w| w.contains(SLOW_CHANNEL)) {
+            Some(slow) => Error::Input(format!(
+                "{}; and {m}",
+                slow.replace(": the fit below is not to be trusted", "")
+            )),
+            None => Error::Input(m),
+        },
+        other => other,
+    })?;
     let coherent_band_hz = coherent_band(&frf);
     let tf =
         a.tf.as_deref()
