@@ -429,12 +429,21 @@ fn resolved(req: &LogTuneRequest, log: &Log) -> Result<LogTuneRequest> {
 /// The stages after the log is read (and prepared, with `derived` its notes), `req`'s firmware
 /// [`resolved`].
 fn tune_from_read_log(req: &LogTuneRequest, log: Log, derived: Vec<String>) -> Result<LogTuneOutcome> {
-    let mut idn = identify_stage(req, log, derived)?;
+    let first = model_stages(req, log.clone(), derived.clone())?;
+    let (req, (mut idn, hdr, fl, stage_notes)) = match refit_request(req, &first.0, &first.2) {
+        Some((refit, why)) => match model_stages(&refit, log, derived) {
+            Ok(mut second) if second.2.refusal.is_none() => {
+                second.3.push(why);
+                (refit, second)
+            }
+            _ => (req.clone(), first),
+        },
+        None => (req.clone(), first),
+    };
+    let req = &req;
     let strip = FlightStrip::of(&idn.log, &idn.id);
     let mut notes = std::mem::take(&mut idn.notes);
-    let hdr = header_stage(req, &idn, &mut notes)?;
-    progress(req, "the flown tune");
-    let fl = flown_stage(req, &idn, &hdr, &mut notes)?;
+    notes.extend(stage_notes);
     progress(req, "candidates and 6-DOF");
     let pr = propose_stage(req, &idn, &hdr, &fl)?;
     let warnings = warnings_of(req, &fl, &pr.analysis);
@@ -479,6 +488,59 @@ fn tune_from_read_log(req: &LogTuneRequest, log: Log, derived: Vec<String>) -> R
         live,
         strip,
     })
+}
+
+/// Stages 1–3: the axis identified, the flown tune from the header, analysed and checked against
+/// the flight; with the notes of stages 2 and 3 (the identification's stay in [`Identified`]).
+fn model_stages(
+    req: &LogTuneRequest,
+    log: Log,
+    derived: Vec<String>,
+) -> Result<(Identified, Header, Flown, Vec<String>)> {
+    let idn = identify_stage(req, log, derived)?;
+    let mut notes = Vec::new();
+    let hdr = header_stage(req, &idn, &mut notes)?;
+    progress(req, "the flown tune");
+    let fl = flown_stage(req, &idn, &hdr, &mut notes)?;
+    Ok((idn, hdr, fl, notes))
+}
+
+/// Where the margins are decided: when the model disagrees with the measured loop around the flown
+/// crossover and the request left the band to the preset, the request that fits the model again
+/// within half to twice that crossover (the band the check compares), with the note that says so.
+/// The refit is kept only if it passes every check of the flown tune (the causal step and the
+/// crossover check, now partly in its own band), else the refusal stands.
+fn refit_request(req: &LogTuneRequest, idn: &Identified, fl: &Flown) -> Option<(LogTuneRequest, String)> {
+    if req.fmin_hz.is_some() || req.fmax_hz.is_some() {
+        return None;
+    }
+    let c = fl.crossover.as_ref().filter(|c| c.disagrees())?;
+    let top = idn.id.frf.freq_hz.last().copied()?;
+    let (lo, hi) = (
+        (c.crossover_hz / 2.0).max(crate::identify::PILOT_LOOP_HZ),
+        (2.0 * c.crossover_hz).min(top),
+    );
+    if hi < 2.0 * lo {
+        return None;
+    }
+    let (m, mf, me) = c.measured_peak();
+    let (p, pf) = c.predicted_peak();
+    let band = idn
+        .id
+        .fit_band_hz
+        .map_or_else(String::new, |(a, b)| format!(" (fitted {a:.1}–{b:.1} Hz)"));
+    let why = format!(
+        "the first model{band} disagreed with the flight around the flown crossover ({:.1} Hz: |S| peaks at {m:.1} ± {me:.1} dB at {mf:.1} Hz measured, {p:.1} dB at {pf:.1} Hz predicted): the model was fitted again within {lo:.1}–{hi:.1} Hz, where the margins are decided, and that fit passes the checks",
+        c.crossover_hz
+    );
+    Some((
+        LogTuneRequest {
+            fmin_hz: Some(lo),
+            fmax_hz: Some(hi),
+            ..req.clone()
+        },
+        why,
+    ))
 }
 
 /// Stage 1: the log read once, the axis identified, the nominal plant and its uncertainty set.
