@@ -5,7 +5,10 @@
 //! multiply-adds per input, no elimination, no pivoting and no copy of the matrix. The orthogonal
 //! reduction keeps it backward stable like the Hessenberg method of Laub ("Efficient multivariable
 //! frequency response computations", IEEE TAC 1981, as in SLICOT tb05ad), which remains the fallback
-//! should the QR iteration not converge. Discrete-time models are evaluated at z = e^{jω·dt}.
+//! should the QR iteration not converge. On models whose entries span many decades the change of
+//! basis loses digits a direct solve keeps; there each point gets one step of iterative refinement
+//! in the original coordinates (see `refine`), switched on by probes when the evaluator is built.
+//! Discrete-time models are evaluated at z = e^{jω·dt}.
 //! Delays multiply entry (i, j) by e^{−s(τ_out,i + τ_in,j)}, which is exact.
 
 use crate::error::{LtiError, Result};
@@ -16,6 +19,7 @@ use faer::{c64, Mat};
 const PAR_MIN_POINTS: usize = 4096;
 
 mod lanes;
+mod refine;
 
 /// A model prepared for repeated frequency-response evaluation (Schur form of A computed once).
 #[derive(Debug, Clone)]
@@ -36,6 +40,9 @@ pub struct FreqEvaluator {
     has_delay: bool,
     /// The state scaling D of the balancing D⁻¹AD, D⁻¹B, CD applied before the reduction.
     scale: Vec<f64>,
+    /// One step of iterative refinement per point, for models whose change of basis loses digits
+    /// (see [`refine`]); None when the Schur solve is already as accurate as a direct one.
+    refine: Option<refine::Refine>,
 }
 
 /// A reduced by an orthogonal similarity QᵀAQ.
@@ -54,6 +61,11 @@ pub struct Workspace {
     m_im: Vec<f64>,
     x_re: Vec<f64>,
     x_im: Vec<f64>,
+    /// The refinement's residual and back-transformed solution (empty without refinement).
+    r_re: Vec<f64>,
+    r_im: Vec<f64>,
+    p_re: Vec<f64>,
+    p_im: Vec<f64>,
 }
 
 impl FreqEvaluator {
@@ -88,8 +100,10 @@ impl FreqEvaluator {
         } else {
             None
         };
+        let mut refine_parts = None;
         let (form, b, c) = match schur {
             Some(sch) => {
+                refine_parts = Some((ad.clone(), col_major(n, n, |i, j| sch.q[(i, j)]), bd.clone()));
                 let b = sch.q.transpose() * faer::MatRef::from_column_major_slice(&bd, n, nu);
                 let c = faer::MatRef::from_column_major_slice(&cd, ny, n) * &sch.q;
                 let blocks = sch.block_sizes();
@@ -124,7 +138,7 @@ impl FreqEvaluator {
                 delay[i * nu + j] = sys.output_delay[i] + sys.input_delay[j];
             }
         }
-        Ok(FreqEvaluator {
+        let mut ev = FreqEvaluator {
             n,
             ny,
             nu,
@@ -136,7 +150,12 @@ impl FreqEvaluator {
             has_delay: delay.iter().any(|&t| t > 0.0),
             delay,
             scale,
-        })
+            refine: None,
+        };
+        if let (Some((a, q, b)), Form::Schur { t, blocks }) = (refine_parts, &ev.form) {
+            ev.refine = refine::Refine::if_needed(&ev, t, blocks, a, q, b);
+        }
+        Ok(ev)
     }
 
     /// The state scaling `D` (powers of two, one per state) of the balancing `D⁻¹AD, D⁻¹B, CD`
@@ -164,11 +183,16 @@ impl FreqEvaluator {
             Form::Schur { .. } => 0,
             Form::Hessenberg { .. } => self.n * self.n,
         };
+        let nr = if self.refine.is_some() { self.n * self.nu } else { 0 };
         Workspace {
             m_re: vec![0.0; nm],
             m_im: vec![0.0; nm],
             x_re: vec![0.0; self.n * self.nu],
             x_im: vec![0.0; self.n * self.nu],
+            r_re: vec![0.0; nr],
+            r_im: vec![0.0; nr],
+            p_re: vec![0.0; nr],
+            p_im: vec![0.0; nr],
         }
     }
 
@@ -186,7 +210,12 @@ impl FreqEvaluator {
         let x = if self.dt > 0.0 { (s * self.dt).exp() } else { s };
         let (n, nu) = (self.n, self.nu);
         match &self.form {
-            Form::Schur { t, blocks } => self.solve_schur(t, blocks, x, ws)?,
+            Form::Schur { t, blocks } => {
+                self.solve_schur(t, blocks, x, ws)?;
+                if let Some(rf) = &self.refine {
+                    self.refine_step(rf, t, blocks, x, ws)?;
+                }
+            }
             Form::Hessenberg { h } => self.solve(h, x, ws)?,
         }
         for i in 0..self.ny {
@@ -300,10 +329,16 @@ impl FreqEvaluator {
     /// column axpys (contiguous in the column-major T, so they vectorize).
     #[inline(always)]
     fn solve_schur(&self, t: &[f64], blocks: &[usize], x: c64, ws: &mut Workspace) -> Result<()> {
+        ws.x_re.copy_from_slice(&self.b);
+        ws.x_im.fill(0.0);
+        self.solve_schur_in(t, blocks, x, &mut ws.x_re, &mut ws.x_im)
+    }
+
+    /// Solves (xI − T) X = R in place for the right-hand sides R = `x_re + j·x_im` (n × nu,
+    /// column by column), as [`FreqEvaluator::solve_schur`].
+    #[inline(always)]
+    fn solve_schur_in(&self, t: &[f64], blocks: &[usize], x: c64, x_re: &mut [f64], x_im: &mut [f64]) -> Result<()> {
         let (n, nu) = (self.n, self.nu);
-        let (x_re, x_im) = (&mut ws.x_re, &mut ws.x_im);
-        x_re.copy_from_slice(&self.b);
-        x_im.fill(0.0);
         let pole = || {
             LtiError::Numerical(format!(
                 "the model has a pole at s = {}{:+}j (frequency response is infinite there)",

@@ -43,7 +43,8 @@ fn lane_mul(a: c64, b: c64) -> c64 {
 impl FreqEvaluator {
     /// Whether [`FreqEvaluator::eval_lanes`] applies (a Schur factor was computed).
     pub(super) fn has_lanes(&self) -> bool {
-        matches!(self.form, Form::Schur { .. })
+        // The lanes solve without the refinement step: models that need it take the scalar path.
+        matches!(self.form, Form::Schur { .. }) && self.refine.is_none()
     }
 
     /// G(jω) at the [`LANES`] frequencies `w` (rad/s) into `out` (ny·nu values per frequency,
