@@ -23,24 +23,30 @@ fn f64s(v: &Value) -> Vec<f64> {
         .collect()
 }
 
+/// The largest relative error of `freqresp(sys, w)` against the case's `re`, `im` ([freq][out][in]).
+fn worst_rel_err(sys: &StateSpace, w: &[f64], case: &Value) -> f64 {
+    let g = freqresp(sys, w).expect("freqresp");
+    let mut worst = 0.0f64;
+    for (k, gk) in g.iter().enumerate() {
+        for i in 0..sys.ny() {
+            for j in 0..sys.nu() {
+                let re = case["re"][k][i][j].as_f64().expect("re");
+                let im = case["im"][k][i][j].as_f64().expect("im");
+                let r = skyloop_lti::c64::new(re, im);
+                worst = worst.max((gk[(i, j)] - r).norm() / r.norm());
+            }
+        }
+    }
+    worst
+}
+
 #[test]
 fn freqresp_matches_slycot_tb05ad_to_1e_10() {
     let fx = fixture("freqresp");
     for case in fx["cases"].as_array().expect("cases") {
         let sys = sys_of(&case["sys"]);
         let w = f64s(&case["w_rad_s"]);
-        let g = freqresp(&sys, &w).expect("freqresp");
-        let mut worst = 0.0f64;
-        for (k, gk) in g.iter().enumerate() {
-            for i in 0..sys.ny() {
-                for j in 0..sys.nu() {
-                    let re = case["re"][k][i][j].as_f64().expect("re");
-                    let im = case["im"][k][i][j].as_f64().expect("im");
-                    let r = skyloop_lti::c64::new(re, im);
-                    worst = worst.max((gk[(i, j)] - r).norm() / r.norm());
-                }
-            }
-        }
+        let worst = worst_rel_err(&sys, &w, case);
         assert!(worst < 1e-10, "{}: worst relative error {worst:e}", case["name"]);
     }
 }
@@ -55,19 +61,7 @@ fn freqresp_on_ill_conditioned_models_beats_tb05ad() {
     for case in fx["cases"].as_array().expect("cases") {
         let sys = sys_of(&case["sys"]);
         let w = f64s(&case["w_rad_s"]);
-        let g = freqresp(&sys, &w).expect("freqresp");
-        let mut worst = 0.0f64;
-        for (k, gk) in g.iter().enumerate() {
-            for i in 0..sys.ny() {
-                for j in 0..sys.nu() {
-                    let r = skyloop_lti::c64::new(
-                        case["re"][k][i][j].as_f64().expect("re"),
-                        case["im"][k][i][j].as_f64().expect("im"),
-                    );
-                    worst = worst.max((gk[(i, j)] - r).norm() / r.norm());
-                }
-            }
-        }
+        let worst = worst_rel_err(&sys, &w, case);
         let theirs = case["python_control_rel_err"]
             .as_f64()
             .expect("error of python-control");

@@ -9,6 +9,7 @@
 #![allow(clippy::unwrap_used)] // a panic is how a test or bench reports failure
 
 #[path = "common/ardupilot_log.rs"]
+#[allow(dead_code)] // `fly_rate_loop` is for the tests that simulate a 400 Hz loop
 mod ardupilot_log;
 #[path = "common/loop_margins.rs"]
 #[allow(dead_code)] // `fitted` is for the identification tests

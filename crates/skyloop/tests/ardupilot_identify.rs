@@ -28,40 +28,23 @@ const FLOWN_PER_DEG: (f64, f64, f64) = (0.004, 0.02, 0.00008);
 
 /// 40 s of a 400 Hz rate loop: (time µs, desired, rate, output) per control step.
 fn flight() -> Vec<(u64, f64, f64, f64)> {
-    let dt = 1.0 / 400.0;
-    let sub = 20;
-    let h = dt / sub as f64;
-    let delay_steps = (TD / h).round() as usize;
-    let (kp, ki, kd) = FLOWN_PER_DEG;
-    let mut buf = vec![0.0; delay_steps + 1];
-    let (mut rate, mut acc, mut u, mut integ, mut prev_e) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
     let mut rnd = ardupilot_log::lcg(12345u64);
     let mut des = 0.0;
-    let mut out = Vec::new();
-    for k in 0..16_000u64 {
-        let t = k as f64 * dt;
-        // Stick steps every 0.1–0.4 s plus a small random component: broadband excitation.
+    // Stick steps every 0.15 s plus a small random component and a 7 Hz sine: broadband excitation.
+    let desired = move |k: u64, t: f64| {
         if k % 60 == 0 {
             des = 300.0 * rnd();
         }
-        let desired = des + 20.0 * rnd() + 80.0 * (2.0 * std::f64::consts::PI * 7.0 * t).sin();
-        let e = desired - rate;
-        integ += e * dt;
-        let d = (e - prev_e) / dt;
-        prev_e = e;
-        u = (kp * e + ki * integ + kd * d).clamp(-1.0, 1.0);
-        out.push(((1_000_000.0 + t * 1e6) as u64, desired, rate, u));
-        for _ in 0..sub {
-            buf.rotate_right(1);
-            buf[0] = u;
-            let ud = buf[delay_steps];
-            // τ·ω̇' = K·u − ω̇': the angular acceleration lags the command by τ.
-            acc += h * (K * ud - acc) / TAU;
-            rate += h * acc;
-        }
-    }
-    let _ = u;
-    out
+        des + 20.0 * rnd() + 80.0 * (2.0 * std::f64::consts::PI * 7.0 * t).sin()
+    };
+    let (mut rate, mut acc) = (0.0f64, 0.0f64);
+    // τ·ω̇' = K·u − ω̇': the angular acceleration lags the command by τ.
+    let plant = move |ud: f64, h: f64| {
+        acc += h * (K * ud - acc) / TAU;
+        rate += h * acc;
+        rate
+    };
+    ardupilot_log::fly_rate_loop(16_000, FLOWN_PER_DEG, TD, desired, plant)
 }
 
 /// The flight as a DataFlash log, RATE written every `every`-th control step.

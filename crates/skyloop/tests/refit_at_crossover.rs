@@ -9,6 +9,7 @@
 #[path = "common/ardupilot_log.rs"]
 mod ardupilot_log;
 #[path = "common/loop_margins.rs"]
+#[allow(dead_code)] // `fitted` is for the identification tests
 mod common;
 #[path = "../../skyloop-sysid/tests/common/dataflash_writer.rs"]
 mod writer;
@@ -23,41 +24,24 @@ const TD: f64 = 0.004; // s
 const FLOWN_PER_DEG: (f64, f64, f64) = (0.02, 0.1, 0.0003);
 
 fn flight() -> Vec<(u64, f64, f64, f64)> {
-    let dt = 1.0 / 400.0;
-    let sub = 20;
-    let h = dt / sub as f64;
-    let delay_steps = (TD / h).round() as usize;
-    let (kp, ki, kd) = FLOWN_PER_DEG;
-    let mut buf = vec![0.0; delay_steps + 1];
-    let (mut rate, mut acc, mut integ, mut prev_e) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
-    let mut m = 0.0f64;
     let mut rnd = ardupilot_log::lcg(777u64);
-    let mut des = 0.0;
-    let mut out = Vec::new();
-    for k in 0..24_000u64 {
-        let t = k as f64 * dt;
+    let mut hold = 0.0;
+    // Stick steps every 0.125 s and a new small random value every step: broadband, unsaturated.
+    let desired = move |k: u64, _t: f64| {
         if k % 50 == 0 {
-            des = 40.0 * rnd();
+            hold = 40.0 * rnd();
         }
-        // Broadband: a new random value every step on top of the stick steps.
-        let desired = des + 8.0 * rnd();
-        let e = desired - rate;
-        integ += e * dt;
-        let d = (e - prev_e) / dt;
-        prev_e = e;
-        let u = (kp * e + ki * integ + kd * d).clamp(-1.0, 1.0);
-        out.push(((1_000_000.0 + t * 1e6) as u64, desired, rate, u));
-        for _ in 0..sub {
-            buf.rotate_right(1);
-            buf[0] = u;
-            let ud = buf[delay_steps];
-            // Two lags: the ESC and motor (τ₂), then the rotor's spin-up (τ₁).
-            m += h * (ud - m) / TAU2;
-            acc += h * (K * m - acc) / TAU1;
-            rate += h * acc;
-        }
-    }
-    out
+        hold + 8.0 * rnd()
+    };
+    let (mut rate, mut acc, mut m) = (0.0f64, 0.0f64, 0.0f64);
+    // Two lags: the ESC and motor (τ₂), then the rotor's spin-up (τ₁).
+    let plant = move |ud: f64, h: f64| {
+        m += h * (ud - m) / TAU2;
+        acc += h * (K * m - acc) / TAU1;
+        rate += h * acc;
+        rate
+    };
+    ardupilot_log::fly_rate_loop(24_000, FLOWN_PER_DEG, TD, desired, plant)
 }
 
 fn log_bytes() -> Vec<u8> {

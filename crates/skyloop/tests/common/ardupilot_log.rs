@@ -58,3 +58,40 @@ pub fn roll_request(name: &str) -> skyloop::tune::log::LogTuneRequest {
     req.starts = 2;
     req
 }
+
+/// `n` steps of a 400 Hz ArduCopter-style rate loop: a PID on the error e = desired − rate (per
+/// deg/s: `gains` = (P, I, D), D the raw difference of e), its output clamped to ±1, held over the
+/// period and delayed by `delay_s`, into `plant(u, h)`, which advances the airframe by `h` s and
+/// returns its rate (deg/s); 20 plant steps per control period. `desired(k, t)` is the pilot's rate.
+pub fn fly_rate_loop(
+    n: u64,
+    gains: (f64, f64, f64),
+    delay_s: f64,
+    mut desired: impl FnMut(u64, f64) -> f64,
+    mut plant: impl FnMut(f64, f64) -> f64,
+) -> Vec<Step> {
+    let dt = 1.0 / 400.0;
+    let sub = 20;
+    let h = dt / f64::from(sub);
+    let delay_steps = (delay_s / h).round() as usize;
+    let (kp, ki, kd) = gains;
+    let mut buf = vec![0.0; delay_steps + 1];
+    let (mut rate, mut integ, mut prev_e) = (0.0f64, 0.0f64, 0.0f64);
+    let mut out = Vec::new();
+    for k in 0..n {
+        let t = k as f64 * dt;
+        let des = desired(k, t);
+        let e = des - rate;
+        integ += e * dt;
+        let d = (e - prev_e) / dt;
+        prev_e = e;
+        let u = (kp * e + ki * integ + kd * d).clamp(-1.0, 1.0);
+        out.push(((1_000_000.0 + t * 1e6) as u64, des, rate, u));
+        for _ in 0..sub {
+            buf.rotate_right(1);
+            buf[0] = u;
+            rate = plant(buf[delay_steps], h);
+        }
+    }
+    out
+}
