@@ -163,6 +163,37 @@ fn lsim_impulse_and_d2c() {
     assert!((x.0 - y.0).abs() < 1e-8 && (x.1 - y.1).abs() < 1e-8, "{x:?} vs {y:?}");
     let (code, _, err) = skyloop(&["d2c", "1/(s+1)"]);
     assert!(code == 2 && err.contains("continuous"), "{err}");
+    // A signal the grid cannot carry is refused, not aliased: 60 Hz sampled at 100 Hz would be a
+    // 40 Hz input; a pulse shorter than one step would be one sample or none.
+    let (code, _, err) = skyloop(&["lsim", "1/(s+1)", "--input", "sin:60", "--dt", "0.01", "--tfinal", "1"]);
+    assert!(code == 2 && err.contains("Nyquist frequency 50 Hz"), "{err}");
+    let (code, _, err) = skyloop(&[
+        "lsim",
+        "1/(s+1)",
+        "--input",
+        "pulse:0.001",
+        "--dt",
+        "0.01",
+        "--tfinal",
+        "1",
+    ]);
+    assert!(code == 2 && err.contains("shorter than one step"), "{err}");
+    // A model file that never ends (a device) is refused by name, not read forever.
+    let (code, _, err) = skyloop(&["margins", "@\"/dev/urandom\""]);
+    assert!(code == 2 && err.contains("not a regular file"), "{err}");
+    for verb in ["design", "simulate"] {
+        let (code, _, err) = skyloop(&[verb, "/dev/urandom"]);
+        assert!(code == 2 && err.contains("not a regular file"), "{verb}: {err}");
+    }
+    // A huge response is printed in exponent form, not as 300 digits.
+    let csv = tmp("huge.csv");
+    std::fs::write(&csv, "time_s,u\n0,1\n0.1,1e308\n0.2,1e308\n").unwrap();
+    let (code, out, err) = skyloop(&["lsim", "1/(s+1)", "--input", &csv]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("largest |y| = 9.5") && out.contains("e306") && out.len() < 200,
+        "{out}"
+    );
 }
 
 /// The one response value of `freqresp --json` (`re[output][input][k]`).

@@ -366,7 +366,7 @@ fn model_at(g: &StateSpace, s: c64) -> Result<c64> {
 /// scalar transfer function in s).
 fn read_model_file(path: &str, column: usize) -> Result<StateSpace> {
     let bad = |message: String| LtiError::Parse { column, message };
-    let text = std::fs::read_to_string(path).map_err(|e| bad(format!("@{path}: cannot read the file: {e}")))?;
+    let text = crate::json::read_text_file(std::path::Path::new(path)).map_err(|e| bad(format!("@{path}: {e}")))?;
     let g = crate::json::from_json_str(&text).map_err(|e| bad(format!("@{path}: {e}")))?;
     if g.nu() != 1 || g.ny() != 1 {
         return Err(bad(format!(

@@ -59,6 +59,35 @@ impl LtiJson {
     }
 }
 
+/// Largest text file (LTI JSON, a TOML spec, a CSV of inputs) read, bytes: a 2000-state model is
+/// about 100 MB of JSON.
+pub const MAX_TEXT_BYTES: u64 = 256 << 20;
+
+/// The text of a file a user names: a regular file of at most [`MAX_TEXT_BYTES`]. A device or a
+/// pipe (`/dev/urandom`, a FIFO) would be read forever: it is refused by name, as is a larger file.
+///
+/// # Errors
+/// The message (without the path) of a file that is not regular, too large, unreadable or not
+/// UTF-8.
+pub fn read_text_file(path: &std::path::Path) -> std::result::Result<String, String> {
+    use std::io::Read;
+    let meta = std::fs::metadata(path).map_err(|e| format!("cannot read the file: {e}"))?;
+    if !meta.is_file() {
+        return Err("not a regular file (a device or a pipe is not read)".into());
+    }
+    let mut text = String::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(MAX_TEXT_BYTES + 1).read_to_string(&mut text))
+        .map_err(|e| format!("cannot read the file: {e}"))?;
+    if text.len() as u64 > MAX_TEXT_BYTES {
+        return Err(format!(
+            "larger than {} MB, the most a text file may hold here",
+            MAX_TEXT_BYTES >> 20
+        ));
+    }
+    Ok(text)
+}
+
 /// Parses LTI JSON text into a validated model; errors name the bad field.
 pub fn from_json_str(text: &str) -> Result<StateSpace> {
     let j: LtiJson = serde_json::from_str(text).map_err(|e| LtiError::InvalidArgument(format!("LTI JSON: {e}")))?;

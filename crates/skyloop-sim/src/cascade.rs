@@ -229,7 +229,8 @@ fn build_rate(law: &RateLaw, j_axis: f64, dt: f64, lim: f64) -> Result<RateCtl> 
         } => {
             let path = std::path::Path::new(model);
             let sys = if path.is_file() {
-                let text = std::fs::read_to_string(path).map_err(|e| SimError::Param(format!("{model}: {e}")))?;
+                let text =
+                    skyloop_lti::json::read_text_file(path).map_err(|e| SimError::Param(format!("{model}: {e}")))?;
                 skyloop_lti::json::from_json_str(&text)?
             } else {
                 skyloop_lti::expr::parse_model(model)?

@@ -24,7 +24,7 @@ use std::path::Path;
 pub fn load_model(arg: &str) -> Result<StateSpace> {
     let path = Path::new(arg);
     if path.is_file() {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::read(path, e))?;
+        let text = skyloop_lti::json::read_text_file(path).map_err(|e| Error::Input(format!("{arg}: {e}")))?;
         return skyloop_lti::json::from_json_str(&text).map_err(|e| Error::Input(format!("{arg}: {e}")));
     }
     if arg.ends_with(".json") && !arg.contains('@') {

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 /// # Errors
 /// An unreadable file, or TOML that is not a valid scenario (the message names the file).
 pub fn load_scenario(path: &Path) -> Result<Scenario> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::read(path, e))?;
+    let text = skyloop_lti::json::read_text_file(path).map_err(|e| Error::read(path, e))?;
     Scenario::from_toml(&text).map_err(|e| Error::Spec(format!("{}: {e}", path.display())))
 }
 

@@ -105,13 +105,37 @@ pub fn signal(spec: &str) -> Result<impl Fn(f64) -> f64> {
     })
 }
 
+/// Refuses a signal spec that the grid of step `dt_s` (s) cannot carry: a `sin`/`square` at or above
+/// the grid's Nyquist frequency 1/(2·dt) (its samples would be another frequency's: an aliased,
+/// silently wrong input), or a `pulse` shorter than one step.
+///
+/// # Errors
+/// Either case, naming the spec, the limit and the `--dt` that would carry it.
+pub fn check_sampling(spec: &str, dt_s: f64) -> Result<()> {
+    let parts: Vec<&str> = spec.split(':').map(str::trim).collect();
+    let Some(x) = parts.get(1).and_then(|s| s.parse::<f64>().ok()) else {
+        return Ok(());
+    };
+    let nyquist = 0.5 / dt_s;
+    match parts[0] {
+        "sin" | "square" if x >= nyquist => Err(Error::Input(format!(
+            "--input {spec}: {x} Hz is at or above the Nyquist frequency {nyquist} Hz of --dt {dt_s} s, so its samples would be those of another frequency; use --dt below {}",
+            0.5 / x
+        ))),
+        "pulse" if x < dt_s => Err(Error::Input(format!(
+            "--input {spec}: a pulse of {x} s is shorter than one step (--dt {dt_s} s); use --dt at most {x}"
+        ))),
+        _ => Ok(()),
+    }
+}
+
 /// Reads inputs from a CSV file: a header, then rows of time (s) and one column per input; the
 /// times must be uniform (as `lsim` needs).
 ///
 /// # Errors
 /// An unreadable file, non-numeric cells, fewer than two rows, or non-uniform times.
 pub fn read_inputs(path: &std::path::Path, nu: usize) -> Result<(Vec<f64>, Vec<Vec<f64>>)> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::read(path, e))?;
+    let text = skyloop_lti::json::read_text_file(path).map_err(|e| Error::read(path, e))?;
     let (mut t, mut u) = (Vec::new(), Vec::new());
     for (k, line) in text.lines().enumerate().skip(1).filter(|(_, l)| !l.trim().is_empty()) {
         let v: Vec<f64> = line

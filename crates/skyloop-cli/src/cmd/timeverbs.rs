@@ -121,7 +121,7 @@ fn write(sim: &Simulation, out: &Option<std::path::PathBuf>, json: bool, title: 
         let last = sim.y.last().cloned().unwrap_or_default();
         let peak = sim.y.iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()));
         println!(
-            "{} samples to t = {} s; final y = {last:?}; largest |y| = {peak}",
+            "{} samples to t = {} s; final y = {last:?}; largest |y| = {peak:?}",
             sim.t_s.len(),
             sim.t_s.last().unwrap_or(&0.0)
         );
@@ -141,6 +141,7 @@ pub fn run_lsim(a: LsimArgs) -> skyloop::Result<()> {
     } else {
         let f = signal(&a.input)?;
         let dt = a.dt.ok_or("--dt is needed with a signal spec")?;
+        skyloop::timeverbs::check_sampling(&a.input, dt)?;
         let t = grid(dt, a.tfinal.ok_or("--tfinal is needed with a signal spec")?)?;
         let u = t.iter().map(|&x| vec![f(x); sys.nu()]).collect();
         (t, u)

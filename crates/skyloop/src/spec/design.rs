@@ -176,7 +176,7 @@ impl DesignSpec {
 
     /// Reads and checks a spec file.
     pub fn from_file(path: &Path) -> Result<DesignSpec> {
-        let text = std::fs::read_to_string(path)
+        let text = skyloop_lti::json::read_text_file(path)
             .map_err(|e| LtiError::InvalidArgument(format!("cannot read {}: {e}", path.display())))?;
         let base = path.parent().unwrap_or(Path::new("."));
         DesignSpec::from_toml_str(&text, base)
@@ -298,8 +298,8 @@ impl DesignSpec {
         let t = text.trim();
         let sys = if t.ends_with(".json") {
             let path = self.base_dir.join(t);
-            let body =
-                std::fs::read_to_string(&path).map_err(|e| bad(key, format!("cannot read {}: {e}", path.display())))?;
+            let body = skyloop_lti::json::read_text_file(&path)
+                .map_err(|e| bad(key, format!("cannot read {}: {e}", path.display())))?;
             skyloop_lti::json::from_json_str(&body).map_err(|e| bad(key, e))?
         } else {
             skyloop_lti::expr::parse_model(t).map_err(|e| bad(key, e))?

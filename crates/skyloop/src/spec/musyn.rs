@@ -87,7 +87,7 @@ impl MusynSpec {
     /// # Errors
     /// An unreadable file, or TOML that does not fit the spec (the message names the key).
     pub fn from_file(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::read(path, e))?;
+        let text = skyloop_lti::json::read_text_file(path).map_err(|e| Error::read(path, e))?;
         Self::from_toml_str(&text, path.parent().unwrap_or(Path::new(".")))
             .map_err(|e| Error::Spec(format!("{}: {e}", path.display())))
     }
