@@ -124,6 +124,9 @@ pub struct Plant {
     pub tau_s: (f64, f64),
     /// Td and its standard error, s.
     pub td_s: (f64, f64),
+    /// The yaw model's reaction-torque zero Tz (K·(Tz·s + 1)·e^(−Td·s)/(s·(τs+1))) and its
+    /// standard error, s, when the fit has one.
+    pub tz_s: Option<(f64, f64)>,
     /// Fit percentage.
     pub fit_percent: f64,
     /// Unit of K.

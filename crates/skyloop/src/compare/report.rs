@@ -91,6 +91,18 @@ fn rows_of(a: &AxisComparison) -> Vec<Row> {
             .ok()
             .map(|p| format!("{:.1} ± {:.1} ms", 1e3 * p.td_s.0, 1e3 * p.td_s.1))
     });
+    if [&a.a, &a.b]
+        .iter()
+        .any(|s| s.plant.as_ref().is_ok_and(|p| p.tz_s.is_some()))
+    {
+        add("plant Tz (yaw zero)", &|s| {
+            s.plant
+                .as_ref()
+                .ok()
+                .and_then(|p| p.tz_s)
+                .map(|(v, e)| format!("{:.1} ± {:.1} ms", 1e3 * v, 1e3 * e))
+        });
+    }
     add("gyro noise 20-100 Hz", &|s| {
         s.noise
             .as_ref()

@@ -182,6 +182,7 @@ pub fn plant(log: &Log, path: &std::path::Path, session: Option<usize>, axis: Ax
         k: get("K"),
         tau_s: get("tau"),
         td_s: get("Td"),
+        tz_s: fit.params.contains_key("Tz").then(|| get("Tz")),
         fit_percent: fit.fit_percent,
         gain_unit: id
             .units

@@ -113,13 +113,22 @@ pub fn plant_changes(a: &Plant, b: &Plant) -> Vec<String> {
             a.gain_unit, b.gain_unit
         ));
     }
+    // A yaw fitted with the reaction-torque zero on one log and without it on the other: K and τ
+    // mean different things in the two models (the zero shifts the gain above 1/Tz), so only Td,
+    // which both models share, is compared.
+    let same_model = a.tz_s.is_some() == b.tz_s.is_some();
+    if !same_model {
+        out.push("the yaw models differ (one has the reaction-torque zero Tz): K and tau not compared".into());
+    }
+    let none = (f64::NAN, f64::NAN);
     let items = [
         ("K", a.k, b.k, 1.0, 0usize, ""),
         ("tau", a.tau_s, b.tau_s, 1e3, 1, "ms"),
         ("Td", a.td_s, b.td_s, 1e3, 1, "ms"),
+        ("Tz", a.tz_s.unwrap_or(none), b.tz_s.unwrap_or(none), 1e3, 1, "ms"),
     ];
     for (name, (va, sa), (vb, sb), scale, digits, unit) in items {
-        if name == "K" && a.gain_unit != b.gain_unit {
+        if (name == "K" && a.gain_unit != b.gain_unit) || (!same_model && (name == "K" || name == "tau")) {
             continue;
         }
         let se = sa.hypot(sb);
@@ -372,5 +381,36 @@ mod tests {
         assert_eq!(header_verdict(&[]), vec!["settings: the headers' tuning is identical"]);
         assert_eq!(arrow(38.2, 45.0, 0, "Hz"), "38 → 45 Hz");
         assert_eq!(arrow(12.0, 12.2, 0, "%"), "12% (unchanged)");
+    }
+
+    fn plant(k: f64, tz: Option<f64>) -> Plant {
+        Plant {
+            freq_hz: vec![],
+            mag_db: vec![],
+            phase_deg: vec![],
+            std_db: vec![],
+            coherence: vec![],
+            k: (k, 1.0),
+            tau_s: (0.01, 0.0005),
+            td_s: (0.004, 0.0001),
+            tz_s: tz.map(|t| (t, 0.002)),
+            fit_percent: 80.0,
+            gain_unit: "deg/s² per PID unit".into(),
+            fit_band_hz: None,
+        }
+    }
+
+    #[test]
+    fn yaw_models_with_and_without_the_zero_compare_only_what_they_share() {
+        // Both with the zero: K and Tz changes beyond 3 standard errors are named.
+        let c = plant_changes(&plant(27.0, Some(0.055)), &plant(40.0, Some(0.080)));
+        assert!(
+            c.iter().any(|l| l.starts_with("K ")) && c.iter().any(|l| l.starts_with("Tz ")),
+            "{c:?}"
+        );
+        // One with, one without: K and tau mean different things; only Td is compared, and it says so.
+        let c = plant_changes(&plant(27.0, Some(0.055)), &plant(60.0, None));
+        assert!(c[0].contains("the yaw models differ"), "{c:?}");
+        assert!(!c.iter().any(|l| l.starts_with("K ") || l.starts_with("tau ")), "{c:?}");
     }
 }
