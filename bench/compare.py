@@ -1,7 +1,10 @@
 #!/usr/bin/env python3
 """Side-by-side timings of skyloop against python-control 0.10.2 + slycot; prints speed ratios.
 
-Usage (from the repository root):  python3 bench/compare.py [--only NAME] [--skip-build]
+Usage (from the repository root):  python3 bench/compare.py [--only NAME] [--skip-build] [--quick]
+
+`--quick` (CI, after the tests): at most three repetitions per timing, exit status 0 whatever the
+ratios; rows under 1.0x are listed after the table. Targets are the same-run ratios of issue 44.
 
 Each comparison times the reference in Python (best of several runs) and skyloop through its
 release CLI with `--bench N` (the CLI repeats the computation N times and prints the fastest wall
@@ -38,6 +41,9 @@ import time
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from workflow_times import reps  # noqa: E402
+
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
 BIN = os.path.join(os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target")), "release", "skyloop")
 
@@ -48,7 +54,7 @@ def build():
 
 def skyloop(args, repeat=20):
     """Runs the release CLI with --bench and returns the fastest computation time in seconds."""
-    p = subprocess.run([BIN, *args, "--bench", str(repeat)], capture_output=True, text=True)
+    p = subprocess.run([BIN, *args, "--bench", str(reps(repeat))], capture_output=True, text=True)
     if p.returncode != 0:
         raise RuntimeError(f"skyloop {' '.join(args)} failed: {p.stderr}")
     for line in p.stderr.splitlines():
@@ -59,7 +65,7 @@ def skyloop(args, repeat=20):
 
 def best_of(f, repeat=10):
     best = float("inf")
-    for _ in range(repeat):
+    for _ in range(reps(repeat)):
         t = time.perf_counter()
         f()
         best = min(best, time.perf_counter() - t)
@@ -116,11 +122,11 @@ def hinf_norm_comparisons(run):
     if abs(ours["norm"] - ref_norm) > 1e-6 * ref_norm:
         print(f"H-inf norm: ours {ours['norm']:.10g} vs AB13DD {ref_norm:.10g}")
     best = float("inf")
-    for _ in range(30):
+    for _ in range(reps(30)):
         t = time.thread_time()
         control.linfnorm(g, tol=1e-10)
         best = min(best, time.thread_time() - t)
-    return [("H-inf norm 40 states 3x3 (ab13dd)", ours["seconds"], best, 2.0)]
+    return [("H-inf norm 40 states 3x3 (ab13dd)", ours["seconds"], best, 3.0)]
 
 
 def lcg(rows, cols, seed):
@@ -156,7 +162,7 @@ def linalg_comparisons(run):
         # mostly waiting for a core).
         f()  # warm-up
         out = float("inf")
-        for _ in range(repeat):
+        for _ in range(reps(repeat)):
             t = time.thread_time()
             f()
             out = min(out, time.thread_time() - t)
@@ -172,11 +178,11 @@ def linalg_comparisons(run):
     ad, bd, qd, rd = case("dare.json", "random_n50_m5")
     rows = [
         ("schur n=100 (scipy.linalg.schur, dgees)", ours["schur_n100"], best(lambda: sla.schur(m100), 30), 1.0),
-        ("schur n=400 (scipy.linalg.schur, dgees)", ours["schur_n400"], best(lambda: sla.schur(m400), 5), 1.0),
+        ("schur n=400 (scipy.linalg.schur, dgees)", ours["schur_n400"], best(lambda: sla.schur(m400), 5), 1.5),
         ("qz eigenvalues n=100 (scipy.linalg.eigvals(a, b), dggev)", ours["qz_n100"],
-         best(lambda: sla.eigvals(m100, n100), 30), 1.0),
+         best(lambda: sla.eigvals(m100, n100), 30), 1.5),
         ("qz eigenvalues n=400 (scipy.linalg.eigvals(a, b), dggev)", ours["qz_n400"],
-         best(lambda: sla.eigvals(m400, n400), 3), 1.0),
+         best(lambda: sla.eigvals(m400, n400), 3), 1.5),
         ("care n=50 (scipy solve_continuous_are)", ours["care_n50"],
          best(lambda: sla.solve_continuous_are(a, b, q, r), 30), 1.0),
         ("dare n=50 (scipy solve_discrete_are)", ours["dare_n50"],
@@ -186,9 +192,9 @@ def linalg_comparisons(run):
         import control
 
         rows.append(("care n=50 (slycot SB02MD via control.care)", ours["care_n50"],
-                     best(lambda: control.care(a, b, q, r, method="slycot"), 30), 2.0))
+                     best(lambda: control.care(a, b, q, r, method="slycot"), 30), 4.0))
         rows.append(("dare n=50 (slycot SB02MD via control.dare)", ours["dare_n50"],
-                     best(lambda: control.dare(ad, bd, qd, rd, method="slycot"), 30), 1.0))
+                     best(lambda: control.dare(ad, bd, qd, rd, method="slycot"), 30), 4.0))
     except ImportError:
         print("care/dare: python-control/slycot not installed, SLICOT rows skipped")
     q1k = b1k @ b1k.T
@@ -203,7 +209,7 @@ def linalg_comparisons(run):
         bpad[:2, :] = b1k.T
         rows.append(("lyapunov Cholesky factor n=1000 (slycot SB03OD)", ours["lyap_chol_n1000"],
                      best(lambda: slycot.sb03od(1000, 2, a1k.T.copy(), np.zeros((1000, 1000)), bpad, dico="C"), 1),
-                     1.0))
+                     2.0))
     except ImportError:
         print("lyapunov: slycot not installed, SB03OD row skipped")
     return rows
@@ -213,9 +219,14 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", help="run only comparisons whose name contains this text")
     ap.add_argument("--skip-build", action="store_true", help="use the existing release binary")
+    ap.add_argument("--quick", action="store_true",
+                    help="at most 3 repetitions per timing (CI prints the table on every change); gates nothing: "
+                         "exit 0 whatever the ratios, ratios under 1.0x listed at the end")
     ap.add_argument("--group", action="append",
                     help="run only this group (linalg, hinf_norm, freq, or a compare_<area> module); repeatable")
     args = ap.parse_args()
+    if args.quick:
+        os.environ["SKYLOOP_BENCH_QUICK"] = "1"  # read by workflow_times.reps in every group
     if not args.skip_build and not (args.group and set(args.group) <= {"linalg", "hinf_norm"}):
         build()  # the linalg and hinf_norm groups build their own small examples
     groups = [("linalg", linalg_comparisons), ("hinf_norm", hinf_norm_comparisons), ("freq", freq_comparisons)]
@@ -232,6 +243,7 @@ def main():
         groups = [(g, fn) for g, fn in groups if g in args.group or g.removeprefix("compare_") in args.group]
     print(f"{'comparison':<48} {'skyloop':>11} {'reference':>11} {'ratio':>8} {'target':>8}  ok")
     failed = 0
+    slower = []
     for gname, fn in groups:
         try:
             rows = fn(skyloop)
@@ -246,6 +258,15 @@ def main():
             ok = ratio >= target
             failed += 0 if ok else 1
             print(f"{name:<48} {ours * 1e3:>9.3f}ms {ref * 1e3:>9.3f}ms {ratio:>7.1f}x {target:>7.1f}x  {'yes' if ok else 'NO'}")
+            if ratio < 1.0:
+                slower.append(f"{name}: {ratio:.2f}x")
+    if slower:
+        print("ratio under 1.0x (skyloop slower than the reference):")
+        for line in slower:
+            print(f"  {line}")
+    if args.quick:
+        print(f"quick run: {failed} row(s) or group(s) below target; nothing is gated")
+        sys.exit(0)
     sys.exit(1 if failed else 0)
 
 

@@ -8,6 +8,12 @@ import subprocess
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
 
 
+def reps(repeat):
+    """`repeat`, or at most 3 under `bench/compare.py --quick` (SKYLOOP_BENCH_QUICK=1): CI prints
+    the table on every change without spending minutes on best-of-30 timings."""
+    return min(repeat, 3) if os.environ.get("SKYLOOP_BENCH_QUICK") == "1" else repeat
+
+
 @functools.lru_cache(maxsize=None)
 def ours():
     out = subprocess.run(["cargo", "run", "--release", "-q", "-p", "skyloop", "--example", "time_workflows"],
@@ -21,7 +27,7 @@ def thread_best(f, repeat):
 
     f()
     best = float("inf")
-    for _ in range(repeat):
+    for _ in range(reps(repeat)):
         t = time.thread_time()
         f()
         best = min(best, time.thread_time() - t)
