@@ -163,6 +163,17 @@ fn lsim_impulse_and_d2c() {
     assert!((x.0 - y.0).abs() < 1e-8 && (x.1 - y.1).abs() < 1e-8, "{x:?} vs {y:?}");
     let (code, _, err) = skyloop(&["d2c", "1/(s+1)"]);
     assert!(code == 2 && err.contains("continuous"), "{err}");
+    // A fast discrete pole, z = 1e-100 at dt = 0.01: the continuous pole is ln(1e-100)/0.01 =
+    // −23026 rad/s (the matrix logarithm's unscaled square roots gave −6793 for any z ≤ 1e-100);
+    // a pole at z = −0.5 has no ZOH preimage and is named.
+    let fast = tmp("fast.json");
+    std::fs::write(&fast, r#"{"a":[[1e-100]],"b":[[1]],"c":[[1]],"d":[[0]],"dt":0.01}"#).unwrap();
+    let back = json(&["d2c", &fast, "--json"]);
+    let pole = back["a"][0][0].as_f64().unwrap();
+    assert!((pole - 1e-100f64.ln() / 0.01).abs() < 1e-9 * pole.abs(), "{pole}");
+    std::fs::write(&fast, r#"{"a":[[-0.5]],"b":[[1]],"c":[[1]],"d":[[0]],"dt":0.01}"#).unwrap();
+    let (code, _, err) = skyloop(&["d2c", &fast]);
+    assert!(code == 2 && err.contains("z = -0.5") && err.contains("tustin"), "{err}");
     // A signal the grid cannot carry is refused, not aliased: 60 Hz sampled at 100 Hz would be a
     // 40 Hz input; a pulse shorter than one step would be one sample or none.
     let (code, _, err) = skyloop(&["lsim", "1/(s+1)", "--input", "sin:60", "--dt", "0.01", "--tfinal", "1"]);

@@ -312,6 +312,18 @@ pub fn d2c(sys: &StateSpace, method: Method) -> Result<StateSpace> {
                     f64::from(u8::from(i == j))
                 }
             });
+            // A pole at z = 0 or on the negative real axis has no real ZOH preimage (e^(A·dt) is
+            // never singular, and a real logarithm of a negative eigenvalue does not exist): name
+            // the pole and the way out instead of the matrix logarithm's words.
+            if let Some(p) = crate::freqresp::balanced_eigenvalues(&sys.a)?
+                .into_iter()
+                .find(|z| z.re <= 0.0 && z.im.abs() <= 1e-14 * z.re.abs().max(1e-300))
+            {
+                return Err(LtiError::InvalidArgument(format!(
+                    "d2c zoh: the model has a pole at z = {:.6} (zero or negative real), which no continuous model has as its zero-order-hold equivalent; use --method tustin",
+                    p.re
+                )));
+            }
             let l = logm(big.as_ref())? * faer::Scale(1.0 / dt);
             StateSpace::new(
                 block(&l, 0, 0, n, n),
