@@ -3,7 +3,7 @@
 //! log(I + Y) = ∫₀¹ Y (I + tY)⁻¹ dt by 8-point Gauss–Legendre quadrature (the [8/8] Padé approximant).
 
 use crate::error::{LinalgError, Result};
-use faer::linalg::solvers::{DenseSolveCore, Solve};
+use faer::linalg::solvers::Solve;
 use faer::{Mat, MatRef};
 
 fn norm1(a: MatRef<f64>) -> f64 {
