@@ -39,6 +39,14 @@ fn gauss_legendre_01(m: usize) -> Vec<(f64, f64)> {
         .collect()
 }
 
+/// Whether an eigenvalue `z` lies on the closed negative real axis (zero included, to a relative
+/// 1e-14 in its imaginary part), where no real principal logarithm exists: [`logm`] refuses such a
+/// matrix, and callers that can name the cause better (d2c: a discrete pole with no ZOH preimage)
+/// test their own eigenvalues with the same rule.
+pub fn has_no_real_logarithm(z: faer::c64) -> bool {
+    z.re <= 0.0 && z.im.abs() <= 1e-14 * z.re.abs().max(1e-300)
+}
+
 /// Principal logarithm of a real square matrix with no eigenvalues on the closed negative real axis.
 pub fn logm(a: MatRef<f64>) -> Result<Mat<f64>> {
     let n = a.nrows();
@@ -58,10 +66,7 @@ pub fn logm(a: MatRef<f64>) -> Result<Mat<f64>> {
         return Ok(Mat::zeros(0, 0));
     }
     if let Ok(ev) = a.to_owned().eigenvalues() {
-        if ev
-            .iter()
-            .any(|z| z.re <= 0.0 && z.im.abs() <= 1e-14 * z.re.abs().max(1e-300))
-        {
+        if ev.iter().any(|&z| has_no_real_logarithm(z)) {
             return Err(LinalgError::InvalidArgument(
                 "logm: the matrix has an eigenvalue on the closed negative real axis (no real principal logarithm)"
                     .into(),

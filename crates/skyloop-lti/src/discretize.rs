@@ -11,7 +11,7 @@ use crate::zpk::{zpk_sections_ss, Zpk};
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
 use skyloop_linalg::expm::expm;
-use skyloop_linalg::logm::logm;
+use skyloop_linalg::logm::{has_no_real_logarithm, logm};
 
 /// Discretization method.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -317,7 +317,7 @@ pub fn d2c(sys: &StateSpace, method: Method) -> Result<StateSpace> {
             // the pole and the way out instead of the matrix logarithm's words.
             if let Some(p) = crate::freqresp::balanced_eigenvalues(&sys.a)?
                 .into_iter()
-                .find(|z| z.re <= 0.0 && z.im.abs() <= 1e-14 * z.re.abs().max(1e-300))
+                .find(|&z| has_no_real_logarithm(z))
             {
                 return Err(LtiError::InvalidArgument(format!(
                     "d2c zoh: the model has a pole at z = {:.6} (zero or negative real), which no continuous model has as its zero-order-hold equivalent; use --method tustin",
