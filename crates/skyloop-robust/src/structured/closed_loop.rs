@@ -33,6 +33,13 @@ pub struct GenPlant {
     ev: FreqEvaluator,
 }
 
+/// A closed loop's A and its classified poles, from [`GenPlant::spectral_abscissa_poles`].
+#[derive(Debug, Clone)]
+pub struct LoopPoles {
+    a: Mat<f64>,
+    summary: skyloop_lti::freqresp::PoleSummary,
+}
+
 /// The contraction vectors of one derivative (see the module documentation).
 #[derive(Debug, Clone)]
 pub struct KSens {
@@ -221,31 +228,45 @@ impl GenPlant {
     /// # Errors
     /// As [`GenPlant::closed_loop`], or an eigenvalue computation that does not converge.
     pub fn spectral_abscissa(&self, k: &StateSpace, dk: &[RealizationGrad]) -> Result<(f64, Vec<f64>)> {
+        self.spectral_abscissa_poles(k, dk).map(|(a, g, _)| (a, g))
+    }
+
+    /// [`GenPlant::spectral_abscissa`], also returning the closed loop's A and classified poles
+    /// for [`GenPlant::hinf_known`] on another channel of the same loop.
+    ///
+    /// # Errors
+    /// As [`GenPlant::spectral_abscissa`].
+    pub fn spectral_abscissa_poles(
+        &self,
+        k: &StateSpace,
+        dk: &[RealizationGrad],
+    ) -> Result<(f64, Vec<f64>, LoopPoles)> {
         let cl = self.closed_loop(k)?;
-        let ntot = cl.nx();
-        if ntot == 0 {
+        let summary = skyloop_lti::freqresp::pole_summary(&cl)
+            .map_err(|e| RobustError::Numerical(format!("closed-loop eigenvalues: {e}")))?;
+        let (a, g) = self.abscissa_gradient(k, dk, &cl, &summary.poles)?;
+        Ok((a, g, LoopPoles { a: cl.a, summary }))
+    }
+
+    /// The abscissa and its gradient from the closed loop `cl` and its eigenvalues `lam`.
+    fn abscissa_gradient(
+        &self,
+        k: &StateSpace,
+        dk: &[RealizationGrad],
+        cl: &StateSpace,
+        lam: &[c64],
+    ) -> Result<(f64, Vec<f64>)> {
+        if cl.nx() == 0 {
             return Ok((f64::NEG_INFINITY, vec![0.0; dk.len()]));
         }
-        let eig = |m: &Mat<f64>| {
-            m.eigen()
-                .map_err(|_| RobustError::Numerical("closed-loop eigenvalues did not converge".into()))
-        };
-        let right = eig(&cl.a)?;
-        let lam: Vec<c64> = (0..ntot).map(|i| right.S().column_vector()[i]).collect();
-        let imax = (0..ntot)
+        let imax = (0..lam.len())
             .max_by(|&i, &j| lam[i].re.total_cmp(&lam[j].re).then(lam[i].im.total_cmp(&lam[j].im)))
             .unwrap_or(0);
         let l0 = lam[imax];
-        let left = eig(&cl.a.transpose().to_owned())?;
-        let jmatch = (0..ntot)
-            .min_by(|&i, &j| {
-                (left.S().column_vector()[i] - l0)
-                    .norm()
-                    .total_cmp(&(left.S().column_vector()[j] - l0).norm())
-            })
-            .unwrap_or(0);
-        let v: Vec<c64> = (0..ntot).map(|i| right.U()[(i, imax)]).collect();
-        let y: Vec<c64> = (0..ntot).map(|i| left.U()[(i, jmatch)]).collect();
+        let (v, y) = match eigenvectors_by_inverse_iteration(&cl.a, l0) {
+            Some(vy) => vy,
+            None => eigenvectors_by_qr(&cl.a, l0)?,
+        };
         let ytv: c64 = y.iter().zip(&v).map(|(a, b)| a * b).sum();
         if ytv.norm() < 1e-12 {
             // A defective eigenvalue has no derivative; report the value with a zero gradient
@@ -283,8 +304,25 @@ impl GenPlant {
     /// # Errors
     /// As [`GenPlant::closed_loop`], or a failure of the H∞ norm computation.
     pub fn hinf(&self, k: &StateSpace, dk: &[RealizationGrad]) -> Result<(f64, f64, Vec<f64>)> {
+        self.hinf_known(k, dk, None)
+    }
+
+    /// [`GenPlant::hinf`], reusing `known` poles when they were computed on the same closed-loop
+    /// A (bit for bit: channels of one loop without weights share it); otherwise as `hinf`.
+    ///
+    /// # Errors
+    /// As [`GenPlant::hinf`].
+    pub fn hinf_known(
+        &self,
+        k: &StateSpace,
+        dk: &[RealizationGrad],
+        known: Option<&LoopPoles>,
+    ) -> Result<(f64, f64, Vec<f64>)> {
         let cl = self.closed_loop(k)?;
-        let (gamma, w) = skyloop_lti::norms::hinf_norm(&cl)?;
+        let (gamma, w) = match known {
+            Some(lp) if lp.a == cl.a => skyloop_lti::norms::hinf_norm_with_poles(&cl, &lp.summary)?,
+            _ => skyloop_lti::norms::hinf_norm(&cl)?,
+        };
         if !gamma.is_finite() {
             return Ok((f64::INFINITY, f64::NAN, Vec::new()));
         }
@@ -330,6 +368,74 @@ impl GenPlant {
     }
 }
 
+/// Right and left eigenvectors (v, y: A·v = λv, Aᵀ·y = λy) of `a` for its computed eigenvalue
+/// `lam`, by two steps of inverse iteration with one complex LU of A − λ̃I, λ̃ = λ + δ(1 + i)
+/// (δ = 1e-10·(‖A‖_F + |λ|), so the pivots stay finite). None when a step leaves a non-finite
+/// vector or a residual ‖(A − λI)v‖ above 1e-8·(‖A‖_F + |λ|).
+///
+/// Why: the two full eigendecompositions this replaces (faer's, with every eigenvector of A and
+/// of Aᵀ) were a fifth of a PID tuning run (`examples/time_tune.rs`); only the rightmost pair is
+/// needed. The error of an inverse-iteration vector after k steps is (δ/gap)^k relative, far
+/// below the QR vectors' ε·κ whenever the eigenvalue is not within 1e-5 of another.
+fn eigenvectors_by_inverse_iteration(a: &Mat<f64>, lam: c64) -> Option<(Vec<c64>, Vec<c64>)> {
+    let n = a.nrows();
+    let scale = skyloop_linalg::fro_norm(a.as_ref()) + lam.norm();
+    let delta = 1e-10 * scale.max(f64::MIN_POSITIVE);
+    let shifted = lam + c64::new(delta, delta);
+    let m = Mat::<c64>::from_fn(n, n, |i, j| c64::new(a[(i, j)], 0.0) - if i == j { shifted } else { c64::new(0.0, 0.0) });
+    let lu = m.partial_piv_lu();
+    // A start with every component nonzero and no special direction.
+    let start = || Mat::<c64>::from_fn(n, 1, |i, _| c64::new(1.0 + 0.37 * i as f64, 0.5 - 0.11 * i as f64));
+    let normalize = |x: &mut Mat<c64>| -> Option<()> {
+        let nrm = (0..n).map(|i| x[(i, 0)].norm_sqr()).sum::<f64>().sqrt();
+        if !nrm.is_finite() || nrm == 0.0 {
+            return None;
+        }
+        (0..n).for_each(|i| x[(i, 0)] /= nrm);
+        Some(())
+    };
+    let mut v = start();
+    let mut y = start();
+    for _ in 0..2 {
+        lu.solve_in_place(v.as_mut());
+        normalize(&mut v)?;
+        lu.solve_transpose_in_place(y.as_mut());
+        normalize(&mut y)?;
+    }
+    let residual = |x: &Mat<c64>, transpose: bool| -> f64 {
+        (0..n)
+            .map(|i| {
+                let mut s = -lam * x[(i, 0)];
+                for j in 0..n {
+                    s += x[(j, 0)] * if transpose { a[(j, i)] } else { a[(i, j)] };
+                }
+                s.norm_sqr()
+            })
+            .sum::<f64>()
+            .sqrt()
+    };
+    let tol = 1e-8 * scale;
+    if residual(&v, false) > tol || residual(&y, true) > tol {
+        return None;
+    }
+    Some(((0..n).map(|i| v[(i, 0)]).collect(), (0..n).map(|i| y[(i, 0)]).collect()))
+}
+
+/// Right and left eigenvectors of `a` for the eigenvalue nearest `lam`, from full
+/// eigendecompositions of A and Aᵀ (the fallback of [`eigenvectors_by_inverse_iteration`]).
+fn eigenvectors_by_qr(a: &Mat<f64>, lam: c64) -> Result<(Vec<c64>, Vec<c64>)> {
+    let n = a.nrows();
+    let nearest = |m: &Mat<f64>| -> Result<Vec<c64>> {
+        let e = m
+            .eigen()
+            .map_err(|_| RobustError::Numerical("closed-loop eigenvalues did not converge".into()))?;
+        let s = e.S().column_vector();
+        let j = (0..n).min_by(|&i, &j| (s[i] - lam).norm().total_cmp(&(s[j] - lam).norm())).unwrap_or(0);
+        Ok((0..n).map(|i| e.U()[(i, j)]).collect())
+    };
+    Ok((nearest(a)?, nearest(&a.transpose().to_owned())?))
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)]
@@ -356,6 +462,32 @@ mod tests {
         let (n1, _) = skyloop_lti::norms::hinf_norm(&ours).unwrap();
         let (n2, _) = skyloop_lti::norms::hinf_norm(&theirs).unwrap();
         assert!((n1 - n2).abs() < 1e-9 * n2, "{n1} vs {n2}");
+    }
+
+    #[test]
+    fn inverse_iteration_vectors_match_the_full_decomposition() {
+        // A non-normal 12 × 12 matrix with a complex rightmost pair and a real cluster.
+        let a = Mat::<f64>::from_fn(12, 12, |i, j| {
+            let x = ((i * 31 + j * 17 + 7) % 23) as f64 / 23.0 - 0.5;
+            if i == j {
+                -(i as f64) - 0.5 + x
+            } else if j > i {
+                3.0 * x
+            } else {
+                0.4 * x
+            }
+        });
+        let lam = skyloop_lti::freqresp::balanced_eigenvalues(&a).unwrap();
+        let l0 = *lam.iter().max_by(|p, q| p.re.total_cmp(&q.re)).unwrap();
+        let (v, y) = eigenvectors_by_inverse_iteration(&a, l0).unwrap();
+        let (vq, yq) = eigenvectors_by_qr(&a, l0).unwrap();
+        let cos = |x: &[c64], z: &[c64]| {
+            let d: c64 = x.iter().zip(z).map(|(p, q)| p.conj() * q).sum();
+            let n = |w: &[c64]| w.iter().map(|t| t.norm_sqr()).sum::<f64>().sqrt();
+            d.norm() / (n(x) * n(z))
+        };
+        assert!((1.0 - cos(&v, &vq)).abs() < 1e-10, "right: {}", cos(&v, &vq));
+        assert!((1.0 - cos(&y, &yq)).abs() < 1e-10, "left: {}", cos(&y, &yq));
     }
 
     #[test]

@@ -273,12 +273,14 @@ impl<'a> Compiled<'a> {
         let s = &self.prob.structure;
         let (k, dk) = (s.realize(th)?, s.realize_grad(th)?);
         let mut absc = Vec::new();
+        let mut loop_poles = Vec::new();
         for p in &self.plants {
-            let a = p.lp.spectral_abscissa(&k, &dk)?;
-            if a.0 >= -self.stab_tol() {
+            let (a, g, poles) = p.lp.spectral_abscissa_poles(&k, &dk)?;
+            if a >= -self.stab_tol() {
                 return Ok(None);
             }
-            absc.push(a);
+            absc.push((a, g));
+            loop_poles.push(poles);
         }
         let mut terms = Terms {
             hard: Vec::new(),
@@ -325,9 +327,9 @@ impl<'a> Compiled<'a> {
                     }
                 }
                 _ => {
-                    for p in &self.plants {
+                    for (p, poles) in self.plants.iter().zip(&loop_poles) {
                         let t = if let Some(gp) = &p.hinf[gi] {
-                            let (nu, _, grad) = gp.hinf(&k, &dk)?;
+                            let (nu, _, grad) = gp.hinf_known(&k, &dk, Some(poles))?;
                             if !nu.is_finite() {
                                 return Ok(None);
                             }
