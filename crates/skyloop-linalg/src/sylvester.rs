@@ -68,11 +68,29 @@ pub fn solve_quasi_triangular(ta: MatRef<f64>, tb: MatRef<f64>, c: MatRef<f64>, 
             c.ncols()
         )));
     }
+    let ba = blocks(ta);
+    let smin = smallest_pivot(ta, tb);
+    solve_quasi_triangular_prepared(ta, tb, c, kind, &ba, smin)
+}
+
+/// [`solve_quasi_triangular`] with TA's diagonal blocks `ba` ([`blocks`]`(ta)`) and the pivot
+/// floor `smin` ([`smallest_pivot`]) supplied by the caller (checked sizes).
+///
+/// Why: Hammarling's recursion solves one such equation per diagonal block on a leading part of
+/// the same T; scanning that part for its blocks and its largest entry read as much memory as the
+/// solve itself.
+pub(crate) fn solve_quasi_triangular_prepared(
+    ta: MatRef<f64>,
+    tb: MatRef<f64>,
+    c: MatRef<f64>,
+    kind: Kind,
+    ba: &[(usize, usize)],
+    smin: f64,
+) -> Result<Mat<f64>> {
+    let (m, n) = (ta.nrows(), tb.nrows());
     // Scalar block recurrences follow, often right after faer products (see `clear_upper_simd`).
     crate::dense::clear_upper_simd();
-    let ba = blocks(ta);
     let bb = blocks(tb);
-    let smin = smallest_pivot(ta, tb);
     let mut x = c.to_owned();
     let mut scale = 1.0;
     // Work buffer for the discrete case: R = X[:, :l]·TB[:l, l] and the product TA·R.
@@ -166,9 +184,7 @@ pub fn solve_quasi_triangular(ta: MatRef<f64>, tb: MatRef<f64>, c: MatRef<f64>, 
                 for (ii, wrow) in w.iter().enumerate().take(pk) {
                     let v = wrow[jj];
                     if v != 0.0 {
-                        for i in 0..k0 {
-                            x[(i, l0 + jj)] -= ta[(i, k0 + ii)] * v;
-                        }
+                        sub_scaled_column(&mut x, l0 + jj, ta, k0 + ii, k0, v);
                     }
                 }
             }
@@ -191,6 +207,23 @@ pub fn solve_quasi_triangular(ta: MatRef<f64>, tb: MatRef<f64>, c: MatRef<f64>, 
         }
     }
     Ok(x)
+}
+
+/// x[..len, j] −= v·a[..len, col], on contiguous slices when both columns are (they are for owned
+/// matrices and column-major views), so that the loop vectorizes.
+fn sub_scaled_column(x: &mut Mat<f64>, j: usize, a: MatRef<f64>, col: usize, len: usize, v: f64) {
+    if let Some(src) = a.col(col).try_as_col_major() {
+        let src = &src.as_slice()[..len];
+        if let Some(dst) = x.col_mut(j).try_as_col_major_mut() {
+            for (d, s) in dst.as_slice_mut()[..len].iter_mut().zip(src) {
+                *d -= s * v;
+            }
+            return;
+        }
+    }
+    for i in 0..len {
+        x[(i, j)] -= a[(i, col)] * v;
+    }
 }
 
 /// Diagonal blocks of an upper quasi-triangular matrix as (start, size 1 or 2).
@@ -221,7 +254,7 @@ fn small(t: MatRef<f64>, k0: usize, p: usize) -> [[f64; 2]; 2] {
 }
 
 /// Pivots below this are treated as singular: eps times the size of the data (dtrsyl's SMIN).
-fn smallest_pivot(ta: MatRef<f64>, tb: MatRef<f64>) -> f64 {
+pub(crate) fn smallest_pivot(ta: MatRef<f64>, tb: MatRef<f64>) -> f64 {
     let mut mx: f64 = 0.0;
     for t in [ta, tb] {
         for j in 0..t.ncols() {
