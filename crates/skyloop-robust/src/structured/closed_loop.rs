@@ -382,7 +382,9 @@ fn eigenvectors_by_inverse_iteration(a: &Mat<f64>, lam: c64) -> Option<(Vec<c64>
     let scale = skyloop_linalg::fro_norm(a.as_ref()) + lam.norm();
     let delta = 1e-10 * scale.max(f64::MIN_POSITIVE);
     let shifted = lam + c64::new(delta, delta);
-    let m = Mat::<c64>::from_fn(n, n, |i, j| c64::new(a[(i, j)], 0.0) - if i == j { shifted } else { c64::new(0.0, 0.0) });
+    let m = Mat::<c64>::from_fn(n, n, |i, j| {
+        c64::new(a[(i, j)], 0.0) - if i == j { shifted } else { c64::new(0.0, 0.0) }
+    });
     let lu = m.partial_piv_lu();
     // A start with every component nonzero and no special direction.
     let start = || Mat::<c64>::from_fn(n, 1, |i, _| c64::new(1.0 + 0.37 * i as f64, 0.5 - 0.11 * i as f64));
@@ -430,7 +432,9 @@ fn eigenvectors_by_qr(a: &Mat<f64>, lam: c64) -> Result<(Vec<c64>, Vec<c64>)> {
             .eigen()
             .map_err(|_| RobustError::Numerical("closed-loop eigenvalues did not converge".into()))?;
         let s = e.S().column_vector();
-        let j = (0..n).min_by(|&i, &j| (s[i] - lam).norm().total_cmp(&(s[j] - lam).norm())).unwrap_or(0);
+        let j = (0..n)
+            .min_by(|&i, &j| (s[i] - lam).norm().total_cmp(&(s[j] - lam).norm()))
+            .unwrap_or(0);
         Ok((0..n).map(|i| e.U()[(i, j)]).collect())
     };
     Ok((nearest(a)?, nearest(&a.transpose().to_owned())?))

@@ -274,6 +274,7 @@ impl FilterChain {
     pub fn with_changes(&self, spec: &str) -> Result<(FilterChain, Vec<String>)> {
         let mut out = self.clone();
         let mut changes = Vec::new();
+        let mut named: Vec<&str> = Vec::new();
         for item in spec.split(',').map(str::trim).filter(|s| !s.is_empty()) {
             let (name, value) = item.split_once('=').ok_or_else(|| {
                 Error::Input(format!(
@@ -282,6 +283,13 @@ impl FilterChain {
             })?;
             let (name, value) = (name.trim(), value.trim().to_ascii_lowercase());
             let path = stage_path(name)?;
+            // A stage named twice has no one meaning (the firmware has one setting per stage).
+            if named.contains(&name) {
+                return Err(Error::Input(format!(
+                    "--filters: {name} is given twice; name each stage once"
+                )));
+            }
+            named.push(name);
             let before = out.stages.iter().position(|s| s.name == name);
             // The flown stage's description without its name.
             let old = before.map(|i| {
@@ -380,6 +388,16 @@ fn stage_path(name: &str) -> Result<Path> {
     })
 }
 
+/// Smallest cutoff or centre frequency `--filters` accepts, Hz.
+const MIN_CUTOFF_HZ: f64 = 1.0;
+
+/// `MIN-MAX` split at its range dash: not a leading sign and not an exponent's sign (`1e-3`).
+fn split_range(s: &str) -> Option<(&str, &str)> {
+    let b = s.as_bytes();
+    let i = (1..b.len()).find(|&i| b[i] == b'-' && !matches!(b[i - 1], b'e' | b'E'))?;
+    Some((&s[..i], &s[i + 1..]))
+}
+
 /// One `--filters` value for stage `name` (`prior`: the flown stage, whose Q and curve a change
 /// keeps where the value does not name them).
 fn parse_stage(name: &str, v: &str, prior: Option<&StageKind>, loop_hz: f64) -> Result<StageKind> {
@@ -390,11 +408,14 @@ fn parse_stage(name: &str, v: &str, prior: Option<&StageKind>, loop_hz: f64) -> 
             .trim()
             .parse()
             .map_err(|_| bad(&format!("`{s}` is not a frequency in Hz")))?;
-        if f.is_finite() && f > 0.0 && f < nyq {
+        // Firmware cutoffs are whole hertz from 1 up; a cutoff of 1e-300 Hz would leave
+        // coefficients that underflow.
+        if f.is_finite() && (MIN_CUTOFF_HZ..nyq).contains(&f) {
             Ok(f)
         } else {
             Err(bad(&format!(
-                "{s} Hz is outside (0, {nyq}) Hz, the loop's Nyquist range"
+                "{} Hz is outside [{MIN_CUTOFF_HZ}, {nyq}) Hz (from 1 Hz up to the loop's Nyquist frequency)",
+                s.trim()
             )))
         }
     };
@@ -409,7 +430,7 @@ fn parse_stage(name: &str, v: &str, prior: Option<&StageKind>, loop_hz: f64) -> 
         None => (v, None),
     };
     let range = |s: &str| -> Result<(f64, f64)> {
-        let (a, b) = s.split_once('-').ok_or_else(|| bad("a range is MIN-MAX in Hz"))?;
+        let (a, b) = split_range(s).ok_or_else(|| bad("a range is MIN-MAX in Hz"))?;
         let (a, b) = (hz(a)?, hz(b)?);
         if a < b {
             Ok((a, b))
@@ -471,7 +492,7 @@ fn parse_stage(name: &str, v: &str, prior: Option<&StageKind>, loop_hz: f64) -> 
         });
     }
     let shape = Shape::from_header(kind).ok_or_else(|| bad("the lowpass types are pt1, pt2, pt3 and biquad"))?;
-    if arg.contains('-') {
+    if split_range(arg).is_some() {
         let (min_hz, max_hz) = range(arg)?;
         let curve = match prior {
             Some(StageKind::DynamicLowpass { curve, .. }) => *curve,
@@ -559,10 +580,36 @@ mod tests {
             ("gyro_notch1=notch:100/200", "below its centre"),
             ("gyro_lpf1", "name=value"),
             ("rpm=3h@q-1", "Q must"),
+            // Found by the campaign: an exponent's sign was read as a range dash, a negative
+            // cutoff was named as an empty frequency, and a stage given twice was taken silently.
+            ("gyro_lpf1=biquad:1e-300", "outside [1, 4000)"),
+            ("gyro_lpf1=pt1:-5", "-5 Hz is outside"),
+            ("gyro_lpf1=pt1:0.5", "outside [1, 4000)"),
+            ("dterm_lpf1=pt2:90,dterm_lpf1=pt3:80", "given twice"),
         ] {
             let e = chain().with_changes(spec).unwrap_err().to_string();
             assert!(e.contains(want), "{spec}: {e}");
         }
+    }
+
+    #[test]
+    fn exponents_are_frequencies_not_ranges() {
+        let (c, _) = chain()
+            .with_changes("gyro_lpf1=pt1:1.5e2,dterm_lpf1=pt2:8e1-1.2e2")
+            .unwrap();
+        assert_eq!(
+            c.stages[0].kind,
+            StageKind::Lowpass {
+                shape: Shape::Pt1,
+                hz: 150.0
+            }
+        );
+        assert!(matches!(
+            c.stages[1].kind,
+            StageKind::DynamicLowpass { min_hz, max_hz, .. } if min_hz == 80.0 && max_hz == 120.0
+        ));
+        assert_eq!(split_range("1e-3"), None);
+        assert_eq!(split_range("100-200"), Some(("100", "200")));
     }
 
     #[test]
