@@ -196,6 +196,18 @@ fn lsim_impulse_and_d2c() {
         let (code, _, err) = skyloop(&[verb, "/dev/urandom"]);
         assert!(code == 2 && err.contains("not a regular file"), "{verb}: {err}");
     }
+    // Logs likewise (/dev/zero passed as text and was read to the 4 GiB cap), and a log tune's
+    // --starts is held to its range as a model tune's is (0 and 65 ran before).
+    let log = format!("{}/../../testdata/logs/LOG00037.BFL", env!("CARGO_MANIFEST_DIR"));
+    let (code, _, err) = skyloop(&["log", "compare", &log, "/dev/zero"]);
+    assert!(code == 2 && err.contains("not a regular file"), "{err}");
+    for starts in ["0", "65"] {
+        let (code, _, err) = skyloop(&["tune", &log, "--starts", starts]);
+        assert!(
+            code == 2 && err.contains("--starts must be in 1..=64"),
+            "{starts}: {err}"
+        );
+    }
     // A huge response is printed in exponent form, not as 300 digits.
     let csv = tmp("huge.csv");
     std::fs::write(&csv, "time_s,u\n0,1\n0.1,1e308\n0.2,1e308\n").unwrap();

@@ -205,15 +205,39 @@ fn resampled_flight_segment() {
     assert!(log.uniform(&["gyroADC[0]"], None, Some(100.0), Some(200.0)).is_err());
 }
 
-/// A never-ending binary device is refused from its first bytes (it used to be read until the
-/// memory cap, 31 s, before the format check).
+/// A never-ending device is refused before it is read: /dev/urandom used to be read until the
+/// memory cap (31 s), and /dev/zero, whose zeros pass as text, until the 4 GiB log cap (12 s).
 #[cfg(unix)]
 #[test]
-fn an_endless_binary_stream_is_refused_at_once() {
-    let p = Path::new("/dev/urandom");
-    if !p.exists() {
-        return;
+fn an_endless_device_is_refused_at_once() {
+    for dev in ["/dev/urandom", "/dev/zero"] {
+        let p = Path::new(dev);
+        if !p.exists() {
+            continue;
+        }
+        let t = std::time::Instant::now();
+        let e = Log::open(p, &OpenOptions::default()).unwrap_err().to_string();
+        assert!(e.contains("not a regular file"), "{dev}: {e}");
+        assert!(
+            t.elapsed().as_secs_f64() < 5.0,
+            "{dev}: refused only after {:?}",
+            t.elapsed()
+        );
     }
-    let e = Log::open(p, &OpenOptions::default()).unwrap_err().to_string();
+}
+
+/// A binary file that is no log is refused from its first bytes, not read to its end.
+#[test]
+fn a_binary_file_that_is_no_log_is_refused() {
+    let p = std::env::temp_dir().join(format!("skyloop-binary-{}.bin", std::process::id()));
+    std::fs::write(
+        &p,
+        (0..200_000u32)
+            .map(|i| (i.wrapping_mul(2654435761) >> 13) as u8)
+            .collect::<Vec<_>>(),
+    )
+    .unwrap();
+    let e = Log::open(&p, &OpenOptions::default()).unwrap_err().to_string();
+    let _ = std::fs::remove_file(&p);
     assert!(e.contains("not a ULog, blackbox, DataFlash or CSV file"), "{e}");
 }

@@ -351,6 +351,14 @@ fn read_capped(path: &Path) -> Result<Vec<u8>> {
     use std::io::Read;
     let io = |e: std::io::Error| SysidError::Io(format!("cannot read {}: {e}", path.display()));
     let mut f = std::fs::File::open(path).map_err(io)?;
+    // A device or a pipe is no log: /dev/zero reads as 4 GiB of "text" before the size cap
+    // refuses it (12 s), and a FIFO may never end.
+    if !f.metadata().map_err(io)?.is_file() {
+        return Err(SysidError::Log(format!(
+            "{}: not a regular file (a log is a file on disk, not a device, pipe or directory)",
+            path.display()
+        )));
+    }
     let mut bytes = Vec::new();
     (&mut f).take(64 << 10).read_to_end(&mut bytes).map_err(io)?;
     if detect(&bytes) == LogFormat::Csv {

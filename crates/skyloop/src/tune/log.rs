@@ -271,7 +271,7 @@ fn rate_model(k: f64, tau: f64, td: f64, tz: f64) -> Result<StateSpace> {
 /// An identification that fails (its error names the cause and the flags that change it), a
 /// firmware that does not match the log's, or a tuning failure.
 pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
-    check_sigma(req)?;
+    check_request(req)?;
     progress(req, "identify");
     let (log, derived) = crate::firmware::open_log(&req.log, req.session)?;
     tune_from_read_log(&resolved(req, &log)?, log, derived)
@@ -284,7 +284,7 @@ pub fn tune_from_log(req: &LogTuneRequest) -> Result<LogTuneOutcome> {
 /// # Errors
 /// An unreadable or unrecognised log, a `firmware` that does not match it, or `--sigma` out of range.
 pub fn tune_axes_from_log(req: &LogTuneRequest, axes: &[Axis]) -> Result<AxesTune> {
-    check_sigma(req)?;
+    check_request(req)?;
     let (log, derived) = crate::firmware::open_log(&req.log, req.session)?;
     // A firmware that does not match the log is the request's fault, not an axis's.
     let req = &resolved(req, &log)?;
@@ -372,7 +372,7 @@ fn shared_choice(r: &Result<LogTuneOutcome>) -> Scale {
 /// # Errors
 /// As [`tune_from_log`].
 pub fn tune_from_log_bytes(req: &LogTuneRequest, bytes: &[u8]) -> Result<LogTuneOutcome> {
-    check_sigma(req)?;
+    check_request(req)?;
     progress(req, "identify");
     let (log, derived) = crate::firmware::open_log_bytes(bytes, &req.log.display().to_string(), req.session)?;
     tune_from_read_log(&resolved(req, &log)?, log, derived)
@@ -411,11 +411,12 @@ impl LogTuneRequest {
     }
 }
 
-fn check_sigma(req: &LogTuneRequest) -> Result<()> {
+/// The request's own ranges, checked before the log is read: `--sigma` and `--starts`.
+fn check_request(req: &LogTuneRequest) -> Result<()> {
     if !(req.sigma.is_finite() && (0.0..=5.0).contains(&req.sigma)) {
         return Err(Error::Input(format!("--sigma must be in 0..=5, got {}", req.sigma)));
     }
-    Ok(())
+    super::check_starts(req.starts)
 }
 
 /// `req` with its firmware resolved against `log` by [`firmware_for`], once per log read.

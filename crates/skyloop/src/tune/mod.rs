@@ -368,8 +368,13 @@ fn validate(req: &TuneRequest) -> Result<()> {
             )));
         }
     }
-    if !(1..=64).contains(&req.starts) {
-        return Err(Error::Input(format!("--starts must be in 1..=64, got {}", req.starts)));
+    check_starts(req.starts)
+}
+
+/// `--starts` within 1..=64 (model and log tuning alike).
+pub(crate) fn check_starts(starts: usize) -> Result<()> {
+    if !(1..=64).contains(&starts) {
+        return Err(Error::Input(format!("--starts must be in 1..=64, got {starts}")));
     }
     Ok(())
 }
