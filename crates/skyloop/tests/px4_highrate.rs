@@ -384,7 +384,7 @@ fn a_50_hz_px4_log_names_sdlog_profile() {
     assert!(
         id.warnings
             .iter()
-            .any(|w| w.contains("logged at 50.0 Hz, too slow") && w.contains("SDLOG_PROFILE bit 2")),
+            .any(|w| w.contains("logged at 50.0 Hz, too slow") && w.contains("SDLOG_PROFILE bit 4 (High rate, value 16")),
         "{:?}",
         id.warnings
     );

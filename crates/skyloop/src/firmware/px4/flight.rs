@@ -14,7 +14,7 @@ use skyloop_sysid::logs::Log;
 pub const MIN_RATE_HZ: f64 = 100.0;
 
 /// What to change so that a log too slow for the rate loop is logged at the loop's rate next time.
-pub const SLOW_LOG_ADVICE: &str = "set SDLOG_PROFILE bit 2 (High rate: vehicle_angular_velocity, vehicle_torque_setpoint, vehicle_rates_setpoint and actuator_motors at the rate loop's rate) and fly again";
+pub const SLOW_LOG_ADVICE: &str = "set SDLOG_PROFILE bit 4 (High rate, value 16: vehicle_angular_velocity, vehicle_torque_setpoint, vehicle_rates_setpoint and actuator_motors at the rate loop's rate; `param set SDLOG_PROFILE 17` keeps the default set beside it) and fly again";
 
 /// The rate loop of `axis` (rad/s, normalized torque).
 ///
