@@ -382,9 +382,9 @@ fn a_50_hz_px4_log_names_sdlog_profile() {
     let steps: Vec<Step> = flight(25.0).into_iter().step_by(16).collect();
     let id = identify_bytes(&log_bytes(&steps, Motors::Flying), &request()).unwrap();
     assert!(
-        id.warnings
-            .iter()
-            .any(|w| w.contains("logged at 50.0 Hz, too slow") && w.contains("SDLOG_PROFILE bit 4 (High rate, value 16")),
+        id.warnings.iter().any(
+            |w| w.contains("logged at 50.0 Hz, too slow") && w.contains("SDLOG_PROFILE bit 4 (High rate, value 16")
+        ),
         "{:?}",
         id.warnings
     );
