@@ -5,32 +5,17 @@
 #![allow(clippy::unwrap_used)] // a panic is how a test reports failure
 
 use proptest::prelude::*;
-use skyloop::firmware::filters::{FilterChain, OperatingPoint, Path, Shape, Stage, StageKind};
+use skyloop::firmware::filters::{FilterChain, OperatingPoint, Path, Shape, StageKind};
 
 const LOOP_HZ: f64 = 8000.0;
 
+/// A flown chain: a PT1 gyro lowpass at 200 Hz and a PT1 D-term lowpass at 150 Hz.
 fn flown() -> FilterChain {
-    FilterChain {
+    let empty = FilterChain {
         loop_hz: LOOP_HZ,
-        stages: vec![
-            Stage {
-                name: "gyro_lpf1".into(),
-                path: Path::Gyro,
-                kind: StageKind::Lowpass {
-                    shape: Shape::Pt1,
-                    hz: 200.0,
-                },
-            },
-            Stage {
-                name: "dterm_lpf1".into(),
-                path: Path::Dterm,
-                kind: StageKind::Lowpass {
-                    shape: Shape::Pt1,
-                    hz: 150.0,
-                },
-            },
-        ],
-    }
+        stages: Vec::new(),
+    };
+    empty.with_changes("gyro_lpf1=pt1:200,dterm_lpf1=pt1:150").unwrap().0
 }
 
 const LOWPASS_STAGES: [&str; 4] = ["gyro_lpf1", "gyro_lpf2", "dterm_lpf1", "dterm_lpf2"];
