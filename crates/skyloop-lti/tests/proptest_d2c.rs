@@ -1,7 +1,8 @@
 //! Property test of discretization round trips: a random continuous model (real poles, lightly to
 //! well damped complex pairs, an integrator or not, real zeros, gains over six decades), sampled by
 //! `c2d` with zero-order hold or Tustin and brought back by `d2c` with the same method, has the
-//! original frequency response to 1e-8 relative at frequencies up to half the Nyquist frequency.
+//! original frequency response to 1e-8 relative at frequencies up to half the Nyquist frequency
+//! (where the response lies within 120 dB of its peak; below that, to 1e-14 of the peak).
 //! Poles are kept within 1e-3..3 rad per sample, where the matrix logarithm of the sampled model is
 //! well conditioned.
 #![allow(clippy::unwrap_used)] // a panic is how a test reports failure
@@ -71,10 +72,18 @@ proptest! {
         let gd = c2d(&g, DT, method).unwrap();
         let back = d2c(&gd, method).unwrap();
         let nyq = std::f64::consts::PI / DT;
-        for k in 1..=12 {
-            let w = nyq * 0.5 * (k as f64 / 12.0).powi(3);
-            let (a, b) = (evalfr(&g, c64::new(0.0, w)).unwrap()[(0, 0)], evalfr(&back, c64::new(0.0, w)).unwrap()[(0, 0)]);
-            prop_assert!((a - b).norm() <= 1e-8 * a.norm().max(1e-300), "{}: w {w:.3}: {a} vs {b}", m.expr());
+        let pairs: Vec<(f64, c64, c64)> = (1..=12)
+            .map(|k| {
+                let w = nyq * 0.5 * (k as f64 / 12.0).powi(3);
+                (w, evalfr(&g, c64::new(0.0, w)).unwrap()[(0, 0)], evalfr(&back, c64::new(0.0, w)).unwrap()[(0, 0)])
+            })
+            .collect();
+        // Relative to the response where it is within 120 dB of its largest value on the grid:
+        // further down a steep roll-off (|G| 1e-16 of its peak, seen with five slow poles) the
+        // value is a cancellation of terms of the peak's size, known to ε·peak only.
+        let peak = pairs.iter().fold(0.0f64, |m, p| m.max(p.1.norm()));
+        for (w, a, b) in pairs {
+            prop_assert!((a - b).norm() <= 1e-8 * (a.norm() + 1e-6 * peak), "{}: w {w:.3}: {a} vs {b}", m.expr());
         }
     }
 }
