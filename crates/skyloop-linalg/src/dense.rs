@@ -5,6 +5,47 @@
 use faer::{Mat, MatRef};
 use std::ops::{Index, IndexMut, Range};
 
+/// The product L·R (same units as the entries' product) as a triangular product where the
+/// factors are triangular: L lower triangular and/or R upper triangular (exact zeros) skip the
+/// zero halves (a third to a half of the flops of a full product), otherwise a full product.
+///
+/// Why: Cholesky-type factors (gramian factors, Hammarling's U) are upper triangular, and their
+/// products were a tenth of a 1000-state Lyapunov factor or balanced truncation.
+pub fn product_using_triangles(l: MatRef<f64>, r: MatRef<f64>) -> Mat<f64> {
+    use faer::linalg::matmul::triangular::{matmul, BlockStructure};
+    let lower = |m: MatRef<f64>| m.nrows() == m.ncols() && (0..m.ncols()).all(|j| (0..j).all(|i| m[(i, j)] == 0.0));
+    let upper =
+        |m: MatRef<f64>| m.nrows() == m.ncols() && (0..m.ncols()).all(|j| (j + 1..m.nrows()).all(|i| m[(i, j)] == 0.0));
+    let (ls, rs) = (
+        if lower(l) {
+            BlockStructure::TriangularLower
+        } else {
+            BlockStructure::Rectangular
+        },
+        if upper(r) {
+            BlockStructure::TriangularUpper
+        } else {
+            BlockStructure::Rectangular
+        },
+    );
+    if matches!((ls, rs), (BlockStructure::Rectangular, BlockStructure::Rectangular)) || l.ncols() != r.nrows() {
+        return l * r;
+    }
+    let mut out = Mat::<f64>::zeros(l.nrows(), r.ncols());
+    matmul(
+        out.as_mut(),
+        BlockStructure::Rectangular,
+        faer::Accum::Replace,
+        l,
+        ls,
+        r,
+        rs,
+        1.0,
+        faer::Par::Seq,
+    );
+    out
+}
+
 /// Frobenius norm `‖M‖_F` (no units: those of the entries): one pass of plain squares, falling
 /// back to faer's scaled `norm_l2` only where that sum could have over- or underflowed.
 ///

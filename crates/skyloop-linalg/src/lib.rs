@@ -13,7 +13,7 @@ pub use error::{LinalgError, Result};
 pub use faer::{c64, Mat, MatRef};
 pub mod balance;
 mod dense;
-pub use dense::fro_norm;
+pub use dense::{fro_norm, product_using_triangles};
 pub mod expm;
 pub mod hamiltonian;
 pub mod hermitian;

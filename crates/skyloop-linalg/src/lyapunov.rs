@@ -7,10 +7,11 @@
 // Index loops mirror the published block algorithms (dtrsyl, Hammarling) and read better here.
 #![allow(clippy::needless_range_loop)]
 
+use crate::dense::product_using_triangles;
 use crate::error::{LinalgError, Result};
 use crate::schur::{real_schur, Schur};
 use crate::sylvester::{
-    blocks, check_finite, check_square, solve_quasi_triangular, solve_quasi_triangular_prepared, Kind,
+    blocks, check_finite, check_square, pivot_floor, solve_quasi_triangular, solve_quasi_triangular_prepared, Kind,
 };
 use faer::{Mat, MatRef};
 
@@ -60,7 +61,7 @@ pub fn lyap_chol_schur(s: &Schur, b: MatRef<f64>, kind: Kind) -> Result<Mat<f64>
     check_stable(s.t.as_ref(), kind)?;
     let bt = s.q.transpose() * b;
     let u = hammarling(s.t.as_ref(), bt.as_ref(), kind)?;
-    Ok(upper_factor(times_upper(s.q.as_ref(), &u).as_ref()))
+    Ok(upper_factor(product_using_triangles(s.q.as_ref(), u.as_ref()).as_ref()))
 }
 
 /// Hammarling's method for the transposed equation with the same Schur form: returns upper U with
@@ -79,32 +80,7 @@ pub fn lyap_chol_schur_t(s: &Schur, c: MatRef<f64>, kind: Kind) -> Result<Mat<f6
     let qr = Mat::from_fn(n, n, |i, j| s.q[(i, n - 1 - j)]);
     let ct = qr.transpose() * c.transpose();
     let u = hammarling(tr.as_ref(), ct.as_ref(), kind)?;
-    Ok(upper_factor(times_upper(qr.as_ref(), &u).as_ref()))
-}
-
-/// Q·U for Hammarling's U: a triangular product (half the flops of a full one; at n = 1000 it
-/// was a quarter of the factor's back-transformation) when U is upper triangular, a full product
-/// when a split double eigenvalue's row swap left an entry below its diagonal.
-fn times_upper(q: MatRef<f64>, u: &Mat<f64>) -> Mat<f64> {
-    let n = u.nrows();
-    let upper = (0..n).all(|j| (j + 1..n).all(|i| u[(i, j)] == 0.0));
-    if !upper || q.ncols() != n {
-        return q * u;
-    }
-    use faer::linalg::matmul::triangular::{matmul, BlockStructure};
-    let mut out = Mat::<f64>::zeros(q.nrows(), n);
-    matmul(
-        out.as_mut(),
-        BlockStructure::Rectangular,
-        faer::Accum::Replace,
-        q,
-        BlockStructure::Rectangular,
-        u.as_ref(),
-        BlockStructure::TriangularUpper,
-        1.0,
-        faer::Par::Seq,
-    );
-    out
+    Ok(upper_factor(product_using_triangles(qr.as_ref(), u.as_ref()).as_ref()))
 }
 
 fn check_factor_args(a: MatRef<f64>, b: MatRef<f64>) -> Result<()> {
@@ -339,7 +315,7 @@ fn hammarling(t: MatRef<f64>, b: MatRef<f64>, kind: Kind) -> Result<Mat<f64>> {
         });
         let k1t = Mat::from_fn(s, s, |i, j| k1[j][i]);
         let k1max = k1.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
-        let smin = (f64::EPSILON * lead_max[k0].max(k1max)).max(f64::MIN_POSITIVE / f64::EPSILON);
+        let smin = pivot_floor(lead_max[k0].max(k1max));
         let uu = solve_quasi_triangular_prepared(t1, k1t.as_ref(), rhs.as_ref(), kind, &bl[..bi], smin)?;
         for i in 0..k0 {
             for j in 0..s {

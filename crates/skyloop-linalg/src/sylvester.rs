@@ -74,7 +74,7 @@ pub fn solve_quasi_triangular(ta: MatRef<f64>, tb: MatRef<f64>, c: MatRef<f64>, 
 }
 
 /// [`solve_quasi_triangular`] with TA's diagonal blocks `ba` ([`blocks`]`(ta)`) and the pivot
-/// floor `smin` ([`smallest_pivot`]) supplied by the caller (checked sizes).
+/// floor `smin` ([`pivot_floor`] of TA's and TB's largest entry) supplied by the caller (checked sizes).
 ///
 /// Why: Hammarling's recursion solves one such equation per diagonal block on a leading part of
 /// the same T; scanning that part for its blocks and its largest entry read as much memory as the
@@ -254,7 +254,7 @@ fn small(t: MatRef<f64>, k0: usize, p: usize) -> [[f64; 2]; 2] {
 }
 
 /// Pivots below this are treated as singular: eps times the size of the data (dtrsyl's SMIN).
-pub(crate) fn smallest_pivot(ta: MatRef<f64>, tb: MatRef<f64>) -> f64 {
+fn smallest_pivot(ta: MatRef<f64>, tb: MatRef<f64>) -> f64 {
     let mut mx: f64 = 0.0;
     for t in [ta, tb] {
         for j in 0..t.ncols() {
@@ -263,7 +263,12 @@ pub(crate) fn smallest_pivot(ta: MatRef<f64>, tb: MatRef<f64>) -> f64 {
             }
         }
     }
-    (f64::EPSILON * mx).max(f64::MIN_POSITIVE / f64::EPSILON)
+    pivot_floor(mx)
+}
+
+/// [`smallest_pivot`] of data whose largest entry is `max_abs`.
+pub(crate) fn pivot_floor(max_abs: f64) -> f64 {
+    (f64::EPSILON * max_abs).max(f64::MIN_POSITIVE / f64::EPSILON)
 }
 
 /// Solves the p×q block equation `A·X + X·B = R` or `A·X·B − X = R` (p, q ≤ 2) through its

@@ -72,9 +72,7 @@ pub const MAX_TEXT_BYTES: u64 = 256 << 20;
 pub fn read_text_file(path: &std::path::Path) -> std::result::Result<String, String> {
     use std::io::Read;
     let meta = std::fs::metadata(path).map_err(|e| format!("cannot read the file: {e}"))?;
-    if !meta.is_file() {
-        return Err("not a regular file (a device or a pipe is not read)".into());
-    }
+    require_regular_file(&meta)?;
     let mut text = String::new();
     std::fs::File::open(path)
         .and_then(|f| f.take(MAX_TEXT_BYTES + 1).read_to_string(&mut text))
@@ -86,6 +84,20 @@ pub fn read_text_file(path: &std::path::Path) -> std::result::Result<String, Str
         ));
     }
     Ok(text)
+}
+
+/// Refuses what is not a regular file: a device or a pipe (`/dev/zero`, `/dev/urandom`, a FIFO)
+/// may never end, and a directory holds no text. One rule for every file a user names (text
+/// files here, flight logs in skyloop-sysid).
+///
+/// # Errors
+/// The message (without the path) when `meta` is not a regular file's.
+pub fn require_regular_file(meta: &std::fs::Metadata) -> std::result::Result<(), String> {
+    if meta.is_file() {
+        Ok(())
+    } else {
+        Err("not a regular file (a device, a pipe or a directory is not read)".into())
+    }
 }
 
 /// Parses LTI JSON text into a validated model; errors name the bad field.

@@ -353,12 +353,8 @@ fn read_capped(path: &Path) -> Result<Vec<u8>> {
     let mut f = std::fs::File::open(path).map_err(io)?;
     // A device or a pipe is no log: /dev/zero reads as 4 GiB of "text" before the size cap
     // refuses it (12 s), and a FIFO may never end.
-    if !f.metadata().map_err(io)?.is_file() {
-        return Err(SysidError::Log(format!(
-            "{}: not a regular file (a log is a file on disk, not a device, pipe or directory)",
-            path.display()
-        )));
-    }
+    skyloop_lti::json::require_regular_file(&f.metadata().map_err(io)?)
+        .map_err(|why| SysidError::Log(format!("{}: {why}", path.display())))?;
     let mut bytes = Vec::new();
     (&mut f).take(64 << 10).read_to_end(&mut bytes).map_err(io)?;
     if detect(&bytes) == LogFormat::Csv {
