@@ -40,6 +40,7 @@ fn monte_carlo(method: Method, runs: u64, noise_std: f64) -> (Vec<[f64; 3]>, Vec
                 u: &u,
                 y: &y,
                 r: None,
+                dist: None,
                 dt_s: DT,
             },
             &o,

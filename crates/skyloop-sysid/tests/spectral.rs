@@ -40,6 +40,7 @@ fn welch_matches_scipy() {
                 u: &u,
                 y: &y,
                 r: None,
+                dist: None,
                 dt_s: dt,
             },
             &o,
@@ -76,6 +77,7 @@ fn etfe_and_spa_match_numpy() {
         u: &u,
         y: &y,
         r: None,
+        dist: None,
         dt_s: dt,
     };
     let frf = estimate(
@@ -137,6 +139,7 @@ fn spafdr_recovers_known_system_with_honest_bands() {
             u: &u,
             y: &y,
             r: None,
+            dist: None,
             dt_s: dt,
         },
         &Options::default(),
@@ -188,6 +191,7 @@ fn closed_loop_estimate_is_unbiased_where_h1_is_not() {
                     u: &u,
                     y: &y,
                     r,
+                    dist: None,
                     dt_s: dt,
                 },
                 &Options {
@@ -231,6 +235,7 @@ fn bad_input_is_an_error() {
             u: &u,
             y: &y,
             r: None,
+            dist: None,
             dt_s: 0.01,
         },
         &Options::default(),
@@ -245,6 +250,7 @@ fn bad_input_is_an_error() {
                 u: &u,
                 y: &y,
                 r: None,
+                dist: None,
                 dt_s: 0.01,
             },
             &Options {
@@ -261,6 +267,7 @@ fn bad_input_is_an_error() {
             u: &u2,
             y: &y,
             r: None,
+            dist: None,
             dt_s: 0.01
         },
         &Options::default()
@@ -276,6 +283,7 @@ fn bad_input_is_an_error() {
             u: &u2,
             y: &y,
             r: None,
+            dist: None,
             dt_s: 0.01
         },
         &o

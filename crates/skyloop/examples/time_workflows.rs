@@ -71,6 +71,7 @@ fn main() {
         u: &u,
         y: &y,
         r: None,
+        dist: None,
         dt_s: 0.001,
     };
     let spafdr = best_cpu_seconds(5, || estimate(&data, &Options::default()).unwrap());

@@ -27,6 +27,11 @@ pub struct Args {
     /// Measured excitation (instrument) for a closed-loop estimate G = Φ_yr/Φ_ur; `none` for open loop.
     #[arg(long)]
     excitation: Option<String>,
+    /// Measured disturbance whose linear effect on the output is removed before the estimate
+    /// (conditioned spectra; welch and spafdr). `--axis` uses the throttle (`rcCommand[3]`, PX4's
+    /// thrust setpoint, ArduPilot's `RATE.AOut`); `none` turns it off.
+    #[arg(long)]
+    disturbance: Option<String>,
     /// etfe, welch, spa or spafdr.
     #[arg(long, default_value = "spafdr")]
     method: String,
@@ -116,6 +121,7 @@ pub fn run(a: Args) -> skyloop::Result<()> {
         input: a.input,
         output: a.output,
         excitation: a.excitation,
+        disturbance: a.disturbance,
         method: a.method,
         fmin_hz: a.fmin_hz,
         fmax_hz: a.fmax_hz,

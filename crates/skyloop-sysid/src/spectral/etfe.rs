@@ -13,7 +13,7 @@ const COHERENCE_BINS: usize = 5;
 /// ETFE at every DFT bin in [fmin, fmax].
 pub fn etfe(d: &IoData, o: &Options) -> Result<Frf> {
     let p = prepare(d, o.detrend, 8)?;
-    let dft = Dft::new(&p.u, &p.y, p.r.as_deref(), p.dt)?;
+    let dft = Dft::new(&p.u, &p.y, p.r.as_deref(), None, p.dt)?;
     let (lo, hi) = limits(o, dft.df, p.dt)?;
     let bins = o.smoothing_bins.max(1);
     // A Hann window of full width (b + 1) bins has b nonzero taps.
@@ -35,7 +35,7 @@ pub fn etfe(d: &IoData, o: &Options) -> Result<Frf> {
                     // window's centre tap is 1): otherwise a bin hit by more noise also gets a lower
                     // coherence, so a lower fit weight, and the fit's residual variance underestimates
                     // the noise.
-                    c.add(-1.0, dft.u[k], dft.y[k], dft.r.as_ref().map(|r| r[k]));
+                    c.add(-1.0, dft.u[k], dft.y[k], dft.r.as_ref().map(|r| r[k]), None);
                     // The estimate itself is one periodogram ratio: one average.
                     nu = 1.0;
                 }

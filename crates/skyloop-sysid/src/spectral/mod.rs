@@ -33,6 +33,11 @@ pub struct IoData<'a> {
     pub y: &'a [f64],
     /// External excitation (closed-loop experiments), or `None` for open loop.
     pub r: Option<&'a [f64]>,
+    /// A measured disturbance input that also drives the output (a multirotor's throttle), or
+    /// `None`: its linear effect is removed from the spectra before the response is formed
+    /// (conditioned spectra; Welch and SPAFDR only), as the two-input estimate y = G·u + H·d + v
+    /// would, with d its own instrument. It must not be driven by the output's noise.
+    pub dist: Option<&'a [f64]>,
     /// Sample interval, s.
     pub dt_s: f64,
 }
@@ -212,6 +217,9 @@ impl Frf {
         };
         for (hz, c, nu) in points {
             let (g, coh) = c.response(closed);
+            // Conditioning on a disturbance spends one average of each estimate (Bendat & Piersol:
+            // ν − q for q conditioning inputs).
+            let nu = if c.dd > 0.0 { (nu - 1.0).max(1.0) } else { nu };
             if g.re.is_finite() && g.im.is_finite() && coh.is_finite() {
                 f.freq_hz.push(hz);
                 f.response.push(g);
@@ -287,6 +295,7 @@ pub(crate) struct Prepared {
     pub u: Vec<f64>,
     pub y: Vec<f64>,
     pub r: Option<Vec<f64>>,
+    pub dist: Option<Vec<f64>>,
     pub dt: f64,
 }
 
@@ -295,12 +304,13 @@ pub(crate) fn prepare(d: &IoData, how: Detrend, min_len: usize) -> Result<Prepar
         return Err(invalid(format!("sample interval must be positive, got {} s", d.dt_s)));
     }
     let n = d.u.len();
-    if d.y.len() != n || d.r.is_some_and(|r| r.len() != n) {
+    if d.y.len() != n || d.r.is_some_and(|r| r.len() != n) || d.dist.is_some_and(|x| x.len() != n) {
         return Err(invalid(format!(
-            "input, output (and excitation) differ in length: {}, {}{}",
+            "input, output (and excitation, disturbance) differ in length: {}, {}{}{}",
             n,
             d.y.len(),
-            d.r.map(|r| format!(", {}", r.len())).unwrap_or_default()
+            d.r.map(|r| format!(", {}", r.len())).unwrap_or_default(),
+            d.dist.map(|x| format!(", {}", x.len())).unwrap_or_default()
         )));
     }
     if n < min_len {
@@ -320,6 +330,7 @@ pub(crate) fn prepare(d: &IoData, how: Detrend, min_len: usize) -> Result<Prepar
         u: check(d.u, "input")?,
         y: check(d.y, "output")?,
         r: d.r.map(|r| check(r, "excitation")).transpose()?,
+        dist: d.dist.map(|x| check(x, "disturbance")).transpose()?,
         dt: d.dt_s,
     })
 }
@@ -360,7 +371,7 @@ pub(crate) fn limits(o: &Options, lowest: f64, dt: f64) -> Result<(f64, f64)> {
 /// for k in 1..u.len() {
 ///     y[k] = 0.9 * y[k - 1] + 0.1 * u[k - 1];
 /// }
-/// let io = IoData { u: &u, y: &y, r: None, dt_s: 0.001 };
+/// let io = IoData { u: &u, y: &y, r: None, dist: None, dt_s: 0.001 };
 /// let opts = Options { method: Method::Welch, fmax_hz: Some(5.0), ..Options::default() };
 /// let frf = estimate(&io, &opts)?;
 /// // Near DC the lag passes the input unchanged.
@@ -371,12 +382,22 @@ pub(crate) fn limits(o: &Options, lowest: f64, dt: f64) -> Result<(f64, f64)> {
 /// # Ok::<(), skyloop_sysid::SysidError>(())
 /// ```
 pub fn estimate(d: &IoData, o: &Options) -> Result<Frf> {
+    if d.dist.is_some() && matches!(o.method, Method::Etfe | Method::Spa) {
+        return Err(no_conditioning(o.method));
+    }
     match o.method {
         Method::Etfe => etfe::etfe(d, o),
         Method::Welch => welch::welch(d, o),
         Method::Spa => spa::spa(d, o),
         Method::Spafdr => spafdr::spafdr(d, o),
     }
+}
+
+/// The error for a measured disturbance given to an estimator that cannot condition on it.
+pub(crate) fn no_conditioning(m: Method) -> SysidError {
+    invalid(format!(
+        "{m:?} cannot remove a measured disturbance (a raw ETFE has one bin per point, SPA works on correlations): use welch or spafdr"
+    ))
 }
 
 /// A planned real-input FFT of one length.

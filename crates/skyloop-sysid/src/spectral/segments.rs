@@ -72,6 +72,13 @@ pub fn estimate_records(records: &[IoData], o: &Options) -> Result<Frf> {
     if records.iter().any(|d| d.r.is_some() != closed) {
         return Err(invalid("some records have an excitation and some do not"));
     }
+    let disturbed = first.dist.is_some();
+    if records.iter().any(|d| d.dist.is_some() != disturbed) {
+        return Err(invalid("some records have a measured disturbance and some do not"));
+    }
+    if disturbed && matches!(o.method, Method::Etfe | Method::Spa) {
+        return Err(super::no_conditioning(o.method));
+    }
     let lengths: Vec<usize> = records.iter().map(|d| d.u.len()).collect();
     let longest = lengths.iter().copied().max().unwrap_or(0);
     let too_short = |what: String| {
@@ -146,6 +153,7 @@ pub fn estimate_records(records: &[IoData], o: &Options) -> Result<Frf> {
                     u: &u,
                     y: &y,
                     r: r.as_deref(),
+                    dist: None,
                     dt_s: dt,
                 },
                 o,
@@ -204,8 +212,12 @@ fn spafdr_records(records: &[IoData], o: &Options, dt: f64, longest: usize, clos
                 .collect();
             let tap = |x: &[f64]| x.iter().zip(&w).map(|(x, w)| x * w).collect::<Vec<f64>>();
             let r = p.r.as_deref().map(tap);
+            let dist = p.dist.as_deref().map(tap);
             let energy: f64 = w.iter().map(|w| w * w).sum();
-            Ok((Dft::new(&tap(&p.u), &tap(&p.y), r.as_deref(), p.dt)?, energy))
+            Ok((
+                Dft::new(&tap(&p.u), &tap(&p.y), r.as_deref(), dist.as_deref(), p.dt)?,
+                energy,
+            ))
         })
         .collect::<Result<_>>()?;
     let df_min = 1.0 / (longest as f64 * dt);
@@ -234,12 +246,7 @@ fn spafdr_records(records: &[IoData], o: &Options, dt: f64, longest: usize, clos
                 // so each tap weighs the same and a record's weight grows with its bins under the
                 // kernel, ∝ its length.
                 let k = 1.0 / n;
-                c.uu += k * ci.uu;
-                c.yy += k * ci.yy;
-                c.yu += k * ci.yu;
-                c.rr += k * ci.rr;
-                c.ur += k * ci.ur;
-                c.yr += k * ci.yr;
+                c.add_scaled(k, &ci);
                 sw += k * s1;
                 sw2 += k * k * s2;
             }
@@ -301,6 +308,7 @@ mod tests {
                 u,
                 y,
                 r: None,
+                dist: None,
                 dt_s: 0.001,
             })
             .collect();
@@ -322,6 +330,7 @@ mod tests {
                     u: &u,
                     y: &y,
                     r: None,
+                    dist: None,
                     dt_s: 0.001,
                 },
                 &o,

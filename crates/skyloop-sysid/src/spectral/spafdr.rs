@@ -13,17 +13,19 @@ pub(crate) struct Dft {
     pub u: Vec<C64>,
     pub y: Vec<C64>,
     pub r: Option<Vec<C64>>,
+    pub dist: Option<Vec<C64>>,
     pub df: f64,
 }
 
 impl Dft {
-    pub fn new(u: &[f64], y: &[f64], r: Option<&[f64]>, dt: f64) -> Result<Dft> {
+    pub fn new(u: &[f64], y: &[f64], r: Option<&[f64]>, dist: Option<&[f64]>, dt: f64) -> Result<Dft> {
         let n = u.len();
         let fft = Rfft::new(n);
         Ok(Dft {
             u: fft.run(u, None)?,
             y: fft.run(y, None)?,
             r: r.map(|r| fft.run(r, None)).transpose()?,
+            dist: dist.map(|x| fft.run(x, None)).transpose()?,
             df: 1.0 / (n as f64 * dt),
         })
     }
@@ -57,7 +59,13 @@ impl Dft {
             if w <= 0.0 {
                 continue;
             }
-            c.add(w, self.u[k], self.y[k], self.r.as_ref().map(|r| r[k]));
+            c.add(
+                w,
+                self.u[k],
+                self.y[k],
+                self.r.as_ref().map(|r| r[k]),
+                self.dist.as_ref().map(|x| x[k]),
+            );
             sw += w;
             sw2 += w * w;
         }
@@ -81,7 +89,7 @@ pub fn spafdr(d: &IoData, o: &Options) -> Result<Frf> {
     if o.n_freq < 2 {
         return Err(invalid("SPAFDR needs at least 2 output frequencies"));
     }
-    let dft = Dft::new(&p.u, &p.y, p.r.as_deref(), p.dt)?;
+    let dft = Dft::new(&p.u, &p.y, p.r.as_deref(), p.dist.as_deref(), p.dt)?;
     let (lo, hi) = limits(o, 2.0 * MIN_WIDTH_BINS * dft.df, p.dt)?;
     let lo = lo.max(dft.df);
     if hi <= lo {
@@ -114,7 +122,7 @@ mod tests {
         let n: usize = 200_000;
         let u: Vec<f64> = (0..n).map(|i| ((i * 7919) % 1000) as f64 / 500.0 - 1.0).collect();
         let y: Vec<f64> = (0..n).map(|i| ((i * 104_729) % 997) as f64 / 498.5 - 1.0).collect();
-        let dft = Dft::new(&u, &y, None, 0.001).unwrap();
+        let dft = Dft::new(&u, &y, None, None, 0.001).unwrap();
         for (f, width) in [(3.0, 0.2), (120.0, 18.0), (400.0, 60.0)] {
             let (c, nu) = dft.smooth(f, width).unwrap();
             let mut want = Cross::default();
@@ -125,7 +133,7 @@ mod tests {
                     continue;
                 }
                 let w = 0.5 * (1.0 + (2.0 * std::f64::consts::PI * x).cos());
-                want.add(w, dft.u[k], dft.y[k], None);
+                want.add(w, dft.u[k], dft.y[k], None, None);
                 sw += w;
                 sw2 += w * w;
             }

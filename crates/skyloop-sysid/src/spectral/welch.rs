@@ -85,8 +85,12 @@ impl Windows {
                 Some(r) => Some(spec(r, s, &mut seg)?),
                 None => None,
             };
+            let df = match &p.dist {
+                Some(x) => Some(spec(x, s, &mut seg)?),
+                None => None,
+            };
             for (j, a) in self.acc.iter_mut().enumerate() {
-                a.add(1.0, uf[j], yf[j], rf.as_ref().map(|r| r[j]));
+                a.add(1.0, uf[j], yf[j], rf.as_ref().map(|r| r[j]), df.as_ref().map(|x| x[j]));
             }
         }
         // Welch (1967): overlapping segments are correlated; ν = K / (1 + 2 Σ_j (1 − j/K) ρ(j·step)²).

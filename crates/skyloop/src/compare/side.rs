@@ -88,6 +88,7 @@ pub fn tracking(d: &AxisData, fmax_hz: f64) -> Result<Tracking> {
             u: &d.data.columns[0][r.clone()],
             y: &d.data.columns[1][r.clone()],
             r: None,
+            dist: None,
             dt_s: d.data.dt_s,
         })
         .collect();

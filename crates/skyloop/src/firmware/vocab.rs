@@ -151,6 +151,11 @@ pub struct RateLoopChannels {
     /// Symmetric limit of the input the firmware clips the controller's output at (Betaflight's
     /// `pidsum_limit`), in input units; None where the firmware states none.
     pub input_limit: Option<f64>,
+    /// The collective thrust command (Betaflight's and INAV's `rcCommand[3]`; PX4's thrust
+    /// setpoint; ArduPilot's `RATE.AOut`), when the log holds it: throttle changes torque the frame
+    /// through unequal motors and props or an offset centre of gravity, so the identification removes
+    /// its linear effect on the gyro as a measured disturbance.
+    pub disturbance: Option<String>,
 }
 
 impl RateLoopChannels {
@@ -286,6 +291,7 @@ pub(crate) fn pid_sum_channels(
         input_unit: "PID unit",
         output_unit: "deg/s",
         input_limit,
+        disturbance: log.channel("rcCommand[3]").is_ok().then(|| "rcCommand[3]".to_string()),
     })
 }
 

@@ -18,6 +18,8 @@ pub(crate) struct Channels {
     pub output: String,
     /// The instrument (excitation) column; `None` estimates open loop.
     pub excitation: Option<String>,
+    /// The measured disturbance conditioned out of the spectra (the throttle), or `None`.
+    pub disturbance: Option<String>,
 }
 
 impl Channels {
@@ -26,6 +28,9 @@ impl Channels {
         let mut specs = vec![self.input.as_str(), self.output.as_str()];
         if let Some(r) = &self.excitation {
             specs.push(r);
+        }
+        if let Some(d) = &self.disturbance {
+            specs.push(d);
         }
         specs
     }
@@ -58,6 +63,7 @@ pub(crate) fn resolve(log: &Log, a: &IdentifyRequest, rm: &mut Remarks) -> Resul
         Some(x) => Some(x.to_string()),
         None => preset.as_ref().map(|p| p.channels.instrument.clone()),
     };
+    let disturbance = disturbance_of(log, a, preset.as_ref(), rm);
     if let Some(p) = &preset {
         rm.note(format!(
             "{} log, {} axis: input {input}, output {output}, instrument {}",
@@ -74,7 +80,31 @@ pub(crate) fn resolve(log: &Log, a: &IdentifyRequest, rm: &mut Remarks) -> Resul
         input,
         output,
         excitation,
+        disturbance,
     })
+}
+
+/// The measured disturbance of the request (`--disturbance`, else the preset's throttle), kept only
+/// for the estimators that can condition on it (notes when it is dropped for the method);
+/// [`conditioning::choose`](super::conditioning::choose) then keeps the preset's only where it helps.
+fn disturbance_of(log: &Log, a: &IdentifyRequest, preset: Option<&AxisPreset>, rm: &mut Remarks) -> Option<String> {
+    let chosen = match a.disturbance.as_deref() {
+        Some(x) if x.eq_ignore_ascii_case("none") => return None,
+        Some(x) => Some(x.to_string()),
+        None => preset.and_then(|p| p.channels.disturbance.clone()),
+    }?;
+    let method = a.method.to_ascii_lowercase();
+    if !matches!(method.as_str(), "welch" | "h1" | "tfestimate" | "spafdr") {
+        rm.note(format!(
+            "the throttle's effect is not removed: --method {} cannot condition on a measured disturbance ({chosen}); welch and spafdr can",
+            a.method
+        ));
+        return None;
+    }
+    if a.disturbance.is_none() && log.series(&chosen).is_err() {
+        return None;
+    }
+    Some(chosen)
 }
 
 /// Closed-loop data estimated open loop: Φ_yu/Φ_uu is pulled towards −1/C by the feedback noise.

@@ -15,6 +15,8 @@ use skyloop_sysid::spectral::{default_nfft_records, estimate, estimate_records, 
 pub(crate) struct Estimator<'a> {
     data: &'a UniformData,
     has_instrument: bool,
+    /// A measured disturbance column follows the instrument (or the output without one).
+    has_disturbance: bool,
     /// One span of a log the user chose keeps the single-record estimate.
     user_span: bool,
     opts: Options,
@@ -33,6 +35,7 @@ impl<'a> Estimator<'a> {
         data: &'a UniformData,
         records: &[Range<usize>],
         has_instrument: bool,
+        has_disturbance: bool,
         user_span: bool,
         fmax_hz: Option<f64>,
         rm: &mut Remarks,
@@ -85,6 +88,7 @@ impl<'a> Estimator<'a> {
         Ok(Self {
             data,
             has_instrument,
+            has_disturbance,
             user_span,
             opts,
         })
@@ -96,6 +100,7 @@ impl<'a> Estimator<'a> {
     /// Records too short for the estimate's options.
     pub fn frf_of(&self, records: &[Range<usize>]) -> Result<Frf> {
         let c = &self.data.columns;
+        let dist_col = 2 + usize::from(self.has_instrument);
         let io: Vec<IoData> = records
             .iter()
             .map(|r| IoData {
@@ -106,6 +111,7 @@ impl<'a> Estimator<'a> {
                 } else {
                     None
                 },
+                dist: self.has_disturbance.then(|| &c[dist_col][r.clone()]),
                 dt_s: self.data.dt_s,
             })
             .collect();

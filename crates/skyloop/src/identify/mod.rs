@@ -9,6 +9,7 @@
 mod airborne;
 mod band;
 mod channels;
+mod conditioning;
 mod estimate;
 mod modelfit;
 mod preset;
@@ -76,6 +77,7 @@ fn estimate_and_fit(
         &sel.data,
         &sel.ranges,
         ch.excitation.is_some(),
+        ch.disturbance.is_some(),
         ch.preset.is_none(),
         fmax_hz,
         rm,
@@ -250,9 +252,10 @@ fn check_request(a: &IdentifyRequest) -> Result<()> {
 /// As [`identify`].
 pub fn identify_log(log: &Log, a: &IdentifyRequest) -> Result<Identification> {
     let mut rm = Remarks::default();
-    let ch = channels::resolve(log, a, &mut rm)?;
+    let mut ch = channels::resolve(log, a, &mut rm)?;
     let fmax_hz = channels::band_limit(log, a, &ch, &mut rm)?;
     let sel = segments::select(log, a, &ch, &mut rm)?;
+    conditioning::choose(a, &mut ch, &sel, fmax_hz, &mut rm)?;
     let Fitted {
         frf,
         fit_opts,
@@ -300,6 +303,7 @@ pub fn identify_log(log: &Log, a: &IdentifyRequest) -> Result<Identification> {
         input,
         output,
         excitation,
+        disturbance,
     } = ch;
     Ok(Identification {
         title: format!("{input} → {output}"),
@@ -312,6 +316,7 @@ pub fn identify_log(log: &Log, a: &IdentifyRequest) -> Result<Identification> {
         input,
         output,
         instrument: excitation,
+        disturbance,
         units,
         segments: sel.segments,
         timeline: sel.timeline,

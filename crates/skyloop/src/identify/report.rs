@@ -34,6 +34,8 @@ pub struct Identification {
     pub output: String,
     /// Instrument (excitation) column, `None` for an open-loop estimate.
     pub instrument: Option<String>,
+    /// Measured disturbance conditioned out of the spectra (the throttle), `None` for none.
+    pub disturbance: Option<String>,
     /// Firmware and axis when `--axis` chose the channels, e.g. ("Betaflight", "roll").
     pub preset: Option<(String, String)>,
     /// Units, with `--axis`.
@@ -104,7 +106,7 @@ pub(crate) fn fit_warnings(r: &FitResult, warnings: &mut Vec<String>) {
 impl Identification {
     /// `{"frf": {freq_hz, mag, phase_deg, coherence, dof, rel_std}, "fit": {params, stderr, fit_percent, converged,
     /// at_bounds, units}, "tf": {num, den, delay_s, fit_percent}, "segments": [{from_s, to_s,
-    /// from_clock_s, to_clock_s}], "clock_origin_s", "instrument", "input", "output",
+    /// from_clock_s, to_clock_s}], "clock_origin_s", "instrument", "disturbance", "input", "output",
     /// "coherent_band_hz": [lo, hi], "fit_band_hz": [lo, hi], "uncertainty", "validation":
     /// {fit_percent, frf_residual, ..}, "converged", "at_bounds", "warnings"}`, as `skyloop identify
     /// --json` prints it (a non-finite number is null). Segment times are log seconds (`from_s`,
@@ -136,6 +138,7 @@ impl Identification {
             "input": self.input,
             "output": self.output,
             "instrument": self.instrument,
+            "disturbance": self.disturbance,
             "segments": self
                 .segments
                 .iter()

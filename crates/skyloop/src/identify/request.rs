@@ -23,6 +23,10 @@ pub struct IdentifyRequest {
     /// Measured excitation (instrument) for a closed-loop estimate G = Φ_yr/Φ_ur; `"none"` forces an
     /// open-loop estimate when `axis` would choose the setpoint.
     pub excitation: Option<String>,
+    /// Measured disturbance input whose linear effect on the output is removed from the spectra
+    /// before the response is formed (conditioned spectra; welch and spafdr): the `axis` preset uses
+    /// the collective throttle; `"none"` turns it off.
+    pub disturbance: Option<String>,
     /// etfe, welch, spa or spafdr.
     pub method: String,
     /// Lowest frequency, Hz.
@@ -82,6 +86,7 @@ impl Default for IdentifyRequest {
             input: None,
             output: None,
             excitation: None,
+            disturbance: None,
             method: "spafdr".into(),
             fmin_hz: Default::default(),
             fmax_hz: Default::default(),

@@ -81,6 +81,7 @@ pub fn closed_loop_check(
                 u: &data.columns[0][r.clone()],
                 y: &data.columns[1][r],
                 r: None,
+                dist: None,
                 dt_s: data.dt_s,
             })
         })

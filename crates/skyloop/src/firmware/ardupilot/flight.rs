@@ -78,6 +78,7 @@ pub fn rate_loop_channels(log: &Log, axis: Axis) -> Result<RateLoopChannels> {
         input_unit: "rate-controller output",
         output_unit: "deg/s",
         input_limit: Some(1.0),
+        disturbance: has("RATE.AOut").then(|| "RATE.AOut".to_string()),
     })
 }
 

@@ -51,6 +51,14 @@ pub fn rate_loop_channels(log: &Log, axis: Axis) -> Result<RateLoopChannels> {
         input_unit: "normalized torque",
         output_unit: "rad/s",
         input_limit: Some(1.0),
+        disturbance: [
+            "vehicle_thrust_setpoint.xyz[2]",
+            "vehicle_rates_setpoint.thrust_body[2]",
+            "actuator_controls_0.control[3]",
+        ]
+        .into_iter()
+        .find(|n| log.channel(n).is_ok())
+        .map(str::to_string),
     })
 }
 
