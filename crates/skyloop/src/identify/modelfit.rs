@@ -7,7 +7,7 @@ use std::ops::Range;
 
 use super::band::{supported_band, MAX_REL_ERR, PILOT_LOOP_HZ};
 use super::estimate::Estimator;
-use super::preset::preset_starts;
+use super::preset::{preset_starts, TZ_MAX_S};
 use super::records;
 use super::remarks::Remarks;
 use super::report::fit_warnings;
@@ -93,12 +93,25 @@ pub(crate) fn fit_model(
     let expr = skyloop_lti::expr::parse(text).map_err(|e| Error::Input(format!("--model: {e}")))?;
     let starts = starting_points(a, text, frf, d.opts)?;
     let mut r = best_fit(frf, &expr, &starts, d.opts)?;
-    let specs = restart(&starts[0], &r.params);
+    let mut specs = restart(&starts[0], &r.params);
+    // The yaw model's zero pushed below the band: Tz is held at its bound and the rest refitted.
+    let held_tz = preset_model && r.params.get("Tz").is_some_and(|tz| *tz >= TZ_MAX_S * (1.0 - 1e-9));
+    let fitted = if held_tz {
+        let (e, s, h) = refit_with_tz_held(text, &specs, frf, d.opts)?;
+        rm.note(format!(
+            "Tz reached its bound {TZ_MAX_S} s: the reaction-torque zero lies below the fitted band, where this yaw follows the command as K·Tz·e^(−Td·s)/(τs+1) (the rotors' spin-up torque outweighs their drag); Tz is held there and K, τ, Td are fitted with it fixed"
+        ));
+        specs = s;
+        r = h;
+        e
+    } else {
+        expr.clone()
+    };
     let (mut uncertainty, mut validation) = (None, None);
     if a.blocks >= 2 {
         let blocks = records::blocks(d.records, a.blocks);
-        uncertainty = jackknife(&blocks, &expr, &specs, d, &mut r, rm);
-        validation = held_out(&blocks, &expr, &specs, d, a.allow_poor_fit, rm)?;
+        uncertainty = jackknife(&blocks, &fitted, &specs, d, &mut r, rm);
+        validation = held_out(&blocks, &fitted, &specs, d, a.allow_poor_fit, rm)?;
     }
     fit_warnings(&r, &mut rm.warnings);
     if !(r.fit_percent >= 0.0) {
@@ -112,6 +125,12 @@ pub(crate) fn fit_model(
     }
     if preset_model {
         check_determined(&r, frf, d.opts, a.allow_poor_fit, rm)?;
+    }
+    if held_tz {
+        // Held, not estimated: no standard error; tune keeps it at its value.
+        r.params.insert("Tz".into(), TZ_MAX_S);
+        r.stderr.insert("Tz".into(), f64::NAN);
+        r.at_bounds.push("Tz".into());
     }
     Ok(ModelFit {
         fit: (expr, r),
@@ -160,6 +179,25 @@ fn best_fit(frf: &Frf, expr: &Expr, starts: &[Vec<ParamSpec>], o: &FitOptions) -
         (None, Some(e)) => Err(e.into()),
         (None, None) => Err(Error::Input("--model: no starting point to fit from".into())),
     }
+}
+
+/// The yaw model `text` with Tz replaced by [`TZ_MAX_S`], fitted from `specs` (the first fit's
+/// values, Tz left out): (that model, its specs, its fit).
+///
+/// # Errors
+/// A fit that fails from every start.
+fn refit_with_tz_held(
+    text: &str,
+    specs: &[ParamSpec],
+    frf: &Frf,
+    o: &FitOptions,
+) -> Result<(Expr, Vec<ParamSpec>, FitResult)> {
+    let held_text = text.replace("Tz", &format!("{TZ_MAX_S:?}"));
+    let expr = skyloop_lti::expr::parse(&held_text).map_err(|e| Error::Input(format!("--model: {e}")))?;
+    let specs: Vec<ParamSpec> = specs.iter().filter(|p| p.name != "Tz").cloned().collect();
+    let r = best_fit(frf, &expr, std::slice::from_ref(&specs), o)?;
+    let specs = restart(&specs, &r.params);
+    Ok((expr, specs, r))
 }
 
 /// The parameter specs restarted at `at` (for refits of parts of the data).
@@ -354,4 +392,58 @@ pub(crate) fn fit_orders(
         ));
     }
     Ok(fit)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::identify::preset::YAW_RATE_LOOP_MODEL;
+    use num_complex::Complex64 as C64;
+
+    /// A yaw whose rate follows the command across the band (5·e^(−0.004s)/(0.02s + 1), no
+    /// integrator from 2 to 50 Hz, 2 % noise): the yaw model's fit pushes Tz to its bound, and the
+    /// refit with Tz held there recovers K·Tz, τ and Td with errors below their values.
+    #[test]
+    fn a_zero_below_the_band_is_held_at_its_bound_and_the_rest_is_determined() {
+        let mut seed = 3u64;
+        let mut noise = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            0.02 * ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 3.46
+        };
+        let freq_hz: Vec<f64> = (0..60).map(|i| 2.0 * 1.056f64.powi(i)).collect();
+        let response: Vec<C64> = freq_hz
+            .iter()
+            .map(|f| {
+                let s = C64::new(0.0, 2.0 * std::f64::consts::PI * f);
+                5.0 * (-0.004 * s).exp() / (0.02 * s + 1.0) * C64::new(1.0 + noise(), noise())
+            })
+            .collect();
+        let n = freq_hz.len();
+        let frf = Frf {
+            freq_hz,
+            response,
+            coherence: vec![0.9; n],
+            dof: vec![50.0; n],
+            bandwidth_hz: vec![0.0; n],
+        };
+        let o = FitOptions::default();
+        let expr = skyloop_lti::expr::parse(YAW_RATE_LOOP_MODEL).unwrap();
+        let starts = preset_starts(YAW_RATE_LOOP_MODEL, &frf, 2.0, 50.0);
+        let first = best_fit(&frf, &expr, &starts, &o).unwrap();
+        assert!(first.params["Tz"] >= TZ_MAX_S * (1.0 - 1e-9), "{first:?}");
+        let (_, specs, r) =
+            refit_with_tz_held(YAW_RATE_LOOP_MODEL, &restart(&starts[0], &first.params), &frf, &o).unwrap();
+        assert!(
+            specs.iter().all(|p| p.name != "Tz") && !r.params.contains_key("Tz"),
+            "{r:?}"
+        );
+        // In band the held model is K·Tz·(1 + 1/(Tz·s))·e^(−Td·s)/(τs + 1): K·Tz ≈ 5 to the zero's
+        // 1/(Tz·ω) ≤ 8 % at 2 Hz.
+        assert!((r.params["K"] * TZ_MAX_S / 5.0 - 1.0).abs() < 0.1, "{r:?}");
+        assert!((r.params["tau"] / 0.02 - 1.0).abs() < 0.15, "{r:?}");
+        assert!((r.params["Td"] - 0.004).abs() < 0.001, "{r:?}");
+        for (k, v) in &r.params {
+            assert!(r.stderr[k] < v.abs(), "{k}: {r:?}");
+        }
+    }
 }

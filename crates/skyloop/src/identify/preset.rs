@@ -19,6 +19,12 @@ pub const RATE_LOOP_MODEL: &str = "K*exp(-Td*s)/(s*(tau*s+1))";
 /// [`RATE_LOOP_MODEL`] cannot follow (its fit explains less than the mean).
 pub const YAW_RATE_LOOP_MODEL: &str = "K*(Tz*s+1)*exp(-Td*s)/(s*(tau*s+1))";
 
+/// Upper bound of the yaw model's Tz, s: a zero at 0.16 Hz, below every band a flight supports
+/// (from 2 Hz). A fit that ends there has the zero below its band, where the rate follows the
+/// command as K·Tz·e^(−Td·s)/(τs + 1): the rotors' spin-up torque outweighs their drag across the
+/// band.
+pub const TZ_MAX_S: f64 = 1.0;
+
 /// Everything `--axis` fills in.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AxisPreset {
@@ -106,7 +112,7 @@ fn starts_with_zero(frf: &Frf, fmin_hz: f64, fmax_hz: f64, zeros: &[Option<f64>]
                     spec("Td", td, 0.0, 0.2),
                 ];
                 if let Some(tz) = tz {
-                    start.push(spec("Tz", tz, 0.0, 1.0));
+                    start.push(spec("Tz", tz, 0.0, TZ_MAX_S));
                 }
                 out.push(start);
             }
