@@ -1121,13 +1121,15 @@ fn musyn_spec(py: Python<'_>, path: PathBuf) -> PyResult<PyObject> {
 /// Frequency response (and optional parametric fits) of a flight log; the arguments are those of
 /// ``skyloop identify`` (frequencies in Hz, times in s; ``axis`` roll/pitch/yaw for the firmware's
 /// rate-loop preset, else ``input`` and ``output`` columns; ``blocks`` of the jackknife, default
-/// the CLI's). Dict as ``identify --json``: {frf {freq_hz, mag, phase_deg, coherence, ...},
+/// the CLI's; ``disturbance`` a measured disturbance channel conditioned out of the spectra, or
+/// ``"none"``, default the preset's throttle where it helps). Dict as ``identify --json``: {frf {freq_hz, mag, phase_deg, coherence, ...},
 /// fit {...} with ``model``, tf {...} with ``tf``, notes, ...}.
 #[pyfunction]
 #[pyo3(signature = (data, input=None, output=None, axis=None, excitation=None, method="spafdr", fmin_hz=None, fmax_hz=None,
     start_s=None, end_s=None, where_=None, rate_hz=None, session=None, n_freq=100, nfft=None, window="hann",
     overlap=0.5, lag_window=None, resolution=0.15, model=None, init=None, bounds=None, error="log",
-    weighting="inverse-variance", tf=None, delay_s=None, max_delay_s=0.1, blocks=None, allow_poor_fit=false))]
+    weighting="inverse-variance", tf=None, delay_s=None, max_delay_s=0.1, blocks=None, allow_poor_fit=false,
+    disturbance=None))]
 #[allow(clippy::too_many_arguments)]
 fn identify(
     py: Python<'_>,
@@ -1160,6 +1162,7 @@ fn identify(
     max_delay_s: f64,
     blocks: Option<usize>,
     allow_poor_fit: bool,
+    disturbance: Option<String>,
 ) -> PyResult<PyObject> {
     let defaults = skyloop::identify::IdentifyRequest::default();
     let req = skyloop::identify::IdentifyRequest {
@@ -1192,6 +1195,7 @@ fn identify(
         max_delay_s,
         blocks: blocks.unwrap_or(defaults.blocks),
         allow_poor_fit,
+        disturbance,
     };
     let (v, notes) = guarded(py, move || {
         skyloop::identify::identify(&req).map(|id| (id.to_json(), id.notes))

@@ -47,6 +47,31 @@ def test_identify_first_order(tmp_path):
         sk.identify(str(p), "u", "nope")
 
 
+def test_identify_conditions_on_a_measured_disturbance():
+    # y = G u + H d: the disturbance d (a throttle that torques the frame) is measured, so the
+    # Welch estimate with d conditioned out is closer to G's gain than the plain one.
+    rng = np.random.default_rng(3)
+    t = np.arange(0, 40, 0.002)
+    u = rng.standard_normal(t.size)
+    d = rng.standard_normal(t.size)
+    y = np.zeros_like(u)
+    for i in range(1, len(u)):
+        y[i] = 0.9 * y[i - 1] + 0.2 * u[i - 1] + 0.5 * d[i - 1]
+    data = {"time_s": t, "u": u, "y": y, "d": d}
+    kw = dict(method="welch", fmin_hz=0.5, fmax_hz=5)
+    plain = sk.identify(data, "u", "y", **kw)
+    cond = sk.identify(data, "u", "y", disturbance="d", **kw)
+    assert plain.get("disturbance") is None and cond["disturbance"] == "d"
+
+    def gain_error(r):
+        z = np.exp(-2j * np.pi * np.asarray(r["frf"]["freq_hz"]) * 0.002)
+        g = 0.2 * z / (1 - 0.9 * z)
+        return float(np.median(np.abs(np.asarray(r["frf"]["mag"]) / np.abs(g) - 1)))
+
+    assert gain_error(cond) < 0.5 * gain_error(plain)
+    assert np.median(cond["frf"]["coherence"]) > np.median(plain["frf"]["coherence"])
+
+
 def test_identify_from_arrays_equals_identify_from_the_file(tmp_path):
     p = tmp_path / "fo.csv"
     first_order_csv(p)

@@ -68,6 +68,15 @@ impl std::str::FromStr for Method {
     }
 }
 
+impl Method {
+    /// Whether the estimator can remove a measured disturbance ([`IoData::dist`]) from its spectra:
+    /// Welch and SPAFDR average neighbouring periodograms, so a conditioned cross-spectral matrix
+    /// exists; a raw ETFE has one bin per point and SPA works on correlations.
+    pub fn conditions_on_disturbance(self) -> bool {
+        matches!(self, Method::Welch | Method::Spafdr)
+    }
+}
+
 /// Options of every estimator; fields an estimator does not use are ignored.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Options {
@@ -382,7 +391,7 @@ pub(crate) fn limits(o: &Options, lowest: f64, dt: f64) -> Result<(f64, f64)> {
 /// # Ok::<(), skyloop_sysid::SysidError>(())
 /// ```
 pub fn estimate(d: &IoData, o: &Options) -> Result<Frf> {
-    if d.dist.is_some() && matches!(o.method, Method::Etfe | Method::Spa) {
+    if d.dist.is_some() && !o.method.conditions_on_disturbance() {
         return Err(no_conditioning(o.method));
     }
     match o.method {

@@ -76,7 +76,7 @@ pub fn estimate_records(records: &[IoData], o: &Options) -> Result<Frf> {
     if records.iter().any(|d| d.dist.is_some() != disturbed) {
         return Err(invalid("some records have a measured disturbance and some do not"));
     }
-    if disturbed && matches!(o.method, Method::Etfe | Method::Spa) {
+    if disturbed && !o.method.conditions_on_disturbance() {
         return Err(super::no_conditioning(o.method));
     }
     let lengths: Vec<usize> = records.iter().map(|d| d.u.len()).collect();

@@ -7,6 +7,7 @@ use super::request::IdentifyRequest;
 use crate::error::{Error, Result};
 use crate::firmware::Axis;
 use skyloop_sysid::logs::{median_rate_hz, Log, LogFormat};
+use skyloop_sysid::spectral::Method;
 
 /// The columns of one identification.
 pub(crate) struct Channels {
@@ -93,8 +94,7 @@ fn disturbance_of(log: &Log, a: &IdentifyRequest, preset: Option<&AxisPreset>, r
         Some(x) => Some(x.to_string()),
         None => preset.and_then(|p| p.channels.disturbance.clone()),
     }?;
-    let method = a.method.to_ascii_lowercase();
-    if !matches!(method.as_str(), "welch" | "h1" | "tfestimate" | "spafdr") {
+    if !a.method.parse::<Method>().is_ok_and(Method::conditions_on_disturbance) {
         rm.note(format!(
             "the throttle's effect is not removed: --method {} cannot condition on a measured disturbance ({chosen}); welch and spafdr can",
             a.method
